@@ -1,0 +1,44 @@
+# tescalib: the two commands are `make demo` and `make test` (see README.md).
+SHELL := /bin/bash
+ROOT := $(abspath .)
+BUILD := $(ROOT)/build
+# Debian's python3 must come before any pyenv python3 (catkin needs catkin_pkg from Debian).
+export PATH := /usr/bin:/bin:/usr/sbin:/sbin:$(PATH)
+JOBS ?= 2
+# The devel space lives in .devel and build/devel links to it: rosrun ignores every path under
+# <package>/build/, and the package is the repository root.
+DEVEL := $(ROOT)/.devel
+
+.PHONY: all deps build test demo bench format clean
+
+all: build
+
+deps:
+	@bash scripts/install_deps.sh
+
+$(BUILD)/Makefile: CMakeLists.txt package.xml
+	@mkdir -p $(BUILD)
+	cd $(BUILD) && cmake $(ROOT) -DCMAKE_BUILD_TYPE=Release \
+	  -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 \
+	  -DCATKIN_DEVEL_PREFIX=$(DEVEL) -DCATKIN_ENABLE_TESTING=ON > $(BUILD)/cmake.log \
+	  || (cat $(BUILD)/cmake.log; exit 1)
+
+build: deps $(BUILD)/Makefile
+	@$(MAKE) --no-print-directory -C $(BUILD) -j$(JOBS) 2>&1 | grep -v -E '^\[ *[0-9]+%\] Built target' ; exit $${PIPESTATUS[0]}
+	@ln -sfn $(DEVEL) $(BUILD)/devel
+	@echo "[build] done: source build/devel/setup.bash, then rosrun tescalib NAME"
+
+test: build
+	@bash scripts/run_tests.sh
+
+demo: build
+	@bash scripts/demo.sh
+
+bench: build
+	@bash scripts/bench.sh
+
+format:
+	@clang-format -i $$(git ls-files '*.cpp' '*.h')
+
+clean:
+	rm -rf $(BUILD) $(DEVEL)

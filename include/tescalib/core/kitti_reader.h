@@ -1,0 +1,93 @@
+// Reader for KITTI sequences in the odometry layout and in the raw layout (ROS-free).
+//
+// Odometry layout (also what tescalib_simulate writes):
+//   DIR/calib.txt (P0..P3, Tr), DIR/times.txt, DIR/image_2/NNNNNN.png, DIR/image_3/NNNNNN.png,
+//   DIR/velodyne/NNNNNN.bin
+// Raw layout (a drive folder, calibration in the drive folder or its parent date folder):
+//   calib_cam_to_cam.txt, calib_velo_to_cam.txt, image_02/data/*.png, image_03/data/*.png,
+//   velodyne_points/data/*.bin, image_02/timestamps.txt
+//
+// Only frames whose three files all exist are listed. Ground truth (see the data README):
+//   T_cam_lidar = [I | K^-1 P2[:,3]] * Tr,   T_right_left = [I | K^-1 (P3[:,3] - P2[:,3])].
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "tescalib/core/types.h"
+
+namespace tescalib {
+
+enum class KittiLayout { kOdometry, kRaw };
+
+/// The parsed calibration of a KITTI odometry `calib.txt`.
+struct KittiOdometryCalib {
+  Eigen::Matrix<double, 3, 4> P[4];    ///< rectified projection matrices P0..P3
+  Eigen::Matrix<double, 3, 4> Tr;      ///< velodyne -> rectified cam0
+};
+
+/// Parses a KITTI odometry calib.txt. Throws DataError naming the file and the bad key.
+KittiOdometryCalib readKittiOdometryCalib(const std::string& path);
+
+/// Writes a KITTI odometry calib.txt (P0..P3 and Tr, 12 values each, row major).
+void writeKittiOdometryCalib(const std::string& path, const KittiOdometryCalib& calib);
+
+/// Rig from odometry calibration: rectified intrinsics from P2/P3, ground truth as above.
+/// Image sizes are left 0 here; the reader fills them from the images.
+StereoRig rigFromOdometryCalib(const KittiOdometryCalib& calib);
+
+/// Reads a KITTI velodyne .bin (float32 x y z reflectance). Throws DataError on a missing or
+/// truncated file. Rings are recovered with recoverRings().
+LidarScan readVelodyneBin(const std::string& path);
+
+/// Writes a KITTI velodyne .bin (ring is not stored; the reader recovers it from scan order).
+void writeVelodyneBin(const std::string& path, const LidarScan& scan);
+
+/// Recovers the laser index of every point of a KITTI scan stored in sensor order: the scan is
+/// ring after ring (top beam first), each ring one revolution, so a new ring starts where the
+/// azimuth wraps around. Rings are numbered 0 = lowest beam. Returns the number of rings found.
+int recoverRings(LidarScan& scan);
+
+/// An opened KITTI sequence: its rig and the list of frames present on disk.
+class KittiSequence {
+ public:
+  /// Opens DIR, detecting the layout. Throws DataError with a clear message on any problem
+  /// (missing/malformed calibration, no frames, images of the wrong size).
+  explicit KittiSequence(const std::string& dir);
+
+  const std::string& dir() const { return dir_; }
+  KittiLayout layout() const { return layout_; }
+  const StereoRig& rig() const { return rig_; }
+  size_t size() const { return frame_ids_.size(); }
+  int frameId(size_t i) const { return frame_ids_[i]; }
+  double stamp(size_t i) const { return stamps_[i]; }
+
+  /// Loads frame i (scan with rings, both images as BGR). Throws DataError on a bad file.
+  Frame load(size_t i) const;
+  /// Loads only the LiDAR scan of frame i.
+  LidarScan loadScan(size_t i) const;
+
+  /// Indices of keyframes at least `min_dt` seconds apart (first frame always taken).
+  std::vector<size_t> keyframes(double min_dt = 0.5) const;
+
+  /// File paths of frame i.
+  std::string leftPath(size_t i) const;
+  std::string rightPath(size_t i) const;
+  std::string velodynePath(size_t i) const;
+
+ private:
+  void openOdometry();
+  void openRaw();
+  void checkImageSizes();
+
+  std::string dir_;
+  KittiLayout layout_ = KittiLayout::kOdometry;
+  StereoRig rig_;
+  std::vector<int> frame_ids_;
+  std::vector<double> stamps_;
+  int name_digits_ = 6;
+};
+
+}  // namespace tescalib

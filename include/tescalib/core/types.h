@@ -1,0 +1,58 @@
+// Basic data types shared by the whole ROS-free core.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+namespace tescalib {
+
+/// One LiDAR return, in the LiDAR frame.
+struct LidarPoint {
+  float x = 0.f;          ///< metres
+  float y = 0.f;          ///< metres
+  float z = 0.f;          ///< metres
+  float intensity = 0.f;  ///< reflectance as delivered by the sensor (KITTI: 0..1)
+  uint16_t ring = 0;      ///< laser index, 0 = lowest beam
+};
+using LidarScan = std::vector<LidarPoint>;
+
+/// Rectified pinhole intrinsics of one camera.
+struct CameraIntrinsics {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  int width = 0, height = 0;
+
+  Eigen::Matrix3d K() const {
+    Eigen::Matrix3d k;
+    k << fx, 0, cx, 0, fy, cy, 0, 0, 1;
+    return k;
+  }
+  bool valid() const { return fx > 0 && fy > 0 && width > 0 && height > 0; }
+};
+
+/// The sensor rig: both cameras' rectified intrinsics and the two extrinsics.
+/// `T_a_b` maps points from frame b into frame a.
+struct StereoRig {
+  CameraIntrinsics left;
+  CameraIntrinsics right;
+  Eigen::Isometry3d T_cam_lidar = Eigen::Isometry3d::Identity();   ///< LiDAR -> left camera
+  Eigen::Isometry3d T_right_left = Eigen::Isometry3d::Identity();  ///< left -> right camera
+
+  /// Stereo baseline in metres (norm of the left->right translation).
+  double baseline() const { return T_right_left.translation().norm(); }
+};
+
+/// One synchronized sensor frame.
+struct Frame {
+  int index = -1;     ///< frame number within its sequence (file name number)
+  double stamp = 0;   ///< seconds
+  LidarScan scan;     ///< LiDAR points with ring
+  cv::Mat left;       ///< left image, CV_8UC3 BGR
+  cv::Mat right;      ///< right image, CV_8UC3 BGR
+};
+
+}  // namespace tescalib

@@ -1,0 +1,49 @@
+// Every ROS <-> core conversion lives here (unit-tested without a master in test_ros).
+#pragma once
+
+#include <string>
+
+#include <geometry_msgs/Transform.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <std_msgs/Header.h>
+#include <opencv2/core.hpp>
+
+#include "tescalib/core/types.h"
+
+namespace tescalib {
+namespace ros_conv {
+
+/// LidarScan -> PointCloud2 with fields x y z intensity (float32) and ring (uint16), as the
+/// velodyne driver publishes them.
+sensor_msgs::PointCloud2 toPointCloud2(const LidarScan& scan, const std_msgs::Header& header);
+
+/// PointCloud2 -> LidarScan. Needs float32 x y z; intensity (float32 or uint8/uint16) is
+/// optional; a missing ring field is recovered from scan order (recoverRings). Non-finite points
+/// are dropped. Returns false and fills `error` on a cloud that cannot be used.
+bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::string* error,
+                     bool* ring_recovered = nullptr);
+
+/// Rectified camera intrinsics -> CameraInfo. `Tx` is P[0,3] (= -fx * baseline for the right
+/// camera of a rectified pair, 0 for the left).
+sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, double Tx,
+                                     const std_msgs::Header& header);
+
+/// CameraInfo -> intrinsics, taken from P (the rectified projection). Returns false with a
+/// message when P is zero or the size is missing.
+bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* c, std::string* error);
+
+/// Image message (bgr8, rgb8, mono8, bgra8, rgba8, mono16) -> CV_8UC3 BGR. False with a message
+/// on an encoding that cannot be used.
+bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error);
+
+/// CV_8UC3 BGR image -> Image message with the given encoding ("bgr8" or "rgb8").
+sensor_msgs::Image toImageMsg(const cv::Mat& bgr, const std_msgs::Header& header,
+                              const std::string& encoding = "rgb8");
+
+geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& T);
+Eigen::Isometry3d fromTransformMsg(const geometry_msgs::Transform& msg);
+
+}  // namespace ros_conv
+}  // namespace tescalib

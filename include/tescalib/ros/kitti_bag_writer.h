@@ -1,0 +1,32 @@
+// Writes a KITTI sequence (odometry or raw layout) to a rosbag with kitti2bag's topic and frame
+// names, so launch files work the same on bags users already have.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "tescalib/core/kitti_reader.h"
+
+namespace tescalib {
+
+struct KittiBagOptions {
+  std::string velo_topic = "/kitti/velo/pointcloud";
+  std::string velo_frame = "velo_link";
+  std::string left_prefix = "/kitti/camera_color_left";    ///< + /image_raw, /camera_info
+  std::string left_frame = "camera_color_left";
+  std::string right_prefix = "/kitti/camera_color_right";
+  std::string right_frame = "camera_color_right";
+  std::string base_frame = "base_link";
+  /// Odometry-layout stamps start at 0 s; ROS times must be positive, so they are shifted to
+  /// start here (seconds since the epoch). Raw-layout stamps are absolute and kept as they are.
+  double odometry_start_stamp = 1317384000.0;
+  int max_frames = -1;  ///< -1: all frames
+};
+
+/// Writes the bag. Throws tescalib::DataError on unreadable input, rosbag::BagException on an
+/// unwritable bag. `progress(i, n)` is called after every frame when set.
+void writeKittiBag(const KittiSequence& seq, const std::string& bag_path,
+                   const KittiBagOptions& options = {},
+                   const std::function<void(size_t, size_t)>& progress = {});
+
+}  // namespace tescalib

@@ -1,0 +1,211 @@
+#include "tescalib/ros/conversions.h"
+
+#include <cmath>
+#include <cstring>
+
+#include <cv_bridge/cv_bridge.h>
+#include <opencv2/imgproc.hpp>
+#include <sensor_msgs/image_encodings.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include "tescalib/core/kitti_reader.h"
+
+namespace tescalib {
+namespace ros_conv {
+
+sensor_msgs::PointCloud2 toPointCloud2(const LidarScan& scan, const std_msgs::Header& header) {
+  sensor_msgs::PointCloud2 msg;
+  msg.header = header;
+  msg.height = 1;
+  msg.width = static_cast<uint32_t>(scan.size());
+  sensor_msgs::PointCloud2Modifier mod(msg);
+  mod.setPointCloud2Fields(5, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
+                           sensor_msgs::PointField::FLOAT32, "z", 1,
+                           sensor_msgs::PointField::FLOAT32, "intensity", 1,
+                           sensor_msgs::PointField::FLOAT32, "ring", 1,
+                           sensor_msgs::PointField::UINT16);
+  mod.resize(scan.size());
+  msg.is_dense = true;
+  msg.is_bigendian = false;
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z"), i(msg, "intensity");
+  sensor_msgs::PointCloud2Iterator<uint16_t> r(msg, "ring");
+  for (const auto& p : scan) {
+    *x = p.x;
+    *y = p.y;
+    *z = p.z;
+    *i = p.intensity;
+    *r = p.ring;
+    ++x, ++y, ++z, ++i, ++r;
+  }
+  return msg;
+}
+
+namespace {
+const sensor_msgs::PointField* findField(const sensor_msgs::PointCloud2& msg, const std::string& n) {
+  for (const auto& f : msg.fields)
+    if (f.name == n) return &f;
+  return nullptr;
+}
+
+double readScalar(const uint8_t* data, uint8_t datatype) {
+  switch (datatype) {
+    case sensor_msgs::PointField::FLOAT32: { float v; std::memcpy(&v, data, 4); return v; }
+    case sensor_msgs::PointField::FLOAT64: { double v; std::memcpy(&v, data, 8); return v; }
+    case sensor_msgs::PointField::UINT8: return *data;
+    case sensor_msgs::PointField::INT8: return static_cast<int8_t>(*data);
+    case sensor_msgs::PointField::UINT16: { uint16_t v; std::memcpy(&v, data, 2); return v; }
+    case sensor_msgs::PointField::INT16: { int16_t v; std::memcpy(&v, data, 2); return v; }
+    case sensor_msgs::PointField::UINT32: { uint32_t v; std::memcpy(&v, data, 4); return v; }
+    case sensor_msgs::PointField::INT32: { int32_t v; std::memcpy(&v, data, 4); return v; }
+    default: return std::nan("");
+  }
+}
+}  // namespace
+
+bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::string* error,
+                     bool* ring_recovered) {
+  scan->clear();
+  if (ring_recovered) *ring_recovered = false;
+  const auto* fx = findField(msg, "x");
+  const auto* fy = findField(msg, "y");
+  const auto* fz = findField(msg, "z");
+  if (!fx || !fy || !fz) {
+    *error = "point cloud has no x/y/z fields";
+    return false;
+  }
+  if (msg.is_bigendian) {
+    *error = "big-endian point clouds are not supported";
+    return false;
+  }
+  const size_t n = static_cast<size_t>(msg.width) * msg.height;
+  if (n == 0) {
+    *error = "point cloud is empty";
+    return false;
+  }
+  if (msg.data.size() < n * msg.point_step) {
+    *error = "point cloud data is shorter than width*height*point_step";
+    return false;
+  }
+  const auto* fi = findField(msg, "intensity");
+  const auto* fr = findField(msg, "ring");
+  scan->reserve(n);
+  size_t dropped = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const uint8_t* p = msg.data.data() + k * msg.point_step;
+    LidarPoint q;
+    q.x = static_cast<float>(readScalar(p + fx->offset, fx->datatype));
+    q.y = static_cast<float>(readScalar(p + fy->offset, fy->datatype));
+    q.z = static_cast<float>(readScalar(p + fz->offset, fz->datatype));
+    if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z) ||
+        (q.x == 0.f && q.y == 0.f && q.z == 0.f)) {
+      ++dropped;
+      continue;
+    }
+    q.intensity = fi ? static_cast<float>(readScalar(p + fi->offset, fi->datatype)) : 0.f;
+    q.ring = fr ? static_cast<uint16_t>(readScalar(p + fr->offset, fr->datatype)) : 0;
+    scan->push_back(q);
+  }
+  if (scan->empty()) {
+    *error = "point cloud has no finite points (" + std::to_string(dropped) + " dropped)";
+    return false;
+  }
+  if (!fr) {
+    recoverRings(*scan);
+    if (ring_recovered) *ring_recovered = true;
+  }
+  return true;
+}
+
+sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, double Tx,
+                                     const std_msgs::Header& header) {
+  sensor_msgs::CameraInfo info;
+  info.header = header;
+  info.width = static_cast<uint32_t>(c.width);
+  info.height = static_cast<uint32_t>(c.height);
+  info.distortion_model = "plumb_bob";
+  info.D.assign(5, 0.0);
+  info.K = {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1};
+  info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+  info.P = {c.fx, 0, c.cx, Tx, 0, c.fy, c.cy, 0, 0, 0, 1, 0};
+  return info;
+}
+
+bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* c, std::string* error) {
+  if (info.width == 0 || info.height == 0) {
+    *error = "camera_info has no image size";
+    return false;
+  }
+  if (info.P[0] <= 0 || info.P[5] <= 0) {
+    *error = "camera_info has no rectified projection matrix P";
+    return false;
+  }
+  c->fx = info.P[0];
+  c->fy = info.P[5];
+  c->cx = info.P[2];
+  c->cy = info.P[6];
+  c->width = static_cast<int>(info.width);
+  c->height = static_cast<int>(info.height);
+  return true;
+}
+
+bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error) {
+  namespace enc = sensor_msgs::image_encodings;
+  const std::string& e = msg.encoding;
+  if (e != enc::BGR8 && e != enc::RGB8 && e != enc::MONO8 && e != enc::BGRA8 && e != enc::RGBA8 &&
+      e != enc::MONO16) {
+    *error = "unsupported image encoding '" + e + "' (use bgr8, rgb8, mono8, bgra8, rgba8, mono16)";
+    return false;
+  }
+  if (msg.width == 0 || msg.height == 0 || msg.data.size() < size_t(msg.step) * msg.height) {
+    *error = "image is empty or its data is shorter than step*height";
+    return false;
+  }
+  try {
+    if (e == enc::MONO16) {
+      const auto cv = cv_bridge::toCvCopy(msg, enc::MONO16);
+      cv::Mat m8;
+      cv->image.convertTo(m8, CV_8U, 1.0 / 256.0);
+      cv::cvtColor(m8, *bgr, cv::COLOR_GRAY2BGR);
+    } else {
+      *bgr = cv_bridge::toCvCopy(msg, enc::BGR8)->image;
+    }
+  } catch (const cv_bridge::Exception& ex) {
+    *error = std::string("cv_bridge: ") + ex.what();
+    return false;
+  }
+  return true;
+}
+
+sensor_msgs::Image toImageMsg(const cv::Mat& bgr, const std_msgs::Header& header,
+                              const std::string& encoding) {
+  cv::Mat out = bgr;
+  if (encoding == sensor_msgs::image_encodings::RGB8) cv::cvtColor(bgr, out, cv::COLOR_BGR2RGB);
+  sensor_msgs::Image msg;
+  cv_bridge::CvImage(header, encoding, out).toImageMsg(msg);
+  return msg;
+}
+
+geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& T) {
+  geometry_msgs::Transform m;
+  const Eigen::Quaterniond q(T.linear());
+  m.translation.x = T.translation().x();
+  m.translation.y = T.translation().y();
+  m.translation.z = T.translation().z();
+  m.rotation.w = q.w();
+  m.rotation.x = q.x();
+  m.rotation.y = q.y();
+  m.rotation.z = q.z();
+  return m;
+}
+
+Eigen::Isometry3d fromTransformMsg(const geometry_msgs::Transform& m) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Quaterniond(m.rotation.w, m.rotation.x, m.rotation.y, m.rotation.z)
+                   .normalized()
+                   .toRotationMatrix();
+  T.translation() = Eigen::Vector3d(m.translation.x, m.translation.y, m.translation.z);
+  return T;
+}
+
+}  // namespace ros_conv
+}  // namespace tescalib

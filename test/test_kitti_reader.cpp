@@ -1,0 +1,226 @@
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <set>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "tescalib/core/consistency.h"
+#include "tescalib/core/error.h"
+#include "tescalib/core/geometry.h"
+#include "tescalib/core/kitti_reader.h"
+#include "test_util.h"
+
+using namespace tescalib;
+using tescalib_test::TempDir;
+namespace fs = std::filesystem;
+
+namespace {
+
+/// Expects `fn` to throw DataError whose message contains every fragment.
+template <typename Fn>
+void expectDataError(Fn fn, std::initializer_list<std::string> fragments) {
+  try {
+    fn();
+    ADD_FAILURE() << "expected a DataError";
+  } catch (const DataError& e) {
+    const std::string msg = e.what();
+    for (const auto& f : fragments) EXPECT_NE(msg.find(f), std::string::npos) << msg << " lacks " << f;
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Real KITTI frames
+
+TEST(KittiReaderReal, EverySequenceFramesRingsAndSizes) {
+  SKIP_WITHOUT_KITTI();
+  const std::map<std::string, std::pair<size_t, cv::Size>> expected = {
+      {"00", {10, {1241, 376}}}, {"02", {2, {1241, 376}}}, {"04", {2, {1226, 370}}},
+      {"05", {2, {1226, 370}}},  {"06", {2, {1226, 370}}}, {"07", {10, {1226, 370}}}};
+  for (const auto& [name, exp] : expected) {
+    SCOPED_TRACE("sequence " + name);
+    const KittiSequence seq(tescalib_test::kittiDir() + "/sequences/" + name);
+    EXPECT_EQ(seq.size(), exp.first);
+    EXPECT_EQ(seq.rig().left.width, exp.second.width);
+    EXPECT_EQ(seq.rig().left.height, exp.second.height);
+    EXPECT_NEAR(seq.rig().baseline(), 0.53, 0.02);
+    EXPECT_NEAR(seq.rig().T_right_left.translation().x(), -0.53, 0.02);
+    // LiDAR sits about 0.27 m behind and 0.08 m above cam0; cam2 is ~6 cm to its left.
+    EXPECT_NEAR(seq.rig().T_cam_lidar.translation().norm(), 0.3, 0.1);
+    const auto kf = seq.keyframes(0.5);
+    EXPECT_EQ(kf.size(), exp.first == 10 ? 2u : 2u);
+    for (size_t i = 0; i < seq.size(); ++i) {
+      const Frame f = seq.load(i);
+      EXPECT_EQ(f.left.size(), exp.second);
+      EXPECT_EQ(f.right.size(), exp.second);
+      EXPECT_EQ(f.left.type(), CV_8UC3);
+      EXPECT_GT(f.scan.size(), 100000u);
+      std::set<int> rings;
+      for (const auto& p : f.scan) rings.insert(p.ring);
+      EXPECT_EQ(rings.size(), 64u) << "frame " << f.index;
+      EXPECT_EQ(*rings.rbegin(), 63);
+      // Ring 0 is the lowest beam: its mean elevation is below ring 63's.
+      double e0 = 0, e63 = 0;
+      int n0 = 0, n63 = 0;
+      for (const auto& p : f.scan) {
+        const double e = std::atan2(p.z, std::hypot(p.x, p.y));
+        if (p.ring == 0) e0 += e, ++n0;
+        if (p.ring == 63) e63 += e, ++n63;
+      }
+      EXPECT_LT(e0 / n0 * kDegPerRad, -20.0);
+      EXPECT_GT(e63 / n63 * kDegPerRad, 0.0);
+    }
+  }
+}
+
+TEST(KittiReaderReal, GroundTruthPredictsTheStereoDisparityAndAWrongOneDoesNot) {
+  SKIP_WITHOUT_KITTI();
+  for (const std::string name : {"00", "04", "07"}) {
+    SCOPED_TRACE("sequence " + name);
+    const KittiSequence seq(tescalib_test::kittiDir() + "/sequences/" + name);
+    const Frame f = seq.load(0);
+    const auto good =
+        lidarDisparityAgreement(f.scan, f.left, f.right, seq.rig(), seq.rig().T_cam_lidar);
+    Vector6d delta;
+    // Pitch by 2 deg and push half a metre along the optical axis: points land on image rows
+    // (and depths) whose disparity differs from the LiDAR's prediction.
+    delta << 2.0 / kDegPerRad, 0.0, 0.0, 0.0, 0.0, 0.5;
+    const auto bad = lidarDisparityAgreement(f.scan, f.left, f.right, seq.rig(),
+                                             perturb(seq.rig().T_cam_lidar, delta));
+    std::cout << "[ sequence " << name << " ] ground truth: " << good.points << " points, "
+              << good.fraction_within_1px << " within 1 px, global shift "
+              << good.best_global_shift << "; wrong: " << bad.fraction_within_1px
+              << " within 1 px, global shift " << bad.best_global_shift << "\n";
+    EXPECT_GT(good.points, 2000);
+    EXPECT_EQ(good.best_global_shift, 0);
+    EXPECT_EQ(good.median_shift, 0);
+    EXPECT_GT(good.fraction_within_1px, 0.5);
+    // Measured: ground truth 0.63-0.83 of the points within 1 px, the wrong extrinsic 0.26-0.30.
+    EXPECT_LT(bad.fraction_within_1px, 0.4);
+    EXPECT_LT(bad.fraction_within_1px, good.fraction_within_1px - 0.2);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Synthetic sequences and malformed inputs
+
+TEST(KittiReader, RecoversRingsOfASyntheticScan) {
+  auto scan = tescalib_test::syntheticScan(64, 300);
+  EXPECT_EQ(recoverRings(scan), 64);
+  // Stored top beam first: the first point is ring 63, the last ring 0.
+  EXPECT_EQ(scan.front().ring, 63);
+  EXPECT_EQ(scan.back().ring, 0);
+}
+
+TEST(KittiReader, OdometryLayoutRoundTrip) {
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str(), 7);
+  // Remove one right image: that frame must be skipped, not fail.
+  fs::remove(tmp.path / "image_3" / "000003.png");
+  const KittiSequence seq(tmp.str());
+  EXPECT_EQ(seq.layout(), KittiLayout::kOdometry);
+  ASSERT_EQ(seq.size(), 6u);
+  EXPECT_EQ(seq.frameId(3), 4);
+  EXPECT_NEAR(seq.stamp(3), 0.4, 1e-9);
+  EXPECT_EQ(seq.keyframes(0.5), (std::vector<size_t>{0, 4}));  // frame 5 is index 4
+  EXPECT_EQ(seq.rig().left.width, 640);
+  EXPECT_NEAR(seq.rig().T_cam_lidar.translation().x(), 0.02 + 0.06, 1e-9);
+  EXPECT_NEAR(seq.rig().T_right_left.translation().x(), -0.54, 1e-9);
+  const Frame f = seq.load(0);
+  EXPECT_EQ(f.scan.size(), 64u * 400u);
+}
+
+TEST(KittiReader, RawLayoutGivesTheSameRigAsOdometry) {
+  TempDir tmp;
+  const auto calib = tescalib_test::syntheticCalib();
+  const fs::path drive = tmp.path / "2011_09_26_drive_0001_sync";
+  for (const char* sub : {"image_02/data", "image_03/data", "velodyne_points/data"})
+    fs::create_directories(drive / sub);
+  {
+    std::ofstream c2c(tmp.path / "calib_cam_to_cam.txt");
+    c2c << "calib_time: 09-Jan-2012 13:57:47\n";
+    c2c << "R_rect_00: 1 0 0 0 1 0 0 0 1\n";
+    for (int i = 0; i < 4; ++i) {
+      c2c << "S_rect_0" << i << ": 640 240\nP_rect_0" << i << ":";
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c) c2c << " " << calib.P[i](r, c);
+      c2c << "\n";
+    }
+    std::ofstream v2c(tmp.path / "calib_velo_to_cam.txt");
+    v2c << "calib_time: 15-Mar-2012 11:37:16\nR:";
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) v2c << " " << calib.Tr(r, c);
+    v2c << "\nT: " << calib.Tr(0, 3) << " " << calib.Tr(1, 3) << " " << calib.Tr(2, 3) << "\n";
+    std::ofstream ts(drive / "image_02" / "timestamps.txt");
+    ts << "2011-09-26 13:02:25.964389445\n2011-09-26 13:02:26.074807654\n";
+  }
+  cv::Mat img(240, 640, CV_8UC3, cv::Scalar(40, 90, 200));
+  for (const char* id : {"0000000000", "0000000001"}) {
+    cv::imwrite((drive / "image_02" / "data" / (std::string(id) + ".png")).string(), img);
+    cv::imwrite((drive / "image_03" / "data" / (std::string(id) + ".png")).string(), img);
+    writeVelodyneBin((drive / "velodyne_points" / "data" / (std::string(id) + ".bin")).string(),
+                     tescalib_test::syntheticScan());
+  }
+  const KittiSequence raw(drive.string());
+  EXPECT_EQ(raw.layout(), KittiLayout::kRaw);
+  ASSERT_EQ(raw.size(), 2u);
+  EXPECT_NEAR(raw.stamp(1) - raw.stamp(0), 0.110418209, 1e-6);
+  const StereoRig expected = rigFromOdometryCalib(calib);
+  EXPECT_LT(poseError(raw.rig().T_cam_lidar, expected.T_cam_lidar).norm(), 1e-9);
+  EXPECT_LT(poseError(raw.rig().T_right_left, expected.T_right_left).norm(), 1e-9);
+  EXPECT_EQ(raw.load(1).scan.size(), 64u * 400u);
+}
+
+TEST(KittiReaderErrors, MissingCalib) {
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str(), 2);
+  fs::remove(tmp.path / "calib.txt");
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"calib.txt", "not found"});
+}
+
+TEST(KittiReaderErrors, MalformedCalib) {
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str(), 2);
+  {
+    std::ofstream c(tmp.path / "calib.txt");
+    c << "P0: 1 0 0 0 0 1 0 0 0 0 1 0\nP1: 1 0 0 0 0 1 0 0 0 0 1 0\n"
+         "P2: 700 0 320 0 0 700 120 0 0 0 1\nP3: 700 0 320 0 0 700 120 0 0 0 1 0\n";
+  }
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"calib.txt", "'P2'", "11 values"});
+  {
+    std::ofstream c(tmp.path / "calib.txt");
+    c << "P0: 1 0 0 0 0 1 0 0 0 0 1 0\nP1: 1 0 0 0 0 1 0 0 0 0 1 0\n"
+         "P2: 700 0 320 0 0 700 120 0 0 0 1 0\nP3: 700 0 320 0 0 700 120 0 0 0 1 0\n";
+  }
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"calib.txt", "missing key 'Tr'"});
+}
+
+TEST(KittiReaderErrors, TruncatedScan) {
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str(), 2);
+  const auto bin = tmp.path / "velodyne" / "000001.bin";
+  fs::resize_file(bin, fs::file_size(bin) - 6);
+  const KittiSequence seq(tmp.str());
+  EXPECT_NO_THROW(seq.load(0));
+  expectDataError([&] { seq.load(1); }, {"000001.bin", "truncated"});
+}
+
+TEST(KittiReaderErrors, WrongImageSize) {
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str(), 2);
+  cv::imwrite((tmp.path / "image_3" / "000001.png").string(),
+              cv::Mat(200, 600, CV_8UC3, cv::Scalar::all(0)));
+  const KittiSequence seq(tmp.str());
+  expectDataError([&] { seq.load(1); }, {"image_3/000001.png", "600x200", "expected 640x240"});
+}
+
+TEST(KittiReaderErrors, FolderWithoutFrames) {
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str(), 2);
+  fs::remove_all(tmp.path / "velodyne");
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {tmp.str(), "no frames"});
+  expectDataError([&] { KittiSequence s(tmp.str() + "/nope"); }, {"nope", "not found"});
+}

@@ -1,0 +1,154 @@
+// kitti_to_bag round trip and the ROS conversions, without a master.
+#include <cmath>
+#include <set>
+
+#include <cstring>
+
+#include <cv_bridge/cv_bridge.h>
+#include <gtest/gtest.h>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <sensor_msgs/image_encodings.h>
+#include <tf2_msgs/TFMessage.h>
+
+#include "tescalib/core/geometry.h"
+#include "tescalib/ros/conversions.h"
+#include "tescalib/ros/kitti_bag_writer.h"
+#include "test_util.h"
+
+using namespace tescalib;
+using tescalib_test::TempDir;
+
+TEST(KittiToBag, RoundTripMatchesTheSequence) {
+  TempDir tmp;
+  const std::string seq_dir = tmp.str() + "/seq";
+  tescalib_test::writeSyntheticSequence(seq_dir, 3);
+  const KittiSequence seq(seq_dir);
+  const std::string bag_path = tmp.str() + "/out.bag";
+  writeKittiBag(seq, bag_path);
+
+  rosbag::Bag bag(bag_path, rosbag::bagmode::Read);
+  std::map<std::string, int> counts;
+  int cloud_i = 0, left_i = 0;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
+    ++counts[m.getTopic()];
+    if (m.getTopic() == "/kitti/velo/pointcloud") {
+      const auto msg = m.instantiate<sensor_msgs::PointCloud2>();
+      ASSERT_TRUE(msg);
+      EXPECT_EQ(msg->header.frame_id, "velo_link");
+      LidarScan scan;
+      std::string err;
+      bool recovered = true;
+      ASSERT_TRUE(ros_conv::fromPointCloud2(*msg, &scan, &err, &recovered)) << err;
+      EXPECT_FALSE(recovered);  // the bag carries the ring field
+      const Frame f = seq.load(cloud_i);
+      ASSERT_EQ(scan.size(), f.scan.size());
+      for (size_t k = 0; k < scan.size(); k += 97) {
+        EXPECT_EQ(scan[k].x, f.scan[k].x);
+        EXPECT_EQ(scan[k].z, f.scan[k].z);
+        EXPECT_EQ(scan[k].intensity, f.scan[k].intensity);
+        EXPECT_EQ(scan[k].ring, f.scan[k].ring);
+      }
+      EXPECT_NEAR(msg->header.stamp.toSec() - KittiBagOptions().odometry_start_stamp,
+                  seq.stamp(cloud_i), 1e-6);
+      ++cloud_i;
+    } else if (m.getTopic() == "/kitti/camera_color_left/image_raw") {
+      const auto msg = m.instantiate<sensor_msgs::Image>();
+      ASSERT_TRUE(msg);
+      EXPECT_EQ(msg->encoding, "rgb8");
+      EXPECT_EQ(msg->header.frame_id, "camera_color_left");
+      cv::Mat bgr;
+      std::string err;
+      ASSERT_TRUE(ros_conv::toBgr8(*msg, &bgr, &err)) << err;
+      const Frame f = seq.load(left_i++);
+      EXPECT_EQ(cv::norm(bgr, f.left, cv::NORM_INF), 0.0);
+    } else if (m.getTopic() == "/kitti/camera_color_right/camera_info") {
+      const auto msg = m.instantiate<sensor_msgs::CameraInfo>();
+      ASSERT_TRUE(msg);
+      EXPECT_EQ(msg->width, 640u);
+      EXPECT_NEAR(-msg->P[3] / msg->P[0], seq.rig().baseline(), 1e-9);
+    } else if (m.getTopic() == "/tf_static") {
+      const auto msg = m.instantiate<tf2_msgs::TFMessage>();
+      ASSERT_TRUE(msg);
+      ASSERT_EQ(msg->transforms.size(), 3u);
+      const auto& t = msg->transforms[1];
+      EXPECT_EQ(t.header.frame_id, "velo_link");
+      EXPECT_EQ(t.child_frame_id, "camera_color_left");
+      // tf convention: the transform maps child (camera) points into the parent (LiDAR).
+      EXPECT_LT(poseError(ros_conv::fromTransformMsg(t.transform).inverse(), seq.rig().T_cam_lidar)
+                    .norm(),
+                1e-6);
+    }
+  }
+  EXPECT_EQ(counts["/kitti/velo/pointcloud"], 3);
+  EXPECT_EQ(counts["/kitti/camera_color_left/image_raw"], 3);
+  EXPECT_EQ(counts["/kitti/camera_color_left/camera_info"], 3);
+  EXPECT_EQ(counts["/kitti/camera_color_right/image_raw"], 3);
+  EXPECT_EQ(counts["/kitti/camera_color_right/camera_info"], 3);
+  EXPECT_EQ(counts["/tf_static"], 1);
+}
+
+TEST(Conversions, CloudWithoutRingNaNsAndEmpty) {
+  LidarScan scan = tescalib_test::syntheticScan(64, 100);
+  recoverRings(scan);
+  std_msgs::Header h;
+  sensor_msgs::PointCloud2 msg = ros_conv::toPointCloud2(scan, h);
+  // Poison two points with NaN.
+  float nan = std::nanf("");
+  std::memcpy(&msg.data[0 * msg.point_step], &nan, 4);
+  std::memcpy(&msg.data[5 * msg.point_step + 4], &nan, 4);
+  LidarScan out;
+  std::string err;
+  ASSERT_TRUE(ros_conv::fromPointCloud2(msg, &out, &err)) << err;
+  EXPECT_EQ(out.size(), scan.size() - 2);
+
+  // Drop the ring field: rings are recovered from scan order.
+  sensor_msgs::PointCloud2 noring = ros_conv::toPointCloud2(scan, h);
+  noring.fields.pop_back();
+  bool recovered = false;
+  ASSERT_TRUE(ros_conv::fromPointCloud2(noring, &out, &err, &recovered)) << err;
+  EXPECT_TRUE(recovered);
+  std::set<int> rings;
+  for (const auto& p : out) rings.insert(p.ring);
+  EXPECT_EQ(rings.size(), 64u);
+
+  sensor_msgs::PointCloud2 empty = ros_conv::toPointCloud2(LidarScan{}, h);
+  EXPECT_FALSE(ros_conv::fromPointCloud2(empty, &out, &err));
+  EXPECT_NE(err.find("empty"), std::string::npos) << err;
+}
+
+TEST(Conversions, ImageEncodings) {
+  cv::Mat bgr(4, 6, CV_8UC3, cv::Scalar(10, 20, 30));
+  std_msgs::Header h;
+  cv::Mat out;
+  std::string err;
+  for (const std::string enc : {"bgr8", "rgb8"}) {
+    ASSERT_TRUE(ros_conv::toBgr8(ros_conv::toImageMsg(bgr, h, enc), &out, &err)) << err;
+    EXPECT_EQ(out.at<cv::Vec3b>(2, 3), cv::Vec3b(10, 20, 30)) << enc;
+  }
+  sensor_msgs::Image mono;
+  cv_bridge::CvImage(h, "mono8", cv::Mat(4, 6, CV_8UC1, cv::Scalar(77))).toImageMsg(mono);
+  ASSERT_TRUE(ros_conv::toBgr8(mono, &out, &err)) << err;
+  EXPECT_EQ(out.type(), CV_8UC3);
+  EXPECT_EQ(out.at<cv::Vec3b>(0, 0), cv::Vec3b(77, 77, 77));
+  sensor_msgs::Image depth;
+  cv_bridge::CvImage(h, "32FC1", cv::Mat(4, 6, CV_32FC1, cv::Scalar(1.f))).toImageMsg(depth);
+  EXPECT_FALSE(ros_conv::toBgr8(depth, &out, &err));
+  EXPECT_NE(err.find("32FC1"), std::string::npos) << err;
+}
+
+TEST(Conversions, CameraInfoRoundTrip) {
+  CameraIntrinsics c;
+  c.fx = 718.856, c.fy = 718.856, c.cx = 607.1928, c.cy = 185.2157, c.width = 1241, c.height = 376;
+  CameraIntrinsics back;
+  std::string err;
+  ASSERT_TRUE(ros_conv::fromCameraInfo(ros_conv::toCameraInfo(c, -386.1448, {}), &back, &err));
+  EXPECT_EQ(back.fx, c.fx);
+  EXPECT_EQ(back.cy, c.cy);
+  EXPECT_EQ(back.width, 1241);
+  sensor_msgs::CameraInfo missing;
+  EXPECT_FALSE(ros_conv::fromCameraInfo(missing, &back, &err));
+}

@@ -1,0 +1,94 @@
+// Helpers shared by the tests: temporary folders and tiny synthetic KITTI sequences.
+#pragma once
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include <unistd.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "tescalib/core/geometry.h"
+#include "tescalib/core/kitti_reader.h"
+
+namespace tescalib_test {
+
+namespace fs = std::filesystem;
+
+inline std::string kittiDir() { return TESCALIB_KITTI_DIR; }
+inline bool haveKitti() { return fs::is_directory(kittiDir() + "/sequences/00"); }
+#define SKIP_WITHOUT_KITTI()                                                           \
+  if (!tescalib_test::haveKitti())                                                     \
+  GTEST_SKIP() << "KITTI frames not found at " << tescalib_test::kittiDir()          \
+               << " (../shared/data/kitti_odometry_mini); skipping the real-data test"
+
+/// A fresh temporary folder removed at destruction.
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    static int counter = 0;
+    path = fs::temp_directory_path() /
+           ("tescalib_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() { fs::remove_all(path); }
+  std::string str() const { return path.string(); }
+};
+
+/// A scan in KITTI's storage order: 64 rings, top beam first, each one revolution starting and
+/// ending facing forward.
+inline tescalib::LidarScan syntheticScan(int rings = 64, int per_ring = 400, double range = 10) {
+  tescalib::LidarScan scan;
+  for (int r = rings - 1; r >= 0; --r) {
+    const double elev = (-24.9 + (26.9 * r) / (rings - 1)) / tescalib::kDegPerRad;
+    for (int k = 0; k < per_ring; ++k) {
+      const double az = 2 * M_PI * (k + 0.5) / per_ring;  // counter-clockwise from the front
+      tescalib::LidarPoint p;
+      p.x = float(range * std::cos(elev) * std::cos(az));
+      p.y = float(range * std::cos(elev) * std::sin(az));
+      p.z = float(range * std::sin(elev));
+      p.intensity = float(k % 7) / 7.f;
+      scan.push_back(p);
+    }
+  }
+  return scan;
+}
+
+inline tescalib::KittiOdometryCalib syntheticCalib() {
+  tescalib::KittiOdometryCalib c;
+  Eigen::Matrix<double, 3, 4> P;
+  P << 700, 0, 320, 0, 0, 700, 120, 0, 0, 0, 1, 0;
+  c.P[0] = c.P[1] = c.P[2] = c.P[3] = P;
+  c.P[1](0, 3) = -700 * 0.54;
+  c.P[2](0, 3) = 700 * 0.06;
+  c.P[3](0, 3) = 700 * (0.06 - 0.54);
+  c.Tr << 0, -1, 0, 0.02, 0, 0, -1, -0.08, 1, 0, 0, -0.27;
+  return c;
+}
+
+/// Writes a tiny odometry-layout sequence with `frames` frames of 640x240 random images.
+inline void writeSyntheticSequence(const std::string& dir, int frames, int width = 640,
+                                   int height = 240) {
+  fs::create_directories(dir + "/image_2");
+  fs::create_directories(dir + "/image_3");
+  fs::create_directories(dir + "/velodyne");
+  tescalib::writeKittiOdometryCalib(dir + "/calib.txt", syntheticCalib());
+  std::ofstream times(dir + "/times.txt");
+  cv::RNG rng(3);
+  for (int i = 0; i < frames; ++i) {
+    times << 0.1 * i << "\n";
+    char name[32];
+    std::snprintf(name, sizeof(name), "%06d", i);
+    cv::Mat img(height, width, CV_8UC3);
+    rng.fill(img, cv::RNG::UNIFORM, 0, 255);
+    cv::imwrite(dir + "/image_2/" + name + ".png", img);
+    cv::imwrite(dir + "/image_3/" + name + ".png", img);
+    tescalib::writeVelodyneBin(dir + "/velodyne/" + name + ".bin", syntheticScan());
+  }
+}
+
+}  // namespace tescalib_test
