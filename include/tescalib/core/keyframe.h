@@ -1,0 +1,41 @@
+// A preprocessed keyframe: everything the solvers need from one synchronized frame.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "tescalib/core/lidar_mesh.h"
+#include "tescalib/core/stereo_cloud.h"
+#include "tescalib/core/types.h"
+
+namespace tescalib {
+
+struct KeyframeSettings {
+  LidarMeshSettings mesh;
+  StereoSettings stereo;
+  double view_margin_deg = 25.0;  ///< mesh kept within the camera's field of view plus this
+};
+
+struct Keyframe {
+  double stamp = 0;
+  LidarScan scan;             ///< the raw scan (LiDAR frame), kept for overlays
+  LidarMesh mesh;             ///< LiDAR frame, faces in view of the cameras
+  StereoCloud stereo;         ///< left camera frame, computed with `T_right_left_used`
+  Eigen::Isometry3d T_right_left_used = Eigen::Isometry3d::Identity();
+  cv::Mat left_gray, right_gray;  ///< CV_8U, as delivered (the photometric solver rectifies)
+  double seconds_mesh = 0;
+};
+
+/// Preprocesses one frame: LiDAR mesh (restricted to what the cameras can see under the initial
+/// `T_cam_lidar` guess plus a margin) and the stereo cloud with `T_right_left`.
+Keyframe makeKeyframe(const Frame& frame, const StereoRig& rig,
+                      const Eigen::Isometry3d& T_cam_lidar_guess,
+                      const Eigen::Isometry3d& T_right_left, const KeyframeSettings& settings = {});
+
+/// Recomputes only the stereo cloud of a keyframe with a new left->right estimate.
+void recomputeStereo(Keyframe* kf, const StereoRig& rig, const Eigen::Isometry3d& T_right_left,
+                     const StereoSettings& settings);
+
+}  // namespace tescalib

@@ -1,0 +1,43 @@
+// LiDAR triangle mesh from the scan's rings (paper, "Data Preprocessing"): a range image whose rows
+// are the rings and whose columns are azimuth bins; neighbouring returns of adjacent rings and
+// azimuths form two triangles per cell. Triangles across depth discontinuities or seen at grazing
+// angles are rejected.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "tescalib/core/types.h"
+
+namespace tescalib {
+
+struct LidarMeshSettings {
+  int azimuth_bins = 2000;             ///< columns of the range image (HDL-64E: ~2000 per turn)
+  double max_range = 80.0;             ///< m; farther returns are not meshed
+  double min_range = 2.0;              ///< m; closer returns (the vehicle itself) are ignored
+  double max_edge_ratio = 0.06;        ///< reject when any edge is longer than this times range
+  double max_edge_abs = 2.5;           ///< m; and never longer than this
+  double max_incidence_deg = 80.0;     ///< reject faces seen at a more grazing angle
+  /// Keep only faces whose centroid lies within this half-angle (deg) of `view_axis` (LiDAR
+  /// frame); <= 0 keeps everything. Used to keep the part of the scan the cameras can see.
+  double view_half_angle_deg = 0.0;
+  Eigen::Vector3d view_axis = Eigen::Vector3d::UnitX();
+};
+
+/// One triangle of the mesh, in the LiDAR frame.
+struct MeshFace {
+  Eigen::Vector3f a, b, c;     ///< vertices
+  Eigen::Vector3f centroid;    ///< (a + b + c) / 3
+  Eigen::Vector3f normal;      ///< unit normal, oriented towards the sensor
+  float range = 0.f;           ///< distance of the centroid from the sensor, m
+};
+
+struct LidarMesh {
+  std::vector<MeshFace> faces;
+};
+
+/// Builds the mesh of one scan (points must carry their ring).
+LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& settings = {});
+
+}  // namespace tescalib

@@ -1,0 +1,52 @@
+// Coarse LiDAR-stereo residual, paper eq. (point_plane_normal_obj):
+//   r = [ n_m^T (T p_m - p_s) / sigma ;  w * (R n_m) x n_s ]
+// with p_m / n_m the centroid / normal of a LiDAR face (LiDAR frame) and p_s / n_s the associated
+// stereo point / normal (camera frame). The paper writes n_m^T (T p_m - p_s) with the LiDAR normal
+// still in the LiDAR frame; it must be rotated into the camera frame (R n_m), which we do.
+// sigma is the noise-model standard deviation of the point-to-plane distance (an addition to the
+// paper, see lidar_stereo_solver.cpp). The pose is T = perturb(T_ref, [phi; tau]): the reference
+// rotation is applied to p_m and n_m beforehand (q = R_ref p_m, m = R_ref n_m).
+#pragma once
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <Eigen/Core>
+
+namespace tescalib {
+
+struct PointPlaneNormalResidual {
+  PointPlaneNormalResidual(const Eigen::Vector3d& q, const Eigen::Vector3d& m,
+                           const Eigen::Vector3d& t_ref, const Eigen::Vector3d& p_s,
+                           const Eigen::Vector3d& n_s, double inv_sigma, double normal_weight)
+      : q_(q), m_(m), t_ref_(t_ref), p_s_(p_s), n_s_(n_s), inv_sigma_(inv_sigma), w_(normal_weight) {}
+
+  template <typename T>
+  bool operator()(const T* const delta, T* residual) const {
+    const T q[3] = {T(q_.x()), T(q_.y()), T(q_.z())};
+    const T m[3] = {T(m_.x()), T(m_.y()), T(m_.z())};
+    T c[3], n[3];
+    ceres::AngleAxisRotatePoint(delta, q, c);
+    ceres::AngleAxisRotatePoint(delta, m, n);
+    T dist = T(0);
+    for (int i = 0; i < 3; ++i) dist += n[i] * (c[i] + T(t_ref_[i]) + delta[3 + i] - T(p_s_[i]));
+    residual[0] = dist * T(inv_sigma_);
+    residual[1] = T(w_) * (n[1] * T(n_s_.z()) - n[2] * T(n_s_.y()));
+    residual[2] = T(w_) * (n[2] * T(n_s_.x()) - n[0] * T(n_s_.z()));
+    residual[3] = T(w_) * (n[0] * T(n_s_.y()) - n[1] * T(n_s_.x()));
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Eigen::Vector3d& q, const Eigen::Vector3d& m,
+                                     const Eigen::Vector3d& t_ref, const Eigen::Vector3d& p_s,
+                                     const Eigen::Vector3d& n_s, double inv_sigma,
+                                     double normal_weight) {
+    return new ceres::AutoDiffCostFunction<PointPlaneNormalResidual, 4, 6>(
+        new PointPlaneNormalResidual(q, m, t_ref, p_s, n_s, inv_sigma, normal_weight));
+  }
+
+ private:
+  Eigen::Vector3d q_, m_, t_ref_, p_s_, n_s_;
+  double inv_sigma_, w_;
+};
+
+}  // namespace tescalib

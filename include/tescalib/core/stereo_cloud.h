@@ -1,0 +1,66 @@
+// Stereo cloud of one keyframe (paper, "Data Preprocessing"): rectification with the current
+// left->right estimate, OpenCV SGBM disparity, 3D points in the left camera frame with normals and
+// their disparity (for the noise model), and the disparity image itself for projective look-ups.
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "tescalib/core/types.h"
+
+namespace tescalib {
+
+struct StereoSettings {
+  int num_disparities = 128;   ///< SGBM search range (multiple of 16)
+  int block_size = 5;          ///< SGBM block size (odd)
+  bool three_way = true;       ///< MODE_SGBM_3WAY (2.5x faster than MODE_SGBM, same quality here)
+  int uniqueness_ratio = 10;   ///< SGBM uniqueness margin (%)
+  int speckle_window = 100;    ///< SGBM speckle filter window (px)
+  int speckle_range = 2;       ///< SGBM speckle filter range (disparity units)
+  int disp12_max_diff = 1;     ///< left-right consistency check (px)
+  int sample_step = 4;         ///< take one stereo point every N pixels in u and v
+  double min_depth = 2.0;      ///< m
+  double max_depth = 40.0;     ///< m; stereo depth noise grows with Z^2, far points carry little
+  int normal_scale = 3;        ///< px; half-width of the finite differences for normals
+  double max_second_diff = 1.5;  ///< px; disparity is affine on a plane: larger curvature = edge
+  int edge_dilation = 2;         ///< px removed around an edge (SGBM fattens foreground ~block/2)
+  double disparity_sigma = 0.35; ///< px; SGBM sub-pixel noise used by the noise model
+};
+
+/// A stereo point in the left camera frame.
+struct StereoPoint {
+  Eigen::Vector3f p;     ///< position, m
+  Eigen::Vector3f n;     ///< unit normal, oriented towards the camera
+  float disparity = 0;   ///< px
+};
+
+struct StereoCloud {
+  std::vector<StereoPoint> points;
+  /// Disparity in the rectified left image (CV_32F, NaN where invalid or at an edge).
+  cv::Mat disparity;
+  /// Rectified intrinsics and baseline; `R_rect_left` rotates left-camera points into the
+  /// rectified frame (identity when the input pair was already rectified).
+  double fx = 0, fy = 0, cx = 0, cy = 0, baseline = 0;
+  Eigen::Matrix3d R_rect_left = Eigen::Matrix3d::Identity();
+  double seconds_sgbm = 0;   ///< time spent in SGBM
+  double seconds_total = 0;  ///< time for the whole cloud
+
+  /// Bilinear disparity at a rectified pixel; false where any of the 4 neighbours is invalid.
+  bool disparityAt(double u, double v, double* d) const;
+  /// The stereo point (left camera frame) seen at rectified pixel (u, v) with disparity d.
+  Eigen::Vector3d pointAt(double u, double v, double d) const;
+};
+
+/// True when `T_right_left` is a pure translation along x (the pair needs no re-rectification).
+bool isRectified(const Eigen::Isometry3d& T_right_left, double tol = 1e-9);
+
+/// Computes the stereo cloud of a pair with the left->right estimate `T_right_left` (the rig's
+/// intrinsics are used; the pair is re-rectified when the estimate is not a pure x translation).
+StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
+                               const StereoRig& rig, const Eigen::Isometry3d& T_right_left,
+                               const StereoSettings& settings = {});
+
+}  // namespace tescalib

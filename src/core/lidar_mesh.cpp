@@ -1,0 +1,64 @@
+#include "tescalib/core/lidar_mesh.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace tescalib {
+
+LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
+  LidarMesh mesh;
+  if (scan.empty()) return mesh;
+  int rings = 0;
+  for (const auto& p : scan) rings = std::max(rings, int(p.ring) + 1);
+  const int cols = s.azimuth_bins;
+  // Range image: the closest return per (ring, azimuth bin).
+  std::vector<int> grid(static_cast<size_t>(rings) * cols, -1);
+  std::vector<float> grid_range(grid.size(), 0.f);
+  for (size_t i = 0; i < scan.size(); ++i) {
+    const auto& p = scan[i];
+    const float r = std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z);
+    if (!std::isfinite(r) || r < s.min_range || r > s.max_range) continue;
+    const double az = std::atan2(p.y, p.x);
+    int c = static_cast<int>(std::floor((az + M_PI) / (2 * M_PI) * cols));
+    c = std::min(std::max(c, 0), cols - 1);
+    const size_t k = static_cast<size_t>(p.ring) * cols + c;
+    if (grid[k] < 0 || r < grid_range[k]) grid[k] = static_cast<int>(i), grid_range[k] = r;
+  }
+  // Fill single-bin gaps inside a ring (bins are slightly finer than the beam spacing).
+  auto at = [&](int ring, int col) { return grid[static_cast<size_t>(ring) * cols + ((col + cols) % cols)]; };
+  const double cos_max_inc = std::cos(s.max_incidence_deg * M_PI / 180.0);
+  const double cos_view = std::cos(s.view_half_angle_deg * M_PI / 180.0);
+  const Eigen::Vector3f axis = s.view_axis.normalized().cast<float>();
+  auto vec = [&](int i) { return Eigen::Vector3f(scan[i].x, scan[i].y, scan[i].z); };
+  auto tryFace = [&](int ia, int ib, int ic) {
+    if (ia < 0 || ib < 0 || ic < 0) return;
+    const Eigen::Vector3f a = vec(ia), b = vec(ib), c = vec(ic);
+    const Eigen::Vector3f centroid = (a + b + c) / 3.f;
+    const float range = centroid.norm();
+    if (s.view_half_angle_deg > 0 && centroid.dot(axis) < cos_view * range) return;
+    const float max_edge = std::min<float>(s.max_edge_abs, s.max_edge_ratio * range);
+    if ((a - b).norm() > max_edge || (b - c).norm() > max_edge || (c - a).norm() > max_edge) return;
+    Eigen::Vector3f n = (b - a).cross(c - a);
+    const float len = n.norm();
+    if (len < 1e-9f) return;
+    n /= len;
+    const Eigen::Vector3f view = centroid / range;
+    float cos_inc = n.dot(view);
+    if (cos_inc > 0) n = -n, cos_inc = -cos_inc;  // orient towards the sensor
+    if (-cos_inc < cos_max_inc) return;           // grazing
+    mesh.faces.push_back({a, b, c, centroid, n, range});
+  };
+  for (int r = 0; r + 1 < rings; ++r) {
+    for (int col = 0; col < cols; ++col) {
+      int p00 = at(r, col), p01 = at(r, col + 1), p10 = at(r + 1, col), p11 = at(r + 1, col + 1);
+      // Bridge one missing bin along the ring.
+      if (p01 < 0) p01 = at(r, col + 2);
+      if (p11 < 0) p11 = at(r + 1, col + 2);
+      tryFace(p00, p01, p10);
+      tryFace(p01, p11, p10);
+    }
+  }
+  return mesh;
+}
+
+}  // namespace tescalib

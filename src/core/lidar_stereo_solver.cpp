@@ -1,0 +1,300 @@
+#include "tescalib/core/lidar_stereo_solver.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+
+#include <ceres/ceres.h>
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/point_representation.h>
+#include <pcl/point_types.h>
+
+#include "tescalib/core/residuals/lidar_normal_residual.h"
+#include "tescalib/core/residuals/point_plane_normal_residual.h"
+
+namespace tescalib {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// [x, y, z, w nx, w ny, w nz]: the 6-D space of eq. KD6.
+class SixDRepresentation : public pcl::PointRepresentation<pcl::PointNormal> {
+ public:
+  explicit SixDRepresentation(float w) : w_(w) { nr_dimensions_ = 6; }
+  void copyToFloatArray(const pcl::PointNormal& p, float* out) const override {
+    out[0] = p.x, out[1] = p.y, out[2] = p.z;
+    out[3] = w_ * p.normal_x, out[4] = w_ * p.normal_y, out[5] = w_ * p.normal_z;
+  }
+
+ private:
+  float w_;
+};
+
+/// Evenly strided subset of [0, n) with at most k elements (deterministic).
+std::vector<size_t> strided(size_t n, int k) {
+  std::vector<size_t> idx;
+  if (n == 0 || k <= 0) return idx;
+  const double step = std::max(1.0, double(n) / k);
+  for (double x = 0; x < n; x += step) idx.push_back(static_cast<size_t>(x));
+  return idx;
+}
+
+/// Variance of a LiDAR point along unit normal n (camera frame), eq. lidar_noise projected:
+/// range noise along the beam, beam-direction noise (times the range) across it.
+double lidarVarianceAlong(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_dir, double range,
+                          const LidarStereoSettings& s) {
+  const double c = n.dot(beam_dir);
+  const double lateral = range * s.lidar_beam_sigma_deg * M_PI / 180.0;
+  return s.lidar_range_sigma * s.lidar_range_sigma * c * c + lateral * lateral * (1.0 - c * c);
+}
+
+struct Association {
+  Eigen::Vector3d q, m;      ///< R_ref p_m and R_ref n_m (camera orientation, before t)
+  Eigen::Vector3d p_l, n_l;  ///< face centroid and normal in the LiDAR frame
+  Eigen::Vector3d p_s, n_s;  ///< stereo point and normal (camera frame)
+  double inv_sigma = 1.0;
+};
+
+/// Solves the 6-DoF update of one association set; returns [phi; tau].
+Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& t_ref, bool coarse,
+                     const LidarStereoSettings& s, double loss_scale) {
+  double delta[6] = {0, 0, 0, 0, 0, 0};
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  std::unique_ptr<ceres::LossFunction> loss;
+  if (coarse)
+    loss = std::make_unique<ceres::CauchyLoss>(loss_scale);
+  else
+    loss = std::make_unique<ceres::HuberLoss>(loss_scale);
+  for (const auto& a : as) {
+    if (coarse) {
+      problem.AddResidualBlock(PointPlaneNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.n_s,
+                                                                a.inv_sigma,
+                                                                s.normal_residual_weight),
+                               loss.get(), delta);
+    } else {
+      problem.AddResidualBlock(
+          LidarNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.inv_sigma), loss.get(), delta);
+    }
+  }
+  ceres::Solver::Options opt;
+  opt.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  opt.max_num_iterations = s.ceres_iterations;
+  opt.num_threads = s.threads;
+  opt.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(opt, &problem, &summary);
+  if (std::getenv("TESCALIB_DEBUG")) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
+  Vector6d d;
+  for (int i = 0; i < 6; ++i) d[i] = delta[i];
+  return d;
+}
+
+bool smallUpdate(const Vector6d& d, const LidarStereoSettings& s) {
+  return d.head<3>().norm() * kDegPerRad < s.converge_rot_deg &&
+         d.tail<3>().norm() < s.converge_trans_m;
+}
+
+}  // namespace
+
+LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
+                                   const Eigen::Isometry3d& T_init,
+                                   const LidarStereoSettings& s) {
+  LidarStereoResult res;
+  res.T_cam_lidar = T_init;
+  res.T_after_coarse = T_init;
+  if (window.empty()) {
+    res.message = "empty window";
+    return res;
+  }
+  Eigen::Isometry3d T = T_init;
+
+  // ---------------------------------------------------------------- coarse (eq. KD6 + eq. 2)
+  const auto t_coarse = Clock::now();
+  if (s.run_coarse) {
+    std::vector<pcl::KdTreeFLANN<pcl::PointNormal>> trees(window.size());
+    std::vector<std::vector<size_t>> tree_index(window.size());
+    std::vector<std::vector<size_t>> face_index(window.size());
+    auto repr = std::make_shared<SixDRepresentation>(static_cast<float>(s.normal_weight));
+    for (size_t k = 0; k < window.size(); ++k) {
+      const auto& pts = window[k]->stereo.points;
+      tree_index[k] = strided(pts.size(), s.coarse_stereo_points_per_keyframe);
+      face_index[k] = strided(window[k]->mesh.faces.size(), s.coarse_faces_per_keyframe);
+      if (tree_index[k].empty()) continue;
+      pcl::PointCloud<pcl::PointNormal>::Ptr cloud(new pcl::PointCloud<pcl::PointNormal>);
+      for (size_t i : tree_index[k]) {
+        pcl::PointNormal p;
+        p.x = pts[i].p.x(), p.y = pts[i].p.y(), p.z = pts[i].p.z();
+        p.normal_x = pts[i].n.x(), p.normal_y = pts[i].n.y(), p.normal_z = pts[i].n.z();
+        cloud->push_back(p);
+      }
+      trees[k].setPointRepresentation(repr);
+      trees[k].setInputCloud(cloud);
+    }
+    std::vector<int> nn(1);
+    std::vector<float> nn_d2(1);
+    for (double gate : s.coarse_gates) {
+      for (int it = 0; it < s.coarse_reassociations; ++it) {
+        ++res.iterations;
+        std::vector<Association> as;
+        const Eigen::Matrix3d R = T.linear();
+        for (size_t k = 0; k < window.size(); ++k) {
+          if (tree_index[k].empty()) continue;
+          const auto& pts = window[k]->stereo.points;
+          for (size_t fi : face_index[k]) {
+            const MeshFace& f = window[k]->mesh.faces[fi];
+            const Eigen::Vector3d q = R * f.centroid.cast<double>();
+            const Eigen::Vector3d c = q + T.translation();
+            const Eigen::Vector3d m = R * f.normal.cast<double>();
+            // Only faces the stereo camera can have measured: in the image and in its depth range
+            // (a far facade beyond the stereo range would otherwise pull the estimate forward).
+            const StereoCloud& st = window[k]->stereo;
+            const Eigen::Vector3d pr = st.R_rect_left * c;
+            if (pr.z() < 1.0 || pr.z() > s.max_depth) continue;
+            const double u = st.fx * pr.x() / pr.z() + st.cx, v = st.fy * pr.y() / pr.z() + st.cy;
+            if (u < 0 || v < 0 || u >= st.disparity.cols || v >= st.disparity.rows) continue;
+            pcl::PointNormal query;
+            query.x = float(c.x()), query.y = float(c.y()), query.z = float(c.z());
+            query.normal_x = float(m.x()), query.normal_y = float(m.y()), query.normal_z = float(m.z());
+            if (trees[k].nearestKSearch(query, 1, nn, nn_d2) < 1 || nn_d2[0] > gate * gate) continue;
+            const StereoPoint& sp = pts[tree_index[k][nn[0]]];
+            Association a;
+            a.q = q, a.m = m;
+            a.p_l = f.centroid.cast<double>(), a.n_l = f.normal.cast<double>();
+            a.p_s = sp.p.cast<double>(), a.n_s = sp.n.cast<double>();
+            // Point-to-plane noise: LiDAR along the normal plus stereo depth noise along it.
+            const Eigen::Vector3d beam = c.normalized();
+            const double dFdd = std::fabs(m.dot(a.p_s)) / sp.disparity;
+            const double var = lidarVarianceAlong(m, beam, f.range, s) +
+                               dFdd * dFdd * s.disparity_sigma * s.disparity_sigma;
+            a.inv_sigma = 1.0 / std::sqrt(var);
+            as.push_back(a);
+          }
+        }
+        res.coarse_inliers = static_cast<int>(as.size());
+        if (static_cast<int>(as.size()) < s.min_inliers) break;
+        const Vector6d d = solveUpdate(as, T.translation(), true, s, s.coarse_loss_scale);
+        T = perturb(T, d);
+        if (smallUpdate(d, s)) break;
+      }
+    }
+  }
+  res.T_after_coarse = T;
+  res.seconds_coarse = secondsSince(t_coarse);
+
+  // ---------------------------------------------------------------- fine (eq. 3, projective)
+  const auto t_fine = Clock::now();
+  bool settled = !s.run_fine;
+  std::vector<Association> as;
+  if (s.run_fine) {
+    std::vector<std::vector<size_t>> face_index(window.size());
+    for (size_t k = 0; k < window.size(); ++k)
+      face_index[k] = strided(window[k]->mesh.faces.size(), s.fine_faces_per_keyframe);
+    for (int it = 0; it < s.fine_reassociations; ++it) {
+      ++res.iterations;
+      as.clear();
+      const Eigen::Matrix3d R = T.linear();
+      for (size_t k = 0; k < window.size(); ++k) {
+        const StereoCloud& st = window[k]->stereo;
+        for (size_t fi : face_index[k]) {
+          const MeshFace& f = window[k]->mesh.faces[fi];
+          const Eigen::Vector3d q = R * f.centroid.cast<double>();
+          const Eigen::Vector3d c = q + T.translation();
+          const Eigen::Vector3d pr = st.R_rect_left * c;
+          if (pr.z() < 1.0 || pr.z() > s.max_depth) continue;
+          const double u = st.fx * pr.x() / pr.z() + st.cx, v = st.fy * pr.y() / pr.z() + st.cy;
+          double d;
+          if (!st.disparityAt(u, v, &d)) continue;
+          const Eigen::Vector3d ps = st.pointAt(u, v, d);
+          const Eigen::Vector3d m = R * f.normal.cast<double>();
+          const double dFdd = std::fabs(m.dot(ps)) / d;
+          const double var = lidarVarianceAlong(m, c.normalized(), f.range, s) +
+                             dFdd * dFdd * s.disparity_sigma * s.disparity_sigma;
+          const double inv_sigma = 1.0 / std::sqrt(var);
+          if (std::fabs(m.dot(c - ps)) * inv_sigma > s.fine_gate_sigma) continue;
+          as.push_back({q, m, f.centroid.cast<double>(), f.normal.cast<double>(), ps,
+                        Eigen::Vector3d::Zero(), inv_sigma});
+        }
+      }
+      res.fine_inliers = static_cast<int>(as.size());
+      if (static_cast<int>(as.size()) < s.min_inliers) break;
+      const Vector6d d = solveUpdate(as, T.translation(), false, s, s.fine_huber);
+      if (std::getenv("TESCALIB_DEBUG"))
+        std::fprintf(stderr, "fine it %d: %zu assoc, update %.5f deg %.5f m\n", it,
+                     as.size(), d.head<3>().norm() * kDegPerRad, d.tail<3>().norm());
+      T = perturb(T, d);
+      if (smallUpdate(d, s)) {
+        settled = true;
+        break;
+      }
+    }
+  }
+  res.seconds_fine = secondsSince(t_fine);
+  res.T_cam_lidar = T;
+
+  // ---------------------------------------------------------------- information, honesty
+  // Analytic Jacobian of r = (R m)^T (R q + t - s) / sigma at the estimate:
+  //   dr/dphi = (m x (t - s))^T / sigma,  dr/dtau = m^T / sigma  (m, q already rotated).
+  std::vector<double> abs_res;
+  Matrix6d H = Matrix6d::Zero();
+  double cost = 0;
+  if (!as.empty()) {
+    for (const auto& a0 : as) {
+      Eigen::Matrix<double, 1, 6> J;
+      const Eigen::Vector3d m = T.linear() * a0.n_l, q = T.linear() * a0.p_l;
+      const double r = m.dot(q + T.translation() - a0.p_s) * a0.inv_sigma;
+      J.head<3>() = m.cross(T.translation() - a0.p_s).transpose() * a0.inv_sigma;
+      J.tail<3>() = m.transpose() * a0.inv_sigma;
+      const double w = std::fabs(r) <= s.fine_huber ? 1.0 : s.fine_huber / std::fabs(r);
+      H += w * J.transpose() * J;
+      cost += w * r * r;
+      abs_res.push_back(std::fabs(r));
+    }
+    cost /= as.size();
+    std::nth_element(abs_res.begin(), abs_res.begin() + abs_res.size() / 2, abs_res.end());
+    res.residual_scale = 1.4826 * abs_res[abs_res.size() / 2];
+  }
+  res.final_cost = cost;
+  res.information = H;
+  bool all_observable = false;
+  if (!as.empty()) {
+    Eigen::SelfAdjointEigenSolver<Matrix6d> eig(H);
+    if (eig.eigenvalues().minCoeff() > 1e-12) {
+      res.covariance = res.residual_scale * res.residual_scale * H.inverse();
+      all_observable = true;
+      for (int i = 0; i < 6; ++i) {
+        const double sigma = std::sqrt(res.covariance(i, i));
+        const double limit = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
+        res.observable[i] = sigma < limit;
+        all_observable = all_observable && res.observable[i];
+      }
+    } else {
+      res.covariance = Matrix6d::Identity() * 1e6;
+    }
+  }
+  const Vector6d correction = poseError(T, T_init);
+  const bool diverged = correction.head<3>().norm() * kDegPerRad > s.max_correction_rot_deg ||
+                        correction.tail<3>().norm() > s.max_correction_trans_m;
+  res.converged = false;
+  if (res.fine_inliers < s.min_inliers && s.run_fine)
+    res.message = "too few LiDAR-stereo associations (" + std::to_string(res.fine_inliers) + ")";
+  else if (diverged)
+    res.message = "diverged: the correction from the initial guess is implausibly large";
+  else if (!all_observable)
+    res.message = "the window does not constrain every axis (degenerate scene)";
+  else if (!settled)
+    res.message = "the fine stage did not settle within its iteration budget";
+  else
+    res.converged = true;
+  return res;
+}
+
+}  // namespace tescalib

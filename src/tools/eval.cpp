@@ -1,0 +1,350 @@
+// tescalib_eval: runs the calibration on KITTI-layout sequences from perturbed initial guesses
+// and measures it against the ground truth (contract: DESIGN.md, "Evaluation protocol").
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tescalib/core/error.h"
+#include "tescalib/core/geometry.h"
+#include "tescalib/core/gicp_baseline.h"
+#include "tescalib/core/keyframe.h"
+#include "tescalib/core/kitti_reader.h"
+#include "tescalib/core/lidar_stereo_solver.h"
+
+using namespace tescalib;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+struct Args {
+  std::vector<std::string> sequences;
+  std::string mode = "lidar_stereo";
+  std::string method = "tescalib";
+  int trials = 10;
+  double init_rot_deg = 3.0, init_trans_m = 0.3;
+  double init_stereo_rot_deg = 1.0, init_stereo_trans_m = 0.1;
+  uint64_t seed = 1;
+  int window = 20;
+  std::string json;
+  std::string stages = "coarse,fine";
+};
+
+void usage() {
+  std::cout
+      << "usage: rosrun tescalib tescalib_eval --sequences DIR[,DIR...] [--mode lidar_stereo]\n"
+         "         [--method tescalib|pcl_gicp] [--trials N] [--init-rot-deg R] [--init-trans-m T]\n"
+         "         [--init-stereo-rot-deg R] [--init-stereo-trans-m T] [--seed S] [--window W]\n"
+         "         [--json FILE] [--stages coarse,fine]\n"
+         "Sequences are KITTI-odometry-layout folders sharing one calibration (real, or written by\n"
+         "tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds the first W.\n"
+         "A trial perturbs the ground truth by exactly R deg about a random axis and T m in a random\n"
+         "direction and succeeds when the error is below 0.2 deg and 3 cm.\n";
+}
+
+std::vector<std::string> split(const std::string& s, char sep) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, sep))
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+bool parse(int argc, char** argv, Args* a) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    if (k == "-h" || k == "--help") {
+      usage();
+      std::exit(0);
+    }
+    if (i + 1 >= argc) {
+      std::cerr << "tescalib_eval: " << k << " needs a value\n";
+      return false;
+    }
+    const std::string v = argv[++i];
+    try {
+      if (k == "--sequences") a->sequences = split(v, ',');
+      else if (k == "--mode") a->mode = v;
+      else if (k == "--method") a->method = v;
+      else if (k == "--trials") a->trials = std::stoi(v);
+      else if (k == "--init-rot-deg") a->init_rot_deg = std::stod(v);
+      else if (k == "--init-trans-m") a->init_trans_m = std::stod(v);
+      else if (k == "--init-stereo-rot-deg") a->init_stereo_rot_deg = std::stod(v);
+      else if (k == "--init-stereo-trans-m") a->init_stereo_trans_m = std::stod(v);
+      else if (k == "--seed") a->seed = std::stoull(v);
+      else if (k == "--window") a->window = std::stoi(v);
+      else if (k == "--json") a->json = v;
+      else if (k == "--stages") a->stages = v;
+      else {
+        std::cerr << "tescalib_eval: unknown option " << k << "\n";
+        return false;
+      }
+    } catch (const std::exception&) {
+      std::cerr << "tescalib_eval: bad value '" << v << "' for " << k << "\n";
+      return false;
+    }
+  }
+  if (a->sequences.empty()) {
+    std::cerr << "tescalib_eval: --sequences is required\n";
+    return false;
+  }
+  if (a->mode != "lidar_stereo") {
+    std::cerr << "tescalib_eval: mode '" << a->mode
+              << "' is not available in this build (available: lidar_stereo)\n";
+    return false;
+  }
+  if (a->method != "tescalib" && a->method != "pcl_gicp") {
+    std::cerr << "tescalib_eval: unknown method '" << a->method << "' (tescalib, pcl_gicp)\n";
+    return false;
+  }
+  if (a->trials < 1 || a->window < 1) {
+    std::cerr << "tescalib_eval: --trials and --window must be positive\n";
+    return false;
+  }
+  return true;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+std::string jsonArray(const double* v, int n) {
+  std::ostringstream o;
+  o << std::setprecision(10) << "[";
+  for (int i = 0; i < n; ++i) o << (i ? ", " : "") << (std::isfinite(v[i]) ? v[i] : 0.0);
+  o << "]";
+  return o.str();
+}
+
+struct ExtrinsicOutcome {
+  Vector6d init = Vector6d::Zero();
+  Vector6d err = Vector6d::Zero();
+  Matrix6d cov = Matrix6d::Identity();
+  bool success() const {
+    return err.head<3>().norm() * kDegPerRad < 0.2 && err.tail<3>().norm() < 0.03;
+  }
+  std::string json() const {
+    double ir[3], it[3], er[3], et[3], sr[3], st[3], c[36];
+    for (int i = 0; i < 3; ++i) {
+      ir[i] = init[i] * kDegPerRad, it[i] = init[3 + i];
+      er[i] = err[i] * kDegPerRad, et[i] = err[3 + i];
+      sr[i] = std::sqrt(cov(i, i)) * kDegPerRad, st[i] = std::sqrt(cov(3 + i, 3 + i));
+    }
+    for (int i = 0; i < 36; ++i) c[i] = cov(i / 6, i % 6);
+    std::ostringstream o;
+    o << "{\"init_rot_deg\": " << jsonArray(ir, 3) << ", \"init_trans_m\": " << jsonArray(it, 3)
+      << ", \"rot_err_deg\": " << jsonArray(er, 3) << ", \"trans_err_m\": " << jsonArray(et, 3)
+      << ", \"sigma_rot_deg\": " << jsonArray(sr, 3) << ", \"sigma_trans_m\": " << jsonArray(st, 3)
+      << ", \"covariance\": " << jsonArray(c, 36) << "}";
+    return o.str();
+  }
+};
+
+struct Trial {
+  uint64_t seed = 0;
+  bool converged = false;
+  ExtrinsicOutcome lidar;
+  double nees = std::nan("");
+  double preprocess = 0, solve = 0;
+  int iterations = 0;
+  std::string message;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Args args;
+  if (!parse(argc, argv, &args)) {
+    usage();
+    return 2;
+  }
+  // ------------------------------------------------------------------ data
+  std::vector<std::unique_ptr<KittiSequence>> seqs;
+  std::vector<std::pair<size_t, size_t>> keyframes;  // (sequence, frame index)
+  try {
+    for (const auto& dir : args.sequences) {
+      seqs.push_back(std::make_unique<KittiSequence>(dir));
+      const auto& a = seqs.front()->rig();
+      const auto& b = seqs.back()->rig();
+      if (poseError(a.T_cam_lidar, b.T_cam_lidar).norm() > 1e-4 || std::fabs(a.left.fx - b.left.fx) > 1e-3)
+        throw DataError(dir + ": calibration differs from " + args.sequences.front() +
+                        " (a window must share one calibration)");
+      for (size_t i : seqs.back()->keyframes(0.5))
+        if (static_cast<int>(keyframes.size()) < args.window) keyframes.emplace_back(seqs.size() - 1, i);
+    }
+  } catch (const DataError& e) {
+    std::cerr << "tescalib_eval: " << e.what() << "\n";
+    return 1;
+  }
+  const StereoRig rig = seqs.front()->rig();
+  std::cout << "tescalib_eval: mode " << args.mode << ", method " << args.method << ", "
+            << keyframes.size() << " keyframes from " << seqs.size() << " sequence(s), "
+            << args.trials << " trials, init " << args.init_rot_deg << " deg / "
+            << args.init_trans_m << " m, seed " << args.seed << "\n";
+
+  // Stereo clouds do not depend on the LiDAR extrinsic: computed once (stereo fixed at the
+  // ground truth in lidar_stereo mode). Meshes depend on the view filter of the initial guess and
+  // are rebuilt per trial.
+  KeyframeSettings kfs;
+  std::vector<Frame> frames;
+  std::vector<Keyframe> base;
+  double stereo_seconds = 0;
+  try {
+    for (const auto& [si, fi] : keyframes) {
+      frames.push_back(seqs[si]->load(fi));
+      Keyframe kf;
+      kf.stamp = frames.back().stamp;
+      kf.scan = frames.back().scan;
+      kf.stereo = computeStereoCloud(frames.back().left, frames.back().right, rig,
+                                     rig.T_right_left, kfs.stereo);
+      kf.T_right_left_used = rig.T_right_left;
+      stereo_seconds += kf.stereo.seconds_total;
+      const cv::Mat& disp = kf.stereo.disparity;
+      const double valid = double(cv::countNonZero(disp == disp)) / disp.total();  // NaN != NaN
+      std::printf("  keyframe %zu: %zu stereo points, %.0f %% valid disparity, SGBM %.3f s\n",
+                  base.size(), kf.stereo.points.size(), 100 * valid, kf.stereo.seconds_sgbm);
+      base.push_back(std::move(kf));
+    }
+  } catch (const DataError& e) {
+    std::cerr << "tescalib_eval: " << e.what() << "\n";
+    return 1;
+  }
+
+  LidarStereoSettings solver_settings;
+  solver_settings.disparity_sigma = kfs.stereo.disparity_sigma;
+  solver_settings.run_coarse = args.stages.find("coarse") != std::string::npos;
+  solver_settings.run_fine = args.stages.find("fine") != std::string::npos;
+  std::vector<Trial> trials;
+  std::cout << " trial  conv  init(deg,m)    err rot [x y z] deg          err trans [x y z] cm"
+               "        sigma(deg,cm)   iters  prep(s) solve(s)\n";
+  for (int t = 0; t < args.trials; ++t) {
+    Trial tr;
+    tr.seed = args.seed * 1000003ULL + t;
+    std::mt19937_64 rng(tr.seed);
+    tr.lidar.init = randomPerturbation(args.init_rot_deg / kDegPerRad, args.init_trans_m, rng);
+    const Eigen::Isometry3d T_init = perturb(rig.T_cam_lidar, tr.lidar.init);
+    // Per-trial meshes, view-filtered with the initial guess (never the ground truth).
+    const auto t_pre = Clock::now();
+    LidarMeshSettings ms = kfs.mesh;
+    ms.view_axis = T_init.linear().transpose() * Eigen::Vector3d::UnitZ();
+    const double half_diag = std::atan(std::hypot(rig.left.width / 2.0 / rig.left.fx,
+                                                  rig.left.height / 2.0 / rig.left.fy));
+    ms.view_half_angle_deg = std::min(89.0, half_diag * kDegPerRad + kfs.view_margin_deg);
+    std::vector<const Keyframe*> window;
+    for (auto& kf : base) {
+      kf.mesh = buildLidarMesh(kf.scan, ms);
+      if (t == 0) std::printf("  keyframe %zu: %zu LiDAR faces in view\n", window.size(), kf.mesh.faces.size());
+      window.push_back(&kf);
+    }
+    tr.preprocess = std::chrono::duration<double>(Clock::now() - t_pre).count() + stereo_seconds;
+    const auto t_solve = Clock::now();
+    Eigen::Isometry3d T_est = T_init;
+    if (args.method == "tescalib") {
+      const LidarStereoResult r = solveLidarStereo(window, T_init, solver_settings);
+      T_est = r.T_cam_lidar;
+      tr.converged = r.converged;
+      tr.iterations = r.iterations;
+      tr.lidar.cov = r.covariance;
+      tr.message = r.message;
+    } else {
+      const GicpBaselineResult r = solveGicpBaseline(window, T_init);
+      T_est = r.T_cam_lidar;
+      tr.converged = r.converged;
+      tr.lidar.cov = Matrix6d::Constant(std::nan(""));
+    }
+    tr.solve = std::chrono::duration<double>(Clock::now() - t_solve).count();
+    tr.lidar.err = poseError(T_est, rig.T_cam_lidar);
+    if (args.method == "tescalib") {
+      Eigen::LDLT<Matrix6d> ldlt(tr.lidar.cov);
+      tr.nees = tr.lidar.err.dot(ldlt.solve(tr.lidar.err));
+    }
+    const Vector6d& e = tr.lidar.err;
+    std::printf(" %4d   %s   %4.2f/%4.2f  [%7.4f %7.4f %7.4f]  [%7.3f %7.3f %7.3f]  %6.3f/%6.2f  %4d  %6.2f  %6.2f %s\n",
+                t, tr.converged ? "yes" : " no", tr.lidar.init.head<3>().norm() * kDegPerRad,
+                tr.lidar.init.tail<3>().norm(), e[0] * kDegPerRad, e[1] * kDegPerRad,
+                e[2] * kDegPerRad, e[3] * 100, e[4] * 100, e[5] * 100,
+                std::sqrt(tr.lidar.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
+                std::sqrt(tr.lidar.cov.bottomRightCorner<3, 3>().trace() / 3) * 100,
+                tr.iterations, tr.preprocess, tr.solve,
+                tr.lidar.success() ? "" : (" FAIL " + tr.message).c_str());
+    std::fflush(stdout);
+    trials.push_back(tr);
+  }
+
+  // ------------------------------------------------------------------ summary
+  double med_rot[3], med_trans[3];
+  std::vector<double> rn, tn, pre, sol, nees;
+  int ok = 0;
+  for (int i = 0; i < 3; ++i) {
+    std::vector<double> r, tt;
+    for (const auto& tr : trials) {
+      r.push_back(std::fabs(tr.lidar.err[i]) * kDegPerRad);
+      tt.push_back(std::fabs(tr.lidar.err[3 + i]));
+    }
+    med_rot[i] = median(r);
+    med_trans[i] = median(tt);
+  }
+  for (const auto& tr : trials) {
+    rn.push_back(tr.lidar.err.head<3>().norm() * kDegPerRad);
+    tn.push_back(tr.lidar.err.tail<3>().norm());
+    pre.push_back(tr.preprocess);
+    sol.push_back(tr.solve);
+    if (std::isfinite(tr.nees)) nees.push_back(tr.nees);
+    ok += tr.lidar.success();
+  }
+  double mean_nees = std::nan("");
+  if (!nees.empty()) {
+    mean_nees = 0;
+    for (double v : nees) mean_nees += v / nees.size();
+  }
+  const double success = double(ok) / trials.size();
+  std::printf("\nsummary (%s, %s, window %zu, %zu trials)\n", args.mode.c_str(),
+              args.method.c_str(), keyframes.size(), trials.size());
+  std::printf("  success rate (< 0.2 deg and < 3 cm): %.1f %%\n", 100.0 * success);
+  std::printf("  median |err| rot  [x y z] deg: %.4f %.4f %.4f   (median norm %.4f deg)\n",
+              med_rot[0], med_rot[1], med_rot[2], median(rn));
+  std::printf("  median |err| trans [x y z] cm: %.3f %.3f %.3f   (median norm %.3f cm)\n",
+              med_trans[0] * 100, med_trans[1] * 100, med_trans[2] * 100, median(tn) * 100);
+  std::printf("  time per window: preprocess %.2f s (stereo %.2f s, %zu keyframes), solve median %.2f s\n",
+              median(pre), stereo_seconds, keyframes.size(), median(sol));
+  if (std::isfinite(mean_nees)) std::printf("  mean NEES (6 DoF, ideal 6): %.2f\n", mean_nees);
+
+  if (!args.json.empty()) {
+    std::ofstream js(args.json);
+    if (!js) {
+      std::cerr << "tescalib_eval: cannot write " << args.json << "\n";
+      return 1;
+    }
+    js << std::setprecision(10) << "{\"mode\": \"" << args.mode << "\", \"method\": \""
+       << args.method << "\", \"window\": " << keyframes.size() << ", \"trials\": [\n";
+    for (size_t i = 0; i < trials.size(); ++i) {
+      const auto& tr = trials[i];
+      js << "  {\"seed\": " << tr.seed << ", \"converged\": " << (tr.converged ? "true" : "false")
+         << ", \"success\": " << (tr.lidar.success() ? "true" : "false")
+         << ", \"lidar\": " << tr.lidar.json() << ", \"nees\": "
+         << (std::isfinite(tr.nees) ? tr.nees : -1.0) << ", \"seconds\": {\"preprocess\": "
+         << tr.preprocess << ", \"solve\": " << tr.solve
+         << ", \"total\": " << tr.preprocess + tr.solve << "}}" << (i + 1 < trials.size() ? ",\n" : "\n");
+    }
+    js << "], \"summary\": {\"lidar\": {\"median_abs_rot_err_deg\": " << jsonArray(med_rot, 3)
+       << ", \"median_abs_trans_err_m\": " << jsonArray(med_trans, 3)
+       << ", \"success_rate\": " << success << ", \"median_rot_err_norm_deg\": " << median(rn)
+       << ", \"median_trans_err_norm_m\": " << median(tn) << "}, \"mean_nees\": "
+       << (std::isfinite(mean_nees) ? mean_nees : -1.0) << ", \"seconds\": {\"preprocess\": "
+       << median(pre) << ", \"solve\": " << median(sol) << "}}}\n";
+    std::cout << "wrote " << args.json << "\n";
+  }
+  return 0;
+}
