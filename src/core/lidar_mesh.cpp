@@ -30,6 +30,8 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   const double cos_view = std::cos(s.view_half_angle_deg * M_PI / 180.0);
   const Eigen::Vector3f axis = s.view_axis.normalized().cast<float>();
   auto vec = [&](int i) { return Eigen::Vector3f(scan[i].x, scan[i].y, scan[i].z); };
+  std::vector<int> face_cell;  // ring * cols + col of each face
+  int cell = 0;
   auto tryFace = [&](int ia, int ib, int ic) {
     if (ia < 0 || ib < 0 || ic < 0) return;
     const Eigen::Vector3f a = vec(ia), b = vec(ib), c = vec(ic);
@@ -47,6 +49,7 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
     if (cos_inc > 0) n = -n, cos_inc = -cos_inc;  // orient towards the sensor
     if (-cos_inc < cos_max_inc) return;           // grazing
     mesh.faces.push_back({a, b, c, centroid, n, range});
+    face_cell.push_back(cell);
   };
   for (int r = 0; r + 1 < rings; ++r) {
     for (int col = 0; col < cols; ++col) {
@@ -54,9 +57,32 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       // Bridge one missing bin along the ring.
       if (p01 < 0) p01 = at(r, col + 2);
       if (p11 < 0) p11 = at(r + 1, col + 2);
+      cell = r * cols + col;
       tryFace(p00, p01, p10);
       tryFace(p01, p11, p10);
     }
+  }
+  if (s.smooth_cols > 0) {
+    std::vector<std::vector<int>> faces_of_cell(static_cast<size_t>(rings) * cols);
+    for (size_t f = 0; f < face_cell.size(); ++f) faces_of_cell[face_cell[f]].push_back(int(f));
+    const float cos_max = static_cast<float>(std::cos(s.smooth_max_angle_deg * M_PI / 180.0));
+    std::vector<Eigen::Vector3f> smoothed(mesh.faces.size());
+    for (size_t f = 0; f < mesh.faces.size(); ++f) {
+      const int r0 = face_cell[f] / cols, c0 = face_cell[f] % cols;
+      const Eigen::Vector3f& n0 = mesh.faces[f].normal;
+      Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+      for (int r = std::max(0, r0 - 1); r <= std::min(rings - 1, r0 + 1); ++r)
+        for (int dc = -s.smooth_cols; dc <= s.smooth_cols; ++dc)
+          for (int g : faces_of_cell[static_cast<size_t>(r) * cols + (c0 + dc + cols) % cols]) {
+            const MeshFace& o = mesh.faces[g];
+            // Same surface: normals agree and the centroid lies on this face's plane.
+            if (o.normal.dot(n0) > cos_max &&
+                std::fabs(n0.dot(o.centroid - mesh.faces[f].centroid)) < 0.02f * o.range + 0.05f)
+              sum += o.normal;
+          }
+      smoothed[f] = sum.normalized();
+    }
+    for (size_t f = 0; f < mesh.faces.size(); ++f) mesh.faces[f].normal = smoothed[f];
   }
   return mesh;
 }

@@ -38,8 +38,8 @@ struct LidarStereoSettings {
   double converge_rot_deg = 2e-4;          ///< stop re-associating below this update
   double converge_trans_m = 2e-5;
   int min_inliers = 300;
-  double max_sigma_rot_deg = 0.3;          ///< an axis looser than this is unconstrained
-  double max_sigma_trans_m = 0.05;
+  double max_sigma_rot_deg = 0.1;          ///< an axis looser than this (1 sigma) is unconstrained
+  double max_sigma_trans_m = 0.01;
   double max_correction_rot_deg = 25.0;    ///< a larger correction from the start is divergence
   double max_correction_trans_m = 2.5;
   int threads = 2;

@@ -1,0 +1,204 @@
+// LiDAR-stereo solver: exact-ground-truth recovery on a ray-cast plane scene (independent of SGBM
+// and of the scene generator), an honest failure on a scene without structure, and a real KITTI
+// window (skipped without ../shared).
+#include <cmath>
+#include <iostream>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "tescalib/core/geometry.h"
+#include "tescalib/core/keyframe.h"
+#include "tescalib/core/kitti_reader.h"
+#include "tescalib/core/lidar_stereo_solver.h"
+#include "test_util.h"
+
+using namespace tescalib;
+
+namespace {
+
+struct Plane {
+  Eigen::Vector3d n;  ///< unit normal (camera frame)
+  double h;           ///< n^T X = h
+};
+
+/// Nearest positive intersection of a ray with the planes (camera frame); inf when none.
+double cast(const std::vector<Plane>& planes, const Eigen::Vector3d& o, const Eigen::Vector3d& r,
+            int* hit = nullptr) {
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < planes.size(); ++i) {
+    const double den = planes[i].n.dot(r);
+    if (std::fabs(den) < 1e-9) continue;
+    const double t = (planes[i].h - planes[i].n.dot(o)) / den;
+    if (t > 1e-6 && t < best) best = t, hit ? *hit = int(i) : 0;
+  }
+  return best;
+}
+
+StereoRig kittiLikeRig() {
+  StereoRig rig;
+  rig.left.fx = rig.left.fy = 718.856;
+  rig.left.cx = 607.19, rig.left.cy = 185.22;
+  rig.left.width = 1241, rig.left.height = 376;
+  rig.right = rig.left;
+  rig.T_right_left.translation() = Eigen::Vector3d(-0.54, 0, 0);
+  Eigen::Matrix3d R;
+  R << 0, -1, 0, 0, 0, -1, 1, 0, 0;  // LiDAR x forward, y left, z up -> camera
+  rig.T_cam_lidar.linear() = expSO3(Eigen::Vector3d(0.004, -0.01, 0.006)) * R;
+  rig.T_cam_lidar.translation() = Eigen::Vector3d(0.06, -0.08, -0.27);
+  return rig;
+}
+
+/// A keyframe of the plane scene: LiDAR ray cast from the LiDAR, disparity ray cast from the
+/// camera (exact, plus Gaussian noise), stereo points with the plane normals.
+Keyframe planeKeyframe(const std::vector<Plane>& planes, const StereoRig& rig, uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> range_noise(0.0, 0.01), disp_noise(0.0, 0.2);
+  Keyframe kf;
+  const Eigen::Isometry3d T_lidar_cam = rig.T_cam_lidar.inverse();
+  for (int ring = 63; ring >= 0; --ring) {
+    const double e = (-24.9 + 26.9 * ring / 63.0) / kDegPerRad;
+    for (int k = 0; k < 2000; ++k) {
+      const double a = 2 * M_PI * (k + 0.5) / 2000;
+      const Eigen::Vector3d dir(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
+      const double t = cast(planes, rig.T_cam_lidar.translation(), rig.T_cam_lidar.linear() * dir);
+      if (!std::isfinite(t) || t > 100) continue;
+      const Eigen::Vector3d p = (t + range_noise(rng)) * dir;
+      LidarPoint lp;
+      lp.x = float(p.x()), lp.y = float(p.y()), lp.z = float(p.z());
+      lp.ring = uint16_t(ring);
+      kf.scan.push_back(lp);
+    }
+  }
+  (void)T_lidar_cam;
+  LidarMeshSettings ms;
+  ms.view_axis = rig.T_cam_lidar.linear().transpose() * Eigen::Vector3d::UnitZ();
+  ms.view_half_angle_deg = 70;
+  kf.mesh = buildLidarMesh(kf.scan, ms);
+
+  StereoCloud& st = kf.stereo;
+  st.fx = rig.left.fx, st.fy = rig.left.fy, st.cx = rig.left.cx, st.cy = rig.left.cy;
+  st.baseline = 0.54;
+  st.disparity = cv::Mat(rig.left.height, rig.left.width, CV_32F,
+                         cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  for (int v = 0; v < st.disparity.rows; ++v) {
+    for (int u = 0; u < st.disparity.cols; ++u) {
+      const Eigen::Vector3d r((u - st.cx) / st.fx, (v - st.cy) / st.fy, 1.0);
+      int hit = -1;
+      const double t = cast(planes, Eigen::Vector3d::Zero(), r, &hit);
+      if (!std::isfinite(t) || t > 40) continue;
+      const double d = st.fx * st.baseline / t + disp_noise(rng);
+      st.disparity.at<float>(v, u) = float(d);
+      if (u % 4 == 0 && v % 4 == 0) {
+        StereoPoint sp;
+        sp.p = st.pointAt(u, v, d).cast<float>();
+        Eigen::Vector3d n = planes[hit].n;
+        if (n.dot(sp.p.cast<double>()) > 0) n = -n;
+        sp.n = n.cast<float>();
+        sp.disparity = float(d);
+        st.points.push_back(sp);
+      }
+    }
+  }
+  return kf;
+}
+
+std::vector<Plane> streetCanyon(double shift) {
+  // Ground, two facades, a building across the street, an oblique wall and two boxes' faces.
+  return {{Eigen::Vector3d(0, -1, 0), -1.65},
+          {Eigen::Vector3d(1, 0, 0), -6.0 + shift},
+          {Eigen::Vector3d(-1, 0, 0), -7.0},
+          {Eigen::Vector3d(0, 0, -1), -32.0 - shift},
+          {Eigen::Vector3d(0.6, 0, -0.8).normalized(), -14.0},
+          {Eigen::Vector3d(0, 0, -1), -9.0 - shift},
+          {Eigen::Vector3d(-1, 0, 0), -3.5 - 0.3 * shift}};
+}
+
+LidarStereoSettings testSettings() {
+  LidarStereoSettings s;
+  s.disparity_sigma = 0.2;
+  s.lidar_range_sigma = 0.01;
+  return s;
+}
+
+}  // namespace
+
+TEST(LidarStereoSolver, RecoversKnownPerturbationsOnAPlaneScene) {
+  const StereoRig rig = kittiLikeRig();
+  std::vector<Keyframe> kfs;
+  for (int k = 0; k < 3; ++k) kfs.push_back(planeKeyframe(streetCanyon(0.7 * k), rig, 11 + k));
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : kfs) window.push_back(&kf);
+  std::mt19937_64 rng(5);
+  for (int trial = 0; trial < 3; ++trial) {
+    const Vector6d delta = randomPerturbation(3.0 / kDegPerRad, 0.3, rng);
+    const LidarStereoResult r = solveLidarStereo(window, perturb(rig.T_cam_lidar, delta),
+                                                 testSettings());
+    const Vector6d e = poseError(r.T_cam_lidar, rig.T_cam_lidar);
+    EXPECT_TRUE(r.converged) << r.message;
+    EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.05) << "trial " << trial;
+    EXPECT_LT(e.tail<3>().norm(), 0.01) << "trial " << trial;
+    EXPECT_GT(r.fine_inliers, 1000);
+    for (int i = 0; i < 6; ++i) EXPECT_TRUE(r.observable[i]) << "axis " << i;
+  }
+}
+
+TEST(LidarStereoSolver, FailsHonestlyWithoutStructure) {
+  // Only the road: translation along camera x and z and rotation about y are unconstrained.
+  const StereoRig rig = kittiLikeRig();
+  const std::vector<Plane> road = {{Eigen::Vector3d(0, -1, 0), -1.65}};
+  std::vector<Keyframe> kfs;
+  for (int k = 0; k < 2; ++k) kfs.push_back(planeKeyframe(road, rig, 21 + k));
+  std::vector<const Keyframe*> window{&kfs[0], &kfs[1]};
+  std::mt19937_64 rng(9);
+  const LidarStereoResult r = solveLidarStereo(
+      window, perturb(rig.T_cam_lidar, randomPerturbation(1.0 / kDegPerRad, 0.1, rng)),
+      testSettings());
+  EXPECT_FALSE(r.converged);
+  EXPECT_FALSE(r.message.empty());
+  std::cout << "road only: " << r.message << "; sigma";
+  for (int i = 0; i < 6; ++i) std::cout << " " << std::sqrt(r.covariance(i, i));
+  std::cout << "\n";
+  EXPECT_FALSE(r.observable[1]);  // rotation about camera y
+  EXPECT_FALSE(r.observable[3]);  // translation along camera x
+  EXPECT_FALSE(r.observable[5]);  // translation along camera z
+  EXPECT_TRUE(r.observable[4]);   // height above the road is constrained
+}
+
+TEST(LidarStereoSolver, EmptyWindowIsNotConverged) {
+  const LidarStereoResult r = solveLidarStereo({}, Eigen::Isometry3d::Identity());
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.message, "empty window");
+}
+
+TEST(LidarStereoSolverReal, KittiWindowConvergesToOnePointFromPerturbations) {
+  SKIP_WITHOUT_KITTI();
+  const std::string base = tescalib_test::kittiDir() + "/sequences/";
+  std::vector<Keyframe> kfs;
+  StereoRig rig;
+  for (const char* s : {"04", "05", "06", "07"}) {
+    const KittiSequence seq(base + s);
+    rig = seq.rig();
+    for (size_t i : seq.keyframes(0.5))
+      kfs.push_back(makeKeyframe(seq.load(i), rig, rig.T_cam_lidar, rig.T_right_left));
+  }
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : kfs) window.push_back(&kf);
+  std::mt19937_64 rng(3);
+  std::vector<Eigen::Isometry3d> estimates;
+  for (int trial = 0; trial < 2; ++trial) {
+    const Vector6d delta = randomPerturbation(3.0 / kDegPerRad, 0.3, rng);
+    const LidarStereoResult r = solveLidarStereo(window, perturb(rig.T_cam_lidar, delta));
+    const Vector6d e = poseError(r.T_cam_lidar, rig.T_cam_lidar);
+    // Measured: 0.16 deg / 11 cm from KITTI's calibration on this 8-keyframe window (the
+    // objective's optimum on these frames; see README "Known limits").
+    EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.3);
+    EXPECT_LT(e.tail<3>().norm(), 0.15);
+    estimates.push_back(r.T_cam_lidar);
+  }
+  const Vector6d spread = poseError(estimates[0], estimates[1]);
+  EXPECT_LT(spread.head<3>().norm() * kDegPerRad, 0.1);
+  EXPECT_LT(spread.tail<3>().norm(), 0.02);
+}
