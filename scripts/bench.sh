@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# make bench: the accuracy/speed benchmarks whose tables go into the README. Long; not in make test.
+set -o pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
+source "$ROOT/build/devel/setup.bash"
+K=$ROOT/../shared/data/kitti_odometry_mini/sequences
+OUT=$ROOT/build/bench
+mkdir -p "$OUT"
+TRIALS=${TRIALS:-20}
+if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data benchmarks"; exit 0; fi
+run() {  # name, args...
+  local name=$1; shift
+  echo "=== $name"
+  rosrun tescalib tescalib_eval "$@" --json "$OUT/$name.json" | grep -v '^  keyframe [0-9]' | sed -n '/^summary/,$p'
+}
+for method in tescalib pcl_gicp; do
+  run "kitti_0930_${method}_3deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
+    --method $method --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
+  run "kitti_1003_${method}_3deg" --sequences "$K/00,$K/02" --mode lidar_stereo \
+    --method $method --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
+done
+run "kitti_0930_tescalib_10deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
+  --trials "$TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
+run "kitti_0930_tescalib_from_gt" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
+  --trials 1 --init-rot-deg 0 --init-trans-m 0 --seed 3 --window 20
+echo "[bench] JSON files in $OUT"
