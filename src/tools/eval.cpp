@@ -13,12 +13,15 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
+
 #include "tescalib/core/error.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/gicp_baseline.h"
 #include "tescalib/core/keyframe.h"
 #include "tescalib/core/kitti_reader.h"
 #include "tescalib/core/lidar_stereo_solver.h"
+#include "tescalib/core/photometric_solver.h"
 
 using namespace tescalib;
 using Clock = std::chrono::steady_clock;
@@ -32,6 +35,7 @@ struct Args {
   int trials = 10;
   double init_rot_deg = 3.0, init_trans_m = 0.3;
   double init_stereo_rot_deg = 1.0, init_stereo_trans_m = 0.1;
+  double lidar_rot_deg = 0.0, lidar_trans_m = 0.0;  ///< stereo mode: LiDAR extrinsic error
   uint64_t seed = 1;
   int window = 20;
   std::string json;
@@ -43,7 +47,9 @@ void usage() {
       << "usage: rosrun tescalib tescalib_eval --sequences DIR[,DIR...] [--mode lidar_stereo]\n"
          "         [--method tescalib|pcl_gicp] [--trials N] [--init-rot-deg R] [--init-trans-m T]\n"
          "         [--init-stereo-rot-deg R] [--init-stereo-trans-m T] [--seed S] [--window W]\n"
-         "         [--json FILE] [--stages coarse,fine]\n"
+         "         [--json FILE] [--stages coarse,fine] [--lidar-rot-deg R --lidar-trans-m T]\n"
+         "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo (T_right_left\n"
+         "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*).\n"
          "Sequences are KITTI-odometry-layout folders sharing one calibration (real, or written by\n"
          "tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds the first W.\n"
          "A trial perturbs the ground truth by exactly R deg about a random axis and T m in a random\n"
@@ -84,6 +90,8 @@ bool parse(int argc, char** argv, Args* a) {
       else if (k == "--window") a->window = std::stoi(v);
       else if (k == "--json") a->json = v;
       else if (k == "--stages") a->stages = v;
+      else if (k == "--lidar-rot-deg") a->lidar_rot_deg = std::stod(v);
+      else if (k == "--lidar-trans-m") a->lidar_trans_m = std::stod(v);
       else {
         std::cerr << "tescalib_eval: unknown option " << k << "\n";
         return false;
@@ -97,9 +105,9 @@ bool parse(int argc, char** argv, Args* a) {
     std::cerr << "tescalib_eval: --sequences is required\n";
     return false;
   }
-  if (a->mode != "lidar_stereo") {
+  if (a->mode != "lidar_stereo" && a->mode != "stereo") {
     std::cerr << "tescalib_eval: mode '" << a->mode
-              << "' is not available in this build (available: lidar_stereo)\n";
+              << "' is not available in this build (available: lidar_stereo, stereo)\n";
     return false;
   }
   if (a->method != "tescalib" && a->method != "pcl_gicp") {
@@ -155,10 +163,11 @@ struct ExtrinsicOutcome {
 struct Trial {
   uint64_t seed = 0;
   bool converged = false;
-  ExtrinsicOutcome lidar;
+  ExtrinsicOutcome lidar, stereo;
   double nees = std::nan("");
   double preprocess = 0, solve = 0;
   int iterations = 0;
+  std::vector<Eigen::Vector2d> brightness;  ///< stereo mode: per keyframe (a, b)
   std::string message;
 };
 
@@ -207,6 +216,12 @@ int main(int argc, char** argv) {
       Keyframe kf;
       kf.stamp = frames.back().stamp;
       kf.scan = frames.back().scan;
+      cv::cvtColor(frames.back().left, kf.left_gray, cv::COLOR_BGR2GRAY);
+      cv::cvtColor(frames.back().right, kf.right_gray, cv::COLOR_BGR2GRAY);
+      if (args.mode == "stereo") {
+        base.push_back(std::move(kf));
+        continue;
+      }
       kf.stereo = computeStereoCloud(frames.back().left, frames.back().right, rig,
                                      rig.T_right_left, kfs.stereo);
       kf.T_right_left_used = rig.T_right_left;
@@ -233,8 +248,17 @@ int main(int argc, char** argv) {
     Trial tr;
     tr.seed = args.seed * 1000003ULL + t;
     std::mt19937_64 rng(tr.seed);
-    tr.lidar.init = randomPerturbation(args.init_rot_deg / kDegPerRad, args.init_trans_m, rng);
-    const Eigen::Isometry3d T_init = perturb(rig.T_cam_lidar, tr.lidar.init);
+    const bool stereo_mode = args.mode == "stereo";
+    const Vector6d main_delta =
+        randomPerturbation(args.init_rot_deg / kDegPerRad, args.init_trans_m, rng);
+    Eigen::Isometry3d T_init = rig.T_cam_lidar;
+    if (stereo_mode) {
+      tr.stereo.init = main_delta;
+      tr.lidar.init = randomPerturbation(args.lidar_rot_deg / kDegPerRad, args.lidar_trans_m, rng);
+    } else {
+      tr.lidar.init = main_delta;
+    }
+    T_init = perturb(rig.T_cam_lidar, tr.lidar.init);
     // Per-trial meshes, view-filtered with the initial guess (never the ground truth).
     const auto t_pre = Clock::now();
     LidarMeshSettings ms = kfs.mesh;
@@ -251,7 +275,17 @@ int main(int argc, char** argv) {
     tr.preprocess = std::chrono::duration<double>(Clock::now() - t_pre).count() + stereo_seconds;
     const auto t_solve = Clock::now();
     Eigen::Isometry3d T_est = T_init;
-    if (args.method == "tescalib") {
+    if (stereo_mode) {
+      PhotometricSettings ps;
+      const PhotometricResult r = solvePhotometric(window, rig, T_init,
+                                                   perturb(rig.T_right_left, tr.stereo.init), ps);
+      tr.converged = r.converged;
+      tr.iterations = r.iterations;
+      tr.stereo.cov = r.covariance;
+      tr.stereo.err = poseError(r.T_right_left, rig.T_right_left);
+      tr.message = r.message;
+      tr.brightness = r.brightness;
+    } else if (args.method == "tescalib") {
       const LidarStereoResult r = solveLidarStereo(window, T_init, solver_settings);
       T_est = r.T_cam_lidar;
       tr.converged = r.converged;
@@ -265,44 +299,49 @@ int main(int argc, char** argv) {
       tr.lidar.cov = Matrix6d::Constant(std::nan(""));
     }
     tr.solve = std::chrono::duration<double>(Clock::now() - t_solve).count();
-    tr.lidar.err = poseError(T_est, rig.T_cam_lidar);
+    ExtrinsicOutcome& est = stereo_mode ? tr.stereo : tr.lidar;
+    if (!stereo_mode) tr.lidar.err = poseError(T_est, rig.T_cam_lidar);
     if (args.method == "tescalib") {
-      Eigen::LDLT<Matrix6d> ldlt(tr.lidar.cov);
-      tr.nees = tr.lidar.err.dot(ldlt.solve(tr.lidar.err));
+      Eigen::LDLT<Matrix6d> ldlt(est.cov);
+      tr.nees = est.err.dot(ldlt.solve(est.err));
     }
-    const Vector6d& e = tr.lidar.err;
+    const Vector6d& e = est.err;
     std::printf(" %4d   %s   %4.2f/%4.2f  [%7.4f %7.4f %7.4f]  [%7.3f %7.3f %7.3f]  %6.3f/%6.2f  %4d  %6.2f  %6.2f %s\n",
-                t, tr.converged ? "yes" : " no", tr.lidar.init.head<3>().norm() * kDegPerRad,
-                tr.lidar.init.tail<3>().norm(), e[0] * kDegPerRad, e[1] * kDegPerRad,
+                t, tr.converged ? "yes" : " no", est.init.head<3>().norm() * kDegPerRad,
+                est.init.tail<3>().norm(), e[0] * kDegPerRad, e[1] * kDegPerRad,
                 e[2] * kDegPerRad, e[3] * 100, e[4] * 100, e[5] * 100,
-                std::sqrt(tr.lidar.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
-                std::sqrt(tr.lidar.cov.bottomRightCorner<3, 3>().trace() / 3) * 100,
+                std::sqrt(est.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
+                std::sqrt(est.cov.bottomRightCorner<3, 3>().trace() / 3) * 100,
                 tr.iterations, tr.preprocess, tr.solve,
-                tr.lidar.success() ? "" : (" FAIL " + tr.message).c_str());
+                est.success() ? "" : (" FAIL " + tr.message).c_str());
     std::fflush(stdout);
     trials.push_back(tr);
   }
 
   // ------------------------------------------------------------------ summary
+  const bool stereo_mode = args.mode == "stereo";
+  auto outcome = [&](const Trial& tr) -> const ExtrinsicOutcome& {
+    return stereo_mode ? tr.stereo : tr.lidar;
+  };
   double med_rot[3], med_trans[3];
   std::vector<double> rn, tn, pre, sol, nees;
   int ok = 0;
   for (int i = 0; i < 3; ++i) {
     std::vector<double> r, tt;
     for (const auto& tr : trials) {
-      r.push_back(std::fabs(tr.lidar.err[i]) * kDegPerRad);
-      tt.push_back(std::fabs(tr.lidar.err[3 + i]));
+      r.push_back(std::fabs(outcome(tr).err[i]) * kDegPerRad);
+      tt.push_back(std::fabs(outcome(tr).err[3 + i]));
     }
     med_rot[i] = median(r);
     med_trans[i] = median(tt);
   }
   for (const auto& tr : trials) {
-    rn.push_back(tr.lidar.err.head<3>().norm() * kDegPerRad);
-    tn.push_back(tr.lidar.err.tail<3>().norm());
+    rn.push_back(outcome(tr).err.head<3>().norm() * kDegPerRad);
+    tn.push_back(outcome(tr).err.tail<3>().norm());
     pre.push_back(tr.preprocess);
     sol.push_back(tr.solve);
     if (std::isfinite(tr.nees)) nees.push_back(tr.nees);
-    ok += tr.lidar.success();
+    ok += outcome(tr).success();
   }
   double mean_nees = std::nan("");
   if (!nees.empty()) {
@@ -332,13 +371,21 @@ int main(int argc, char** argv) {
     for (size_t i = 0; i < trials.size(); ++i) {
       const auto& tr = trials[i];
       js << "  {\"seed\": " << tr.seed << ", \"converged\": " << (tr.converged ? "true" : "false")
-         << ", \"success\": " << (tr.lidar.success() ? "true" : "false")
-         << ", \"lidar\": " << tr.lidar.json() << ", \"nees\": "
+         << ", \"success\": " << (outcome(tr).success() ? "true" : "false")
+         << ", \"lidar\": " << tr.lidar.json();
+      if (stereo_mode) {
+        js << ", \"stereo\": " << tr.stereo.json() << ", \"brightness\": [";
+        for (size_t b = 0; b < tr.brightness.size(); ++b)
+          js << (b ? ", " : "") << "[" << tr.brightness[b].x() << ", " << tr.brightness[b].y() << "]";
+        js << "]";
+      }
+      js << ", \"nees\": "
          << (std::isfinite(tr.nees) ? tr.nees : -1.0) << ", \"seconds\": {\"preprocess\": "
          << tr.preprocess << ", \"solve\": " << tr.solve
          << ", \"total\": " << tr.preprocess + tr.solve << "}}" << (i + 1 < trials.size() ? ",\n" : "\n");
     }
-    js << "], \"summary\": {\"lidar\": {\"median_abs_rot_err_deg\": " << jsonArray(med_rot, 3)
+    js << "], \"summary\": {\"" << (stereo_mode ? "stereo" : "lidar")
+       << "\": {\"median_abs_rot_err_deg\": " << jsonArray(med_rot, 3)
        << ", \"median_abs_trans_err_m\": " << jsonArray(med_trans, 3)
        << ", \"success_rate\": " << success << ", \"median_rot_err_norm_deg\": " << median(rn)
        << ", \"median_trans_err_norm_m\": " << median(tn) << "}, \"mean_nees\": "

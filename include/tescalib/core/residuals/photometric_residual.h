@@ -1,0 +1,71 @@
+// Left-right photometric residual, paper eq. (Photometric_object_function):
+//   r_k = sqrt(w_p) * ( I_r[p~_r] - b - e^a I_l[p~_l] ),   w_p = c^2 / (c^2 + |grad I_l(p)|^2)
+// for the pixels p~_l of a key point's pattern N_p. Of the paper's four affine parameters
+// (a_l, b_l, a_r, b_r) only the relative gain e^(a_r - a_l) and offset are observable from one
+// pair: we fix the left ones (a_l = b_l = 0) and estimate a = a_r - a_l, b = b_r - e^a b_l per
+// keyframe. Each pattern pixel's 3D point X (left camera frame) is where its ray meets the LiDAR
+// face under the key point (eq. parametric_equation); it is projected into the right image with
+// T_right_left = perturb(T_ref, delta): p~_r = K_r (Exp(phi) R_ref X + t_ref + tau).
+// The Huber norm is applied by the solver as the loss function.
+#pragma once
+
+#include <array>
+
+#include <ceres/ceres.h>
+#include <ceres/cubic_interpolation.h>
+#include <ceres/rotation.h>
+#include <Eigen/Core>
+
+namespace tescalib {
+
+constexpr int kPatternSize = 8;
+/// Stereo DSO's 8-pixel residual pattern.
+constexpr int kPattern[kPatternSize][2] = {{0, -2}, {-1, -1}, {1, -1}, {-2, 0},
+                                           {0, 0},  {2, 0},   {-1, 1}, {0, 2}};
+
+using ImageInterpolator = ceres::BiCubicInterpolator<ceres::Grid2D<double, 1>>;
+
+struct PhotometricResidual {
+  PhotometricResidual(const ImageInterpolator* right, const std::array<Eigen::Vector3d, kPatternSize>& q,
+                      const Eigen::Vector3d& t_ref, const std::array<double, kPatternSize>& left_value,
+                      double sqrt_weight, double fx, double fy, double cx, double cy)
+      : right_(right), q_(q), t_ref_(t_ref), left_(left_value), sqrt_w_(sqrt_weight),
+        fx_(fx), fy_(fy), cx_(cx), cy_(cy) {}
+
+  template <typename T>
+  bool operator()(const T* const delta, const T* const ab, T* residual) const {
+    const T gain = ceres::exp(ab[0]);
+    for (int k = 0; k < kPatternSize; ++k) {
+      const T q[3] = {T(q_[k].x()), T(q_[k].y()), T(q_[k].z())};
+      T y[3];
+      ceres::AngleAxisRotatePoint(delta, q, y);
+      for (int i = 0; i < 3; ++i) y[i] += T(t_ref_[i]) + delta[3 + i];
+      if (y[2] < T(0.1)) return false;
+      const T u = T(fx_) * y[0] / y[2] + T(cx_);
+      const T v = T(fy_) * y[1] / y[2] + T(cy_);
+      T value;
+      right_->Evaluate(v, u, &value);
+      residual[k] = T(sqrt_w_) * (value - ab[1] - gain * T(left_[k]));
+    }
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const ImageInterpolator* right,
+                                     const std::array<Eigen::Vector3d, kPatternSize>& q,
+                                     const Eigen::Vector3d& t_ref,
+                                     const std::array<double, kPatternSize>& left_value,
+                                     double sqrt_weight, double fx, double fy, double cx,
+                                     double cy) {
+    return new ceres::AutoDiffCostFunction<PhotometricResidual, kPatternSize, 6, 2>(
+        new PhotometricResidual(right, q, t_ref, left_value, sqrt_weight, fx, fy, cx, cy));
+  }
+
+ private:
+  const ImageInterpolator* right_;
+  std::array<Eigen::Vector3d, kPatternSize> q_;  ///< R_ref X per pattern pixel
+  Eigen::Vector3d t_ref_;
+  std::array<double, kPatternSize> left_;
+  double sqrt_w_, fx_, fy_, cx_, cy_;
+};
+
+}  // namespace tescalib

@@ -1,0 +1,234 @@
+#include "tescalib/core/photometric_solver.h"
+
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include <ceres/ceres.h>
+#include <opencv2/imgproc.hpp>
+
+#include "tescalib/core/mesh_depth.h"
+#include "tescalib/core/residuals/photometric_residual.h"
+
+namespace tescalib {
+namespace {
+
+struct KeyPoint {
+  double u = 0, v = 0;  ///< full-resolution left pixel
+  int face = -1;        ///< LiDAR face under it
+  double grad2 = 0;     ///< squared gradient magnitude
+};
+
+/// One pyramid level of one keyframe: images as doubles for Ceres' interpolator.
+struct Level {
+  cv::Mat left, right;  ///< CV_64F
+  std::vector<double> right_data;
+  std::unique_ptr<ceres::Grid2D<double, 1>> grid;
+  std::unique_ptr<ImageInterpolator> interp;
+  CameraIntrinsics left_cam, right_cam;
+};
+
+CameraIntrinsics scaled(const CameraIntrinsics& c, int level, int w, int h) {
+  const double s = std::ldexp(1.0, -level);
+  CameraIntrinsics o = c;
+  o.fx = c.fx * s, o.fy = c.fy * s;
+  o.cx = (c.cx + 0.5) * s - 0.5, o.cy = (c.cy + 0.5) * s - 0.5;
+  o.width = w, o.height = h;
+  return o;
+}
+
+double bilinear(const cv::Mat& img, double u, double v) {
+  const int u0 = int(std::floor(u)), v0 = int(std::floor(v));
+  if (u0 < 0 || v0 < 0 || u0 + 1 >= img.cols || v0 + 1 >= img.rows) return std::nan("");
+  const double fu = u - u0, fv = v - v0;
+  return (1 - fv) * ((1 - fu) * img.at<double>(v0, u0) + fu * img.at<double>(v0, u0 + 1)) +
+         fv * ((1 - fu) * img.at<double>(v0 + 1, u0) + fu * img.at<double>(v0 + 1, u0 + 1));
+}
+
+std::vector<KeyPoint> selectKeyPoints(const Keyframe& kf, const MeshDepth& md,
+                                      const PhotometricSettings& s) {
+  cv::Mat gx, gy;
+  cv::Scharr(kf.left_gray, gx, CV_32F, 1, 0, 1.0 / 32);
+  cv::Scharr(kf.left_gray, gy, CV_32F, 0, 1, 1.0 / 32);
+  std::vector<KeyPoint> out;
+  const int c = s.cell_size, border = 8;
+  for (int v0 = border; v0 + c <= kf.left_gray.rows - border; v0 += c) {
+    for (int u0 = border; u0 + c <= kf.left_gray.cols - border; u0 += c) {
+      KeyPoint best;
+      for (int v = v0; v < v0 + c; ++v)
+        for (int u = u0; u < u0 + c; ++u) {
+          const double g2 = double(gx.at<float>(v, u)) * gx.at<float>(v, u) +
+                            double(gy.at<float>(v, u)) * gy.at<float>(v, u);
+          const int f = md.face_id.at<int>(v, u);
+          const float z = md.depth.at<float>(v, u);
+          if (f < 0 || z < s.min_depth || z > s.max_depth || g2 <= best.grad2) continue;
+          best = {double(u), double(v), f, g2};
+        }
+      if (best.face >= 0 && best.grad2 > s.min_gradient * s.min_gradient) out.push_back(best);
+    }
+  }
+  if (static_cast<int>(out.size()) > s.max_keypoints_per_keyframe) {
+    std::vector<KeyPoint> kept;
+    const double step = double(out.size()) / s.max_keypoints_per_keyframe;
+    for (double x = 0; x < out.size(); x += step) kept.push_back(out[size_t(x)]);
+    out.swap(kept);
+  }
+  return out;
+}
+
+}  // namespace
+
+PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window,
+                                   const StereoRig& rig, const Eigen::Isometry3d& T_cam_lidar,
+                                   const Eigen::Isometry3d& T_init, const PhotometricSettings& s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  PhotometricResult res;
+  res.T_right_left = T_init;
+  res.brightness.assign(window.size(), Eigen::Vector2d::Zero());
+  if (window.empty()) {
+    res.message = "empty window";
+    return res;
+  }
+  // Key points with LiDAR depth (left z-buffer of the mesh), chosen once at full resolution.
+  std::vector<std::vector<KeyPoint>> kps(window.size());
+  for (size_t k = 0; k < window.size(); ++k) {
+    const MeshDepth md = renderMeshDepth(window[k]->mesh, T_cam_lidar, rig.left);
+    kps[k] = selectKeyPoints(*window[k], md, s);
+    res.keypoints += static_cast<int>(kps[k].size());
+  }
+  if (res.keypoints < s.min_keypoints) {
+    res.message = "too few key points with LiDAR depth (" + std::to_string(res.keypoints) + ")";
+    return res;
+  }
+  // Pyramids.
+  std::vector<std::vector<Level>> pyr(window.size());
+  for (size_t k = 0; k < window.size(); ++k) {
+    cv::Mat l, r;
+    window[k]->left_gray.convertTo(l, CV_64F);
+    window[k]->right_gray.convertTo(r, CV_64F);
+    pyr[k].resize(s.pyramid_levels);
+    for (int L = 0; L < s.pyramid_levels; ++L) {
+      if (L > 0) {
+        cv::pyrDown(l, l);
+        cv::pyrDown(r, r);
+      }
+      Level& lv = pyr[k][L];
+      lv.left = l.clone();
+      lv.right = r.clone();
+      lv.right_data.assign(reinterpret_cast<const double*>(r.data),
+                           reinterpret_cast<const double*>(r.data) + r.total());
+      lv.grid = std::make_unique<ceres::Grid2D<double, 1>>(lv.right_data.data(), 0, r.rows, 0, r.cols);
+      lv.interp = std::make_unique<ImageInterpolator>(*lv.grid);
+      lv.left_cam = scaled(rig.left, L, l.cols, l.rows);
+      lv.right_cam = scaled(rig.right, L, r.cols, r.rows);
+    }
+  }
+
+  Eigen::Isometry3d T = T_init;
+  std::vector<std::array<double, 2>> ab(window.size(), {0.0, 0.0});
+  const double c2 = s.gradient_weight_c * s.gradient_weight_c;
+  ceres::Problem::Options po;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  for (int L = s.pyramid_levels - 1; L >= 0; --L) {
+    const double scale = std::ldexp(1.0, -L);
+    ceres::Problem problem(po);
+    ceres::HuberLoss huber(s.huber);
+    double delta[6] = {0, 0, 0, 0, 0, 0};
+    int used = 0, occluded = 0;
+    for (size_t k = 0; k < window.size(); ++k) {
+      const Level& lv = pyr[k][L];
+      // Visibility in the right camera under the current estimate.
+      const MeshDepth right_md = renderMeshDepth(window[k]->mesh, T * T_cam_lidar, rig.right);
+      for (const KeyPoint& kp : kps[k]) {
+        const MeshFace& f = window[k]->mesh.faces[kp.face];
+        Eigen::Vector3d X;
+        if (!intersectFace(f, T_cam_lidar, rig.left, kp.u, kp.v, &X)) continue;
+        const Eigen::Vector3d Y = T * X;
+        const double ur = rig.right.fx * Y.x() / Y.z() + rig.right.cx;
+        const double vr = rig.right.fy * Y.y() / Y.z() + rig.right.cy;
+        const int iu = int(std::lround(ur)), iv = int(std::lround(vr));
+        if (iu < 0 || iv < 0 || iu >= rig.right.width || iv >= rig.right.height) continue;
+        if (Y.z() > right_md.depth.at<float>(iv, iu) * (1.0 + s.occlusion_tolerance)) {
+          ++occluded;
+          continue;
+        }
+        const double ul = (kp.u + 0.5) * scale - 0.5, vl = (kp.v + 0.5) * scale - 0.5;
+        std::array<Eigen::Vector3d, kPatternSize> q;
+        std::array<double, kPatternSize> left_value;
+        bool ok = true;
+        for (int p = 0; p < kPatternSize && ok; ++p) {
+          const double pu = ul + kPattern[p][0], pv = vl + kPattern[p][1];
+          Eigen::Vector3d Xp;
+          ok = intersectFace(f, T_cam_lidar, lv.left_cam, pu, pv, &Xp);
+          left_value[p] = bilinear(lv.left, pu, pv);
+          ok = ok && std::isfinite(left_value[p]);
+          q[p] = T.linear() * Xp;
+        }
+        if (!ok) continue;
+        const double w = c2 / (c2 + kp.grad2);
+        problem.AddResidualBlock(
+            PhotometricResidual::Create(lv.interp.get(), q, T.translation(), left_value,
+                                        std::sqrt(w), lv.right_cam.fx, lv.right_cam.fy,
+                                        lv.right_cam.cx, lv.right_cam.cy),
+            &huber, delta, ab[k].data());
+        ++used;
+      }
+    }
+    res.inliers = used;
+    res.occluded = occluded;
+    if (used < s.min_keypoints) {
+      res.message = "too few visible key points at pyramid level " + std::to_string(L);
+      res.T_right_left = T;
+      return res;
+    }
+    ceres::Solver::Options opt;
+    opt.linear_solver_type = ceres::DENSE_SCHUR;
+    opt.max_num_iterations = s.iterations_per_level;
+    opt.num_threads = s.threads;
+    opt.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(opt, &problem, &summary);
+    res.iterations += static_cast<int>(summary.iterations.size());
+    Vector6d d;
+    for (int i = 0; i < 6; ++i) d[i] = delta[i];
+    T = perturb(T, d);
+    if (L == 0) {
+      const int n = problem.NumResiduals();
+      res.final_cost = 2.0 * summary.final_cost / std::max(1, n);
+      // Covariance of the pose marginalised over the brightness parameters.
+      ceres::Covariance::Options co;
+      co.algorithm_type = ceres::DENSE_SVD;
+      co.null_space_rank = -1;
+      ceres::Covariance cov(co);
+      std::vector<std::pair<const double*, const double*>> blocks{{delta, delta}};
+      if (cov.Compute(blocks, &problem)) {
+        double C[36];
+        cov.GetCovarianceBlock(delta, delta, C);
+        // Ceres' covariance assumes unit residual variance: scale by the residuals' own.
+        const double sigma2 = 2.0 * summary.final_cost / std::max(1, n - 6 - 2 * int(window.size()));
+        for (int i = 0; i < 36; ++i) res.covariance(i / 6, i % 6) = C[i] * sigma2;
+      }
+    }
+  }
+  res.T_right_left = T;
+  for (size_t k = 0; k < window.size(); ++k) res.brightness[k] = {ab[k][0], ab[k][1]};
+  bool all = true;
+  for (int i = 0; i < 6; ++i) {
+    const double lim = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
+    res.observable[i] = std::sqrt(res.covariance(i, i)) < lim;
+    all = all && res.observable[i];
+  }
+  const Vector6d corr = poseError(T, T_init);
+  if (corr.head<3>().norm() * kDegPerRad > s.max_correction_rot_deg ||
+      corr.tail<3>().norm() > s.max_correction_trans_m)
+    res.message = "diverged: the correction from the initial guess is implausibly large";
+  else if (!all)
+    res.message = "the window does not constrain every axis";
+  else
+    res.converged = true;
+  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return res;
+}
+
+}  // namespace tescalib
