@@ -24,4 +24,11 @@ run "kitti_0930_tescalib_10deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lid
   --trials "$TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
 run "kitti_0930_tescalib_from_gt" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
   --trials 1 --init-rot-deg 0 --init-trans-m 0 --seed 3 --window 20
+run "kitti_0930_stereo_1deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo \
+  --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
+run "kitti_1003_stereo_1deg" --sequences "$K/00,$K/02" --mode stereo \
+  --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
+run "kitti_0930_stereo_1deg_lidar_off" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo \
+  --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 --lidar-trans-m 0.1 \
+  --seed 5 --window 20
 echo "[bench] JSON files in $OUT"
