@@ -63,7 +63,7 @@ struct Association {
 
 /// Solves the 6-DoF update of one association set; returns [phi; tau].
 Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& t_ref, bool coarse,
-                     const LidarStereoSettings& s, double loss_scale) {
+                     const LidarStereoSettings& s, double loss_scale, double* scale) {
   double delta[6] = {0, 0, 0, 0, 0, 0};
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
@@ -79,10 +79,19 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
       problem.AddResidualBlock(PointPlaneNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.n_s,
                                                                 a.inv_sigma,
                                                                 s.normal_residual_weight),
-                               loss.get(), delta);
+                               loss.get(), delta, scale);
     } else {
       problem.AddResidualBlock(
-          LidarNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.inv_sigma), loss.get(), delta);
+          LidarNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.inv_sigma), loss.get(), delta,
+          scale);
+    }
+  }
+  if (!as.empty()) {
+    if (s.estimate_stereo_scale) {
+      problem.SetParameterLowerBound(scale, 0, 0.5);
+      problem.SetParameterUpperBound(scale, 0, 2.0);
+    } else {
+      problem.SetParameterBlockConstant(scale);
     }
   }
   ceres::Solver::Options opt;
@@ -116,6 +125,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     return res;
   }
   Eigen::Isometry3d T = T_init;
+  double scale = 1.0;
 
   // ---------------------------------------------------------------- coarse (eq. KD6 + eq. 2)
   const auto t_coarse = Clock::now();
@@ -162,7 +172,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
             const double u = st.fx * pr.x() / pr.z() + st.cx, v = st.fy * pr.y() / pr.z() + st.cy;
             if (u < 0 || v < 0 || u >= st.disparity.cols || v >= st.disparity.rows) continue;
             pcl::PointNormal query;
-            query.x = float(c.x()), query.y = float(c.y()), query.z = float(c.z());
+            query.x = float(c.x() / scale), query.y = float(c.y() / scale), query.z = float(c.z() / scale);
             query.normal_x = float(m.x()), query.normal_y = float(m.y()), query.normal_z = float(m.z());
             if (trees[k].nearestKSearch(query, 1, nn, nn_d2) < 1 || nn_d2[0] > gate * gate) continue;
             const StereoPoint& sp = pts[tree_index[k][nn[0]]];
@@ -181,7 +191,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
         }
         res.coarse_inliers = static_cast<int>(as.size());
         if (static_cast<int>(as.size()) < s.min_inliers) break;
-        const Vector6d d = solveUpdate(as, T.translation(), true, s, s.coarse_loss_scale);
+        const Vector6d d = solveUpdate(as, T.translation(), true, s, s.coarse_loss_scale, &scale);
         T = perturb(T, d);
         if (smallUpdate(d, s)) break;
       }
@@ -213,20 +223,20 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
           const double u = st.fx * pr.x() / pr.z() + st.cx, v = st.fy * pr.y() / pr.z() + st.cy;
           double d;
           if (!st.disparityAt(u, v, &d)) continue;
-          const Eigen::Vector3d ps = st.pointAt(u, v, d);
+          const Eigen::Vector3d ps = st.pointAt(u, v, d);  // unscaled; the residual scales it
           const Eigen::Vector3d m = R * f.normal.cast<double>();
-          const double dFdd = std::fabs(m.dot(ps)) / d;
+          const double dFdd = scale * std::fabs(m.dot(ps)) / d;
           const double var = lidarVarianceAlong(m, c.normalized(), f.range, s) +
                              dFdd * dFdd * s.disparity_sigma * s.disparity_sigma;
           const double inv_sigma = 1.0 / std::sqrt(var);
-          if (std::fabs(m.dot(c - ps)) * inv_sigma > s.fine_gate_sigma) continue;
+          if (std::fabs(m.dot(c - scale * ps)) * inv_sigma > s.fine_gate_sigma) continue;
           as.push_back({q, m, f.centroid.cast<double>(), f.normal.cast<double>(), ps,
                         Eigen::Vector3d::Zero(), inv_sigma});
         }
       }
       res.fine_inliers = static_cast<int>(as.size());
       if (static_cast<int>(as.size()) < s.min_inliers) break;
-      const Vector6d d = solveUpdate(as, T.translation(), false, s, s.fine_huber);
+      const Vector6d d = solveUpdate(as, T.translation(), false, s, s.fine_huber, &scale);
       if (std::getenv("TESCALIB_DEBUG"))
         std::fprintf(stderr, "fine it %d: %zu assoc, update %.5f deg %.5f m\n", it,
                      as.size(), d.head<3>().norm() * kDegPerRad, d.tail<3>().norm());
@@ -239,6 +249,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   }
   res.seconds_fine = secondsSince(t_fine);
   res.T_cam_lidar = T;
+  res.stereo_scale = scale;
 
   // ---------------------------------------------------------------- information, honesty
   // Analytic Jacobian of r = (R m)^T (R q + t - s) / sigma at the estimate:
@@ -250,8 +261,9 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     for (const auto& a0 : as) {
       Eigen::Matrix<double, 1, 6> J;
       const Eigen::Vector3d m = T.linear() * a0.n_l, q = T.linear() * a0.p_l;
-      const double r = m.dot(q + T.translation() - a0.p_s) * a0.inv_sigma;
-      J.head<3>() = m.cross(T.translation() - a0.p_s).transpose() * a0.inv_sigma;
+      const Eigen::Vector3d ps = scale * a0.p_s;
+      const double r = m.dot(q + T.translation() - ps) * a0.inv_sigma;
+      J.head<3>() = m.cross(T.translation() - ps).transpose() * a0.inv_sigma;
       J.tail<3>() = m.transpose() * a0.inv_sigma;
       const double w = std::fabs(r) <= s.fine_huber ? 1.0 : s.fine_huber / std::fabs(r);
       H += w * J.transpose() * J;

@@ -15,6 +15,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "tescalib/core/co_calibration.h"
 #include "tescalib/core/error.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/gicp_baseline.h"
@@ -49,7 +50,8 @@ void usage() {
          "         [--init-stereo-rot-deg R] [--init-stereo-trans-m T] [--seed S] [--window W]\n"
          "         [--json FILE] [--stages coarse,fine] [--lidar-rot-deg R --lidar-trans-m T]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo (T_right_left\n"
-         "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*).\n"
+         "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
+         "(both: LiDAR from the --init sizes, stereo from the --init-stereo sizes).\n"
          "Sequences are KITTI-odometry-layout folders sharing one calibration (real, or written by\n"
          "tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds the first W.\n"
          "A trial perturbs the ground truth by exactly R deg about a random axis and T m in a random\n"
@@ -105,9 +107,9 @@ bool parse(int argc, char** argv, Args* a) {
     std::cerr << "tescalib_eval: --sequences is required\n";
     return false;
   }
-  if (a->mode != "lidar_stereo" && a->mode != "stereo") {
+  if (a->mode != "lidar_stereo" && a->mode != "stereo" && a->mode != "co") {
     std::cerr << "tescalib_eval: mode '" << a->mode
-              << "' is not available in this build (available: lidar_stereo, stereo)\n";
+              << "' is not available in this build (available: lidar_stereo, stereo, co)\n";
     return false;
   }
   if (a->method != "tescalib" && a->method != "pcl_gicp") {
@@ -218,7 +220,7 @@ int main(int argc, char** argv) {
       kf.scan = frames.back().scan;
       cv::cvtColor(frames.back().left, kf.left_gray, cv::COLOR_BGR2GRAY);
       cv::cvtColor(frames.back().right, kf.right_gray, cv::COLOR_BGR2GRAY);
-      if (args.mode == "stereo") {
+      if (args.mode != "lidar_stereo") {  // stereo: no cloud needed; co: computed per trial
         base.push_back(std::move(kf));
         continue;
       }
@@ -249,10 +251,15 @@ int main(int argc, char** argv) {
     tr.seed = args.seed * 1000003ULL + t;
     std::mt19937_64 rng(tr.seed);
     const bool stereo_mode = args.mode == "stereo";
+    const bool co_mode = args.mode == "co";
     const Vector6d main_delta =
         randomPerturbation(args.init_rot_deg / kDegPerRad, args.init_trans_m, rng);
     Eigen::Isometry3d T_init = rig.T_cam_lidar;
-    if (stereo_mode) {
+    if (co_mode) {
+      tr.lidar.init = main_delta;
+      tr.stereo.init =
+          randomPerturbation(args.init_stereo_rot_deg / kDegPerRad, args.init_stereo_trans_m, rng);
+    } else if (stereo_mode) {
       tr.stereo.init = main_delta;
       tr.lidar.init = randomPerturbation(args.lidar_rot_deg / kDegPerRad, args.lidar_trans_m, rng);
     } else {
@@ -275,7 +282,21 @@ int main(int argc, char** argv) {
     tr.preprocess = std::chrono::duration<double>(Clock::now() - t_pre).count() + stereo_seconds;
     const auto t_solve = Clock::now();
     Eigen::Isometry3d T_est = T_init;
-    if (stereo_mode) {
+    if (co_mode) {
+      std::vector<Keyframe*> mwin;
+      for (auto& kf : base) mwin.push_back(&kf);
+      CoCalibrationSettings cs;
+      const CoCalibrationResult r = coCalibrate(mwin, rig, T_init,
+                                                perturb(rig.T_right_left, tr.stereo.init), cs);
+      tr.converged = r.converged;
+      tr.iterations = r.rounds;
+      tr.lidar.cov = r.lidar.covariance;
+      tr.stereo.cov = r.stereo.covariance;
+      T_est = r.lidar.T_cam_lidar;
+      tr.stereo.err = poseError(r.stereo.T_right_left, rig.T_right_left);
+      tr.message = r.message;
+      tr.brightness = r.stereo.brightness;
+    } else if (stereo_mode) {
       PhotometricSettings ps;
       const PhotometricResult r = solvePhotometric(window, rig, T_init,
                                                    perturb(rig.T_right_left, tr.stereo.init), ps);
@@ -304,6 +325,10 @@ int main(int argc, char** argv) {
     if (args.method == "tescalib") {
       Eigen::LDLT<Matrix6d> ldlt(est.cov);
       tr.nees = est.err.dot(ldlt.solve(est.err));
+      if (co_mode) {  // mean of both extrinsics' 6-DoF NEES
+        Eigen::LDLT<Matrix6d> ldlt_s(tr.stereo.cov);
+        tr.nees = 0.5 * (tr.nees + tr.stereo.err.dot(ldlt_s.solve(tr.stereo.err)));
+      }
     }
     const Vector6d& e = est.err;
     std::printf(" %4d   %s   %4.2f/%4.2f  [%7.4f %7.4f %7.4f]  [%7.3f %7.3f %7.3f]  %6.3f/%6.2f  %4d  %6.2f  %6.2f %s\n",
@@ -313,7 +338,16 @@ int main(int argc, char** argv) {
                 std::sqrt(est.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
                 std::sqrt(est.cov.bottomRightCorner<3, 3>().trace() / 3) * 100,
                 tr.iterations, tr.preprocess, tr.solve,
-                est.success() ? "" : (" FAIL " + tr.message).c_str());
+                (est.success() && (!co_mode || tr.stereo.success())) ? "" : (" FAIL " + tr.message).c_str());
+    if (co_mode) {
+      const Vector6d& es = tr.stereo.err;
+      std::printf("        stereo  %4.2f/%4.2f  [%7.4f %7.4f %7.4f]  [%7.3f %7.3f %7.3f]  %6.3f/%6.2f\n",
+                  tr.stereo.init.head<3>().norm() * kDegPerRad, tr.stereo.init.tail<3>().norm(),
+                  es[0] * kDegPerRad, es[1] * kDegPerRad, es[2] * kDegPerRad, es[3] * 100,
+                  es[4] * 100, es[5] * 100,
+                  std::sqrt(tr.stereo.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
+                  std::sqrt(tr.stereo.cov.bottomRightCorner<3, 3>().trace() / 3) * 100);
+    }
     std::fflush(stdout);
     trials.push_back(tr);
   }

@@ -29,6 +29,9 @@ struct LidarStereoSettings {
   double fine_huber = 1.5;                 ///< Huber threshold in sigma units
   double fine_gate_sigma = 8.0;            ///< associations beyond this many sigma are dropped
   double max_depth = 40.0;                 ///< m; farther LiDAR faces are not associated
+  /// Also estimate a scale of the stereo clouds (= true baseline / the baseline they were
+  /// computed with). Used by co-calibration; off, the scale is held at 1.
+  bool estimate_stereo_scale = false;
   // Noise model (paper eq. lidar_noise and the disparity noise).
   double lidar_range_sigma = 0.02;         ///< m
   double lidar_beam_sigma_deg = 0.02;      ///< beam direction, deg
@@ -54,6 +57,7 @@ struct LidarStereoResult {
   int coarse_inliers = 0;        ///< associations in the last coarse solve
   int fine_inliers = 0;          ///< associations in the last fine solve
   Matrix6d information = Matrix6d::Zero();  ///< J^T W J of the final fine problem
+  double stereo_scale = 1.0;     ///< estimated stereo scale (1 unless estimate_stereo_scale)
   double residual_scale = 1.0;   ///< robust std of the normalised residuals (1 if the model fits)
   Matrix6d covariance = Matrix6d::Identity();  ///< residual_scale^2 * information^-1
   bool observable[6] = {false, false, false, false, false, false};  ///< per axis

@@ -4,6 +4,9 @@
 //   sigma^2 = n^T R Sigma_l R^T n + (n^T dF/dd)^2 sigma_d^2,   dF/dd = -F(d) / d
 // F(d) is the stereo point seen at the pixel where T p_l projects (projective association), held
 // fixed during one solve and re-associated between solves.
+// `scale` multiplies the stereo point: 1 and held constant when the stereo baseline is trusted;
+// estimated in co-calibration, where the LiDAR gives the stereo pair its metric scale (an addition
+// to the paper: a wrong baseline scales the whole stereo cloud, which no rigid T can absorb).
 #pragma once
 
 #include <ceres/ceres.h>
@@ -18,14 +21,14 @@ struct LidarNormalResidual {
       : q_(q), m_(m), t_ref_(t_ref), p_s_(p_s), inv_sigma_(inv_sigma) {}
 
   template <typename T>
-  bool operator()(const T* const delta, T* residual) const {
+  bool operator()(const T* const delta, const T* const scale, T* residual) const {
     const T q[3] = {T(q_.x()), T(q_.y()), T(q_.z())};
     const T m[3] = {T(m_.x()), T(m_.y()), T(m_.z())};
     T c[3], n[3];
     ceres::AngleAxisRotatePoint(delta, q, c);
     ceres::AngleAxisRotatePoint(delta, m, n);
     T dist = T(0);
-    for (int i = 0; i < 3; ++i) dist += n[i] * (c[i] + T(t_ref_[i]) + delta[3 + i] - T(p_s_[i]));
+    for (int i = 0; i < 3; ++i) dist += n[i] * (c[i] + T(t_ref_[i]) + delta[3 + i] - scale[0] * T(p_s_[i]));
     residual[0] = dist * T(inv_sigma_);
     return true;
   }
@@ -33,7 +36,7 @@ struct LidarNormalResidual {
   static ceres::CostFunction* Create(const Eigen::Vector3d& q, const Eigen::Vector3d& m,
                                      const Eigen::Vector3d& t_ref, const Eigen::Vector3d& p_s,
                                      double inv_sigma) {
-    return new ceres::AutoDiffCostFunction<LidarNormalResidual, 1, 6>(
+    return new ceres::AutoDiffCostFunction<LidarNormalResidual, 1, 6, 1>(
         new LidarNormalResidual(q, m, t_ref, p_s, inv_sigma));
   }
 

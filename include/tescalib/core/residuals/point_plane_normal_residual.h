@@ -6,6 +6,9 @@
 // sigma is the noise-model standard deviation of the point-to-plane distance (an addition to the
 // paper, see lidar_stereo_solver.cpp). The pose is T = perturb(T_ref, [phi; tau]): the reference
 // rotation is applied to p_m and n_m beforehand (q = R_ref p_m, m = R_ref n_m).
+// `scale` multiplies the stereo point: 1 and held constant when the stereo baseline is trusted;
+// estimated in co-calibration, where the LiDAR gives the stereo pair its metric scale (an addition
+// to the paper: a wrong baseline scales the whole stereo cloud, which no rigid T can absorb).
 #pragma once
 
 #include <ceres/ceres.h>
@@ -21,14 +24,14 @@ struct PointPlaneNormalResidual {
       : q_(q), m_(m), t_ref_(t_ref), p_s_(p_s), n_s_(n_s), inv_sigma_(inv_sigma), w_(normal_weight) {}
 
   template <typename T>
-  bool operator()(const T* const delta, T* residual) const {
+  bool operator()(const T* const delta, const T* const scale, T* residual) const {
     const T q[3] = {T(q_.x()), T(q_.y()), T(q_.z())};
     const T m[3] = {T(m_.x()), T(m_.y()), T(m_.z())};
     T c[3], n[3];
     ceres::AngleAxisRotatePoint(delta, q, c);
     ceres::AngleAxisRotatePoint(delta, m, n);
     T dist = T(0);
-    for (int i = 0; i < 3; ++i) dist += n[i] * (c[i] + T(t_ref_[i]) + delta[3 + i] - T(p_s_[i]));
+    for (int i = 0; i < 3; ++i) dist += n[i] * (c[i] + T(t_ref_[i]) + delta[3 + i] - scale[0] * T(p_s_[i]));
     residual[0] = dist * T(inv_sigma_);
     residual[1] = T(w_) * (n[1] * T(n_s_.z()) - n[2] * T(n_s_.y()));
     residual[2] = T(w_) * (n[2] * T(n_s_.x()) - n[0] * T(n_s_.z()));
@@ -40,7 +43,7 @@ struct PointPlaneNormalResidual {
                                      const Eigen::Vector3d& t_ref, const Eigen::Vector3d& p_s,
                                      const Eigen::Vector3d& n_s, double inv_sigma,
                                      double normal_weight) {
-    return new ceres::AutoDiffCostFunction<PointPlaneNormalResidual, 4, 6>(
+    return new ceres::AutoDiffCostFunction<PointPlaneNormalResidual, 4, 6, 1>(
         new PointPlaneNormalResidual(q, m, t_ref, p_s, n_s, inv_sigma, normal_weight));
   }
 
