@@ -31,4 +31,8 @@ run "kitti_1003_stereo_1deg" --sequences "$K/00,$K/02" --mode stereo \
 run "kitti_0930_stereo_1deg_lidar_off" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo \
   --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 --lidar-trans-m 0.1 \
   --seed 5 --window 20
+run "kitti_0930_co_3deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode co --trials 10 \
+  --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
+run "kitti_0930_co_1deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode co --trials 10 \
+  --init-rot-deg 1 --init-trans-m 0.1 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
 echo "[bench] JSON files in $OUT"
