@@ -209,3 +209,47 @@ Eigen::Isometry3d fromTransformMsg(const geometry_msgs::Transform& m) {
 
 }  // namespace ros_conv
 }  // namespace tescalib
+
+namespace tescalib {
+namespace ros_conv {
+
+ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::string& parent,
+                                const std::string& child, const Eigen::Isometry3d& T,
+                                const Matrix6d& cov, const bool observable[6], bool converged,
+                                int keyframes, double cost, int iterations) {
+  ExtrinsicEstimate m;
+  m.header = header;
+  m.header.frame_id = parent;
+  m.parent_frame_id = parent;
+  m.child_frame_id = child;
+  m.transform = toTransformMsg(T);
+  for (int i = 0; i < 36; ++i) m.covariance[i] = cov(i / 6, i % 6);
+  for (int i = 0; i < 3; ++i) {
+    m.sigma_rot_deg[i] = std::sqrt(std::max(0.0, cov(i, i))) * kDegPerRad;
+    m.sigma_trans_m[i] = std::sqrt(std::max(0.0, cov(3 + i, 3 + i)));
+  }
+  for (int i = 0; i < 6; ++i) m.observable[i] = observable[i];
+  m.converged = converged;
+  m.keyframes_used = static_cast<uint32_t>(keyframes);
+  m.final_cost = cost;
+  m.iterations = static_cast<uint32_t>(iterations);
+  return m;
+}
+
+geometry_msgs::PoseWithCovarianceStamped toPoseMsg(const std_msgs::Header& header,
+                                                   const Eigen::Isometry3d& T, const Matrix6d& cov) {
+  geometry_msgs::PoseWithCovarianceStamped m;
+  m.header = header;
+  const geometry_msgs::Transform t = toTransformMsg(T);
+  m.pose.pose.position.x = t.translation.x;
+  m.pose.pose.position.y = t.translation.y;
+  m.pose.pose.position.z = t.translation.z;
+  m.pose.pose.orientation = t.rotation;
+  const int order[6] = {3, 4, 5, 0, 1, 2};  // ROS index -> our index
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) m.pose.covariance[6 * r + c] = cov(order[r], order[c]);
+  return m;
+}
+
+}  // namespace ros_conv
+}  // namespace tescalib

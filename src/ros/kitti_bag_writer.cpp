@@ -1,6 +1,7 @@
 #include "tescalib/ros/kitti_bag_writer.h"
 
 #include <geometry_msgs/TransformStamped.h>
+#include <boost/make_shared.hpp>
 #include <rosbag/bag.h>
 #include <tf2_msgs/TFMessage.h>
 
@@ -10,10 +11,18 @@ namespace tescalib {
 
 void writeKittiBag(const KittiSequence& seq, const std::string& bag_path,
                    const KittiBagOptions& o, const std::function<void(size_t, size_t)>& progress) {
-  const double offset = seq.layout() == KittiLayout::kOdometry ? o.odometry_start_stamp : 0.0;
-  const size_t n = o.max_frames < 0 ? seq.size()
-                                    : std::min(seq.size(), static_cast<size_t>(o.max_frames));
+  writeKittiBag(std::vector<const KittiSequence*>{&seq}, bag_path, o, progress);
+}
+
+void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::string& bag_path,
+                   const KittiBagOptions& o, const std::function<void(size_t, size_t)>& progress) {
+  if (seqs.empty()) return;
+  const KittiSequence& seq = *seqs.front();
+  double offset = seq.layout() == KittiLayout::kOdometry ? o.odometry_start_stamp : 0.0;
   const StereoRig& rig = seq.rig();
+  size_t total = 0;
+  for (const KittiSequence* s : seqs)
+    total += o.max_frames < 0 ? s->size() : std::min(s->size(), static_cast<size_t>(o.max_frames));
 
   rosbag::Bag bag(bag_path, rosbag::bagmode::Write);
   bag.setCompression(rosbag::compression::LZ4);
@@ -33,15 +42,31 @@ void writeKittiBag(const KittiSequence& seq, const std::string& bag_path,
   add(o.base_frame, o.velo_frame, Eigen::Isometry3d::Identity());
   add(o.velo_frame, o.left_frame, rig.T_cam_lidar.inverse());
   add(o.velo_frame, o.right_frame, (rig.T_right_left * rig.T_cam_lidar).inverse());
-  bag.write("/tf_static", t0, tf_static);
+  // Latched, and repeated with every frame as kitti2bag does, so a late subscriber gets it.
+  auto latched = boost::make_shared<ros::M_string>();
+  (*latched)["latching"] = "1";
+  (*latched)["callerid"] = "/kitti_to_bag";
+  (*latched)["type"] = ros::message_traits::datatype<tf2_msgs::TFMessage>();
+  (*latched)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
+  (*latched)["message_definition"] = ros::message_traits::definition<tf2_msgs::TFMessage>();
 
   const double Tx_right = -rig.right.fx * rig.T_right_left.translation().norm();
+  size_t written = 0;
+  for (size_t si = 0; si < seqs.size(); ++si) {
+  const KittiSequence& cur = *seqs[si];
+  if (si > 0 && cur.layout() == KittiLayout::kOdometry)
+    offset = seqs[si - 1]->stamp(seqs[si - 1]->size() - 1) + offset + 1.0 - cur.stamp(0);
+  const size_t n = o.max_frames < 0 ? cur.size()
+                                    : std::min(cur.size(), static_cast<size_t>(o.max_frames));
   for (size_t i = 0; i < n; ++i) {
-    const Frame f = seq.load(i);
+    const Frame f = cur.load(i);
     const ros::Time stamp(f.stamp + offset);
     std_msgs::Header h;
     h.stamp = stamp;
-    h.seq = static_cast<uint32_t>(i);
+    h.seq = static_cast<uint32_t>(written);
+
+    for (auto& t : tf_static.transforms) t.header.stamp = stamp;
+    bag.write("/tf_static", stamp, tf_static, latched);
 
     h.frame_id = o.velo_frame;
     bag.write(o.velo_topic, stamp, ros_conv::toPointCloud2(f.scan, h));
@@ -54,7 +79,9 @@ void writeKittiBag(const KittiSequence& seq, const std::string& bag_path,
     bag.write(o.right_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.right, h, "rgb8"));
     bag.write(o.right_prefix + "/camera_info", stamp,
               ros_conv::toCameraInfo(rig.right, Tx_right, h));
-    if (progress) progress(i + 1, n);
+    ++written;
+    if (progress) progress(written, total);
+  }
   }
   bag.close();
 }

@@ -2,20 +2,25 @@
 // frame names. Usage: rosbag-free of a master; see --help.
 #include <cstdlib>
 #include <iostream>
+#include <memory>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include <rosbag/exceptions.h>
 #include <ros/time.h>
 
 #include "tescalib/core/error.h"
+#include "tescalib/core/geometry.h"
 #include "tescalib/ros/kitti_bag_writer.h"
 
 namespace {
 void usage() {
-  std::cout << "usage: rosrun tescalib kitti_to_bag --in DIR --out FILE.bag [--max-frames N]\n"
+  std::cout << "usage: rosrun tescalib kitti_to_bag --in DIR[,DIR...] --out FILE.bag [--max-frames N]\n"
                "  DIR: a KITTI odometry sequence (calib.txt, times.txt, image_2/, image_3/,\n"
                "       velodyne/) or a KITTI raw drive folder (image_02/data, image_03/data,\n"
                "       velodyne_points/data; calib_*.txt in it or in its parent).\n"
+               "  Several DIRs (one rig) are written one after the other, 1 s apart.\n"
                "  Topics: /kitti/velo/pointcloud (velo_link; x y z intensity ring),\n"
                "          /kitti/camera_color_{left,right}/{image_raw,camera_info}, /tf_static\n";
 }
@@ -45,11 +50,23 @@ int main(int argc, char** argv) {
   }
   ros::Time::init();
   try {
-    const tescalib::KittiSequence seq(in);
-    std::cout << "kitti_to_bag: " << seq.size() << " frames from " << in << " ("
-              << (seq.layout() == tescalib::KittiLayout::kOdometry ? "odometry" : "raw")
-              << " layout, " << seq.rig().left.width << "x" << seq.rig().left.height << ")\n";
-    tescalib::writeKittiBag(seq, out, options, [](size_t i, size_t n) {
+    std::vector<std::unique_ptr<tescalib::KittiSequence>> seqs;
+    std::vector<const tescalib::KittiSequence*> ptrs;
+    std::stringstream list(in);
+    std::string dir;
+    while (std::getline(list, dir, ',')) {
+      if (dir.empty()) continue;
+      seqs.push_back(std::make_unique<tescalib::KittiSequence>(dir));
+      ptrs.push_back(seqs.back().get());
+      const auto& seq = *seqs.back();
+      std::cout << "kitti_to_bag: " << seq.size() << " frames from " << dir << " ("
+                << (seq.layout() == tescalib::KittiLayout::kOdometry ? "odometry" : "raw")
+                << " layout, " << seq.rig().left.width << "x" << seq.rig().left.height << ")\n";
+      if (tescalib::poseError(seq.rig().T_cam_lidar, ptrs.front()->rig().T_cam_lidar).norm() > 1e-4)
+        throw tescalib::DataError(dir + ": calibration differs from " + ptrs.front()->dir() +
+                                  " (one bag holds one rig)");
+    }
+    tescalib::writeKittiBag(ptrs, out, options, [](size_t i, size_t n) {
       if (i == n || i % 50 == 0) std::cout << "  " << i << "/" << n << " frames\n";
     });
     std::cout << "kitti_to_bag: wrote " << out << "\n";

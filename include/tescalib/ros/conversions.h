@@ -3,13 +3,16 @@
 
 #include <string>
 
+#include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/Transform.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/Header.h>
 #include <opencv2/core.hpp>
+#include <tescalib/ExtrinsicEstimate.h>
 
+#include "tescalib/core/geometry.h"
 #include "tescalib/core/types.h"
 
 namespace tescalib {
@@ -44,6 +47,24 @@ sensor_msgs::Image toImageMsg(const cv::Mat& bgr, const std_msgs::Header& header
 
 geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& T);
 Eigen::Isometry3d fromTransformMsg(const geometry_msgs::Transform& msg);
+
+}  // namespace ros_conv
+}  // namespace tescalib
+
+namespace tescalib {
+namespace ros_conv {
+
+/// Fills an ExtrinsicEstimate: `T` maps child-frame points into the parent frame, `cov` is over
+/// [phi; tau] in the parent frame (our convention), copied as is.
+ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::string& parent,
+                                const std::string& child, const Eigen::Isometry3d& T,
+                                const Matrix6d& cov, const bool observable[6], bool converged,
+                                int keyframes, double cost, int iterations);
+
+/// The same as a PoseWithCovarianceStamped (header.frame_id = parent). ROS orders the pose
+/// covariance [x y z rx ry rz]; ours is [phi; tau]: the blocks are swapped.
+geometry_msgs::PoseWithCovarianceStamped toPoseMsg(const std_msgs::Header& header,
+                                                   const Eigen::Isometry3d& T, const Matrix6d& cov);
 
 }  // namespace ros_conv
 }  // namespace tescalib

@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "tescalib/core/kitti_reader.h"
 
@@ -26,6 +27,12 @@ struct KittiBagOptions {
 /// Writes the bag. Throws tescalib::DataError on unreadable input, rosbag::BagException on an
 /// unwritable bag. `progress(i, n)` is called after every frame when set.
 void writeKittiBag(const KittiSequence& seq, const std::string& bag_path,
+                   const KittiBagOptions& options = {},
+                   const std::function<void(size_t, size_t)>& progress = {});
+
+/// Writes several sequences of one rig into one bag, one after the other (each odometry-layout
+/// sequence starts 1 s after the previous one ended), e.g. the keyframes of one recording day.
+void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::string& bag_path,
                    const KittiBagOptions& options = {},
                    const std::function<void(size_t, size_t)>& progress = {});
 

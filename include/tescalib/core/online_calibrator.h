@@ -1,0 +1,86 @@
+// The online calibration state machine, ROS-free: keyframe selection (>= min_dt apart), a
+// sliding window of preprocessed keyframes, co-calibration on demand, and the rule that a new
+// estimate only replaces the published one when it is at least as trustworthy. The nodelet feeds
+// it frames and publishes what it returns; tests drive it directly.
+#pragma once
+
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tescalib/core/co_calibration.h"
+#include "tescalib/core/keyframe.h"
+#include "tescalib/core/types.h"
+
+namespace tescalib {
+
+struct OnlineSettings {
+  double keyframe_min_dt = 0.5;   ///< s between keyframes
+  int window_size = 10;           ///< keyframes in the sliding window (paper's co-calibration: 10)
+  int min_keyframes = 3;          ///< solve only with at least this many
+  bool estimate_stereo = true;    ///< co-calibration; false: LiDAR-stereo only, stereo fixed
+  double max_sync_skew = 0.05;    ///< s; LiDAR and image stamps further apart are rejected
+  double max_time_jump_back = 0.0;  ///< s; a stamp earlier than the last by more resets the window
+  /// A new estimate replaces the current one only when converged and its covariance trace is at
+  /// most this factor times the current one's (never publish something less trustworthy).
+  double max_trace_growth = 2.0;
+  KeyframeSettings keyframe;
+  CoCalibrationSettings co;
+};
+
+/// What the calibrator currently believes.
+struct OnlineEstimate {
+  Eigen::Isometry3d T_cam_lidar = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_right_left = Eigen::Isometry3d::Identity();
+  Matrix6d cov_lidar = Matrix6d::Identity();
+  Matrix6d cov_stereo = Matrix6d::Identity();
+  bool observable_lidar[6] = {false, false, false, false, false, false};
+  bool observable_stereo[6] = {false, false, false, false, false, false};
+  bool converged = false;
+  int keyframes_used = 0;
+  double cost_lidar = 0, cost_stereo = 0;
+  int iterations_lidar = 0, iterations_stereo = 0;
+  double stamp = 0;               ///< stamp of the newest keyframe of the window it came from
+  double solve_seconds = 0;
+};
+
+enum class FrameResult { kKeyframe, kTooClose, kReset, kRejected };
+
+class OnlineCalibrator {
+ public:
+  /// `rig` holds the intrinsics and the initial extrinsics.
+  OnlineCalibrator(const StereoRig& rig, const OnlineSettings& settings);
+
+  /// Keyframe selection and preprocessing (mesh, stereo cloud). Thread-safe. `message` explains
+  /// a rejection or a reset. `lidar_stamp` is the scan's stamp (checked against the frame's).
+  FrameResult addFrame(const Frame& frame, double lidar_stamp, std::string* message);
+
+  /// Runs co-calibration on a snapshot of the window. Returns true when the published estimate
+  /// changed. Thread-safe; the window keeps filling while it runs.
+  bool solve(std::string* message);
+
+  /// Clears the window and returns to the initial extrinsics.
+  void reset();
+
+  std::optional<OnlineEstimate> estimate() const;  ///< the current published estimate
+  size_t windowFill() const;
+  bool readyToSolve() const;
+  const StereoRig& rig() const { return rig_; }
+  Eigen::Isometry3d currentTcamLidar() const;   ///< estimate, or the initial guess
+  Eigen::Isometry3d currentTrightLeft() const;
+
+ private:
+  StereoRig rig_;  ///< intrinsics + initial extrinsics
+  OnlineSettings settings_;
+  mutable std::mutex mutex_;
+  std::deque<std::shared_ptr<Keyframe>> window_;  ///< GUARDED_BY(mutex_)
+  std::optional<OnlineEstimate> estimate_;        ///< GUARDED_BY(mutex_)
+  double last_stamp_ = -1e300;                    ///< GUARDED_BY(mutex_)
+  double last_keyframe_stamp_ = -1e300;           ///< GUARDED_BY(mutex_)
+  int new_keyframes_ = 0;                         ///< GUARDED_BY(mutex_) since the last solve
+};
+
+}  // namespace tescalib

@@ -1,0 +1,99 @@
+// tescalib/CalibrationNodelet: synchronized LiDAR + stereo in, extrinsics with covariance out.
+// Thin: callbacks convert and enqueue; a preprocessing thread selects keyframes and builds them;
+// a solver thread runs co-calibration on the window. Both threads are joined in the destructor.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/sync_policies/exact_time.h>
+#include <message_filters/synchronizer.h>
+#include <nodelet/nodelet.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <tescalib/Reset.h>
+#include <tescalib/Save.h>
+
+#include "tescalib/core/online_calibrator.h"
+#include "tescalib/ros/params.h"
+
+namespace tescalib {
+
+class CalibrationNodelet : public nodelet::Nodelet {
+ public:
+  ~CalibrationNodelet() override;
+
+ private:
+  using Cloud = sensor_msgs::PointCloud2;
+  using Image = sensor_msgs::Image;
+  using Info = sensor_msgs::CameraInfo;
+  using ApproxPolicy = message_filters::sync_policies::ApproximateTime<Cloud, Image, Info, Image, Info>;
+  using ExactPolicy = message_filters::sync_policies::ExactTime<Cloud, Image, Info, Image, Info>;
+
+  struct PendingFrame {
+    Frame frame;
+    double lidar_stamp = 0;
+    std_msgs::Header header;
+  };
+
+  void onInit() override;
+  void syncCallback(const Cloud::ConstPtr& cloud, const Image::ConstPtr& left,
+                    const Info::ConstPtr& left_info, const Image::ConstPtr& right,
+                    const Info::ConstPtr& right_info);
+  bool initCalibrator(const Cloud& cloud, const Info& left_info, const Info& right_info);
+  void preprocessLoop();
+  void solveLoop();
+  void publish(const OnlineEstimate& e, const ros::Time& stamp);
+  void publishTf(const ros::Time& stamp);
+  void watchdog(const ros::TimerEvent&);
+  bool onReset(Reset::Request& req, Reset::Response& res);
+  bool onSave(Save::Request& req, Save::Response& res);
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+
+  NodeParams params_;
+  std::unique_ptr<OnlineCalibrator> calibrator_;  ///< created on the first synchronized set
+  std::string lidar_frame_;
+
+  message_filters::Subscriber<Cloud> cloud_sub_;
+  message_filters::Subscriber<Image> left_sub_, right_sub_;
+  message_filters::Subscriber<Info> left_info_sub_, right_info_sub_;
+  std::unique_ptr<message_filters::Synchronizer<ApproxPolicy>> approx_sync_;
+  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
+  ros::Publisher lidar_pub_, stereo_pub_, lidar_pose_pub_, stereo_pose_pub_;
+  ros::ServiceServer reset_srv_, save_srv_;
+  ros::Timer watchdog_timer_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_pub_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<PendingFrame> queue_;         ///< GUARDED_BY(mutex_), at most 2
+  std::atomic<bool> running_{false};
+  std::atomic<bool> solve_requested_{false};
+  std::thread preprocess_thread_, solve_thread_;
+
+  std::atomic<int> sync_sets_{0}, dropped_{0}, rejected_{0}, keyframes_{0}, images_seen_{0};
+  std::atomic<double> last_solve_seconds_{0};
+  std::atomic<double> last_enqueued_stamp_{-1e300};
+  std::string last_problem_;               ///< GUARDED_BY(mutex_)
+  std::string last_solve_message_;         ///< GUARDED_BY(mutex_)
+};
+
+}  // namespace tescalib

@@ -1,0 +1,39 @@
+// Parameter loading for the nodelets: one loader, grouped like the core settings structs, that
+// validates every value and says clearly what is wrong.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <ros/node_handle.h>
+
+#include "tescalib/core/online_calibrator.h"
+
+namespace tescalib {
+
+struct NodeParams {
+  OnlineSettings online;
+  bool approximate_sync = true;       ///< message_filters ApproximateTime (else ExactTime)
+  int sync_queue = 10;
+  std::string lidar_frame;            ///< empty: the point cloud's header frame
+  std::string left_frame = "tescalib_left";    ///< published (child of the LiDAR frame)
+  std::string right_frame = "tescalib_right";  ///< published (child of left_frame)
+  /// Initial T_cam_lidar as [x y z qx qy qz qw] (LiDAR -> left camera); empty: from tf.
+  std::vector<double> initial_T_cam_lidar;
+  /// Initial T_right_left as [x y z qx qy qz qw]; empty: from the right camera_info (P[3]).
+  std::vector<double> initial_T_right_left;
+  std::string initial_tf_camera_frame;  ///< with an empty initial_T_cam_lidar: look this up in tf
+  double initial_perturb_rot_deg = 0;   ///< demo/testing: perturb the initial guesses by this
+  double initial_perturb_trans_m = 0;
+  int initial_perturb_seed = 1;
+  std::string save_path = "tescalib_calibration";
+};
+
+/// Loads and validates the private parameters. Returns false and a message naming the
+/// parameter on any invalid value.
+bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* params, std::string* error);
+
+/// Validates a loaded parameter set (also used by the test of config/*.yaml).
+bool validateNodeParams(const NodeParams& p, std::string* error);
+
+}  // namespace tescalib

@@ -1,0 +1,176 @@
+#include "tescalib/core/online_calibrator.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "tescalib/core/error.h"
+
+namespace tescalib {
+
+OnlineCalibrator::OnlineCalibrator(const StereoRig& rig, const OnlineSettings& settings)
+    : rig_(rig), settings_(settings) {}
+
+FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, std::string* msg) {
+  if (frame.scan.empty()) {
+    *msg = "empty LiDAR scan";
+    return FrameResult::kRejected;
+  }
+  if (frame.left.empty() || frame.right.empty()) {
+    *msg = "missing image";
+    return FrameResult::kRejected;
+  }
+  if (frame.left.size() != frame.right.size() || frame.left.cols != rig_.left.width ||
+      frame.left.rows != rig_.left.height) {
+    *msg = "image size " + std::to_string(frame.left.cols) + "x" + std::to_string(frame.left.rows) +
+           " / " + std::to_string(frame.right.cols) + "x" + std::to_string(frame.right.rows) +
+           " does not match camera_info " + std::to_string(rig_.left.width) + "x" +
+           std::to_string(rig_.left.height);
+    return FrameResult::kRejected;
+  }
+  if (std::fabs(lidar_stamp - frame.stamp) > settings_.max_sync_skew) {
+    *msg = "LiDAR and image stamps differ by " + std::to_string(lidar_stamp - frame.stamp) + " s";
+    return FrameResult::kRejected;
+  }
+  Eigen::Isometry3d T_cl, T_rl;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (frame.stamp < last_stamp_ - settings_.max_time_jump_back) {
+      *msg = "time went backwards by " + std::to_string(last_stamp_ - frame.stamp) +
+             " s (looping bag?): window cleared";
+      window_.clear();
+      last_stamp_ = frame.stamp;
+      last_keyframe_stamp_ = -1e300;
+      new_keyframes_ = 0;
+      return FrameResult::kReset;
+    }
+    last_stamp_ = frame.stamp;
+    if (frame.stamp - last_keyframe_stamp_ < settings_.keyframe_min_dt - 1e-3) return FrameResult::kTooClose;
+    last_keyframe_stamp_ = frame.stamp;
+    T_cl = estimate_ ? estimate_->T_cam_lidar : rig_.T_cam_lidar;
+    T_rl = estimate_ ? estimate_->T_right_left : rig_.T_right_left;
+  }
+  std::shared_ptr<Keyframe> kf;
+  try {
+    kf = std::make_shared<Keyframe>(makeKeyframe(frame, rig_, T_cl, T_rl, settings_.keyframe));
+  } catch (const DataError& e) {
+    *msg = e.what();
+    return FrameResult::kRejected;
+  }
+  if (kf->mesh.faces.size() < 100) {
+    *msg = "LiDAR scan gives only " + std::to_string(kf->mesh.faces.size()) +
+           " mesh faces in the cameras' view (no ring structure?)";
+    return FrameResult::kRejected;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  window_.push_back(std::move(kf));
+  while (static_cast<int>(window_.size()) > settings_.window_size) window_.pop_front();
+  ++new_keyframes_;
+  return FrameResult::kKeyframe;
+}
+
+bool OnlineCalibrator::readyToSolve() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return static_cast<int>(window_.size()) >= settings_.min_keyframes && new_keyframes_ > 0;
+}
+
+size_t OnlineCalibrator::windowFill() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return window_.size();
+}
+
+bool OnlineCalibrator::solve(std::string* msg) {
+  std::vector<std::shared_ptr<Keyframe>> snapshot;
+  Eigen::Isometry3d T_cl, T_rl;
+  std::optional<OnlineEstimate> current;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (static_cast<int>(window_.size()) < settings_.min_keyframes) {
+      *msg = "window has " + std::to_string(window_.size()) + " keyframes, needs " +
+             std::to_string(settings_.min_keyframes);
+      return false;
+    }
+    // Deep copies: co-calibration recomputes the stereo clouds in place.
+    for (const auto& k : window_) snapshot.push_back(std::make_shared<Keyframe>(*k));
+    new_keyframes_ = 0;
+    current = estimate_;
+    T_cl = current ? current->T_cam_lidar : rig_.T_cam_lidar;
+    T_rl = current ? current->T_right_left : rig_.T_right_left;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  OnlineEstimate e;
+  std::vector<Keyframe*> win;
+  for (auto& k : snapshot) win.push_back(k.get());
+  if (settings_.estimate_stereo) {
+    const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, settings_.co);
+    e.T_cam_lidar = r.lidar.T_cam_lidar;
+    e.T_right_left = r.stereo.T_right_left;
+    e.cov_lidar = r.lidar.covariance;
+    e.cov_stereo = r.stereo.covariance;
+    std::copy(r.lidar.observable, r.lidar.observable + 6, e.observable_lidar);
+    std::copy(r.stereo.observable, r.stereo.observable + 6, e.observable_stereo);
+    e.converged = r.converged;
+    e.cost_lidar = r.lidar.final_cost, e.cost_stereo = r.stereo.final_cost;
+    e.iterations_lidar = r.lidar.iterations, e.iterations_stereo = r.stereo.iterations;
+    *msg = r.message;
+  } else {
+    std::vector<const Keyframe*> cwin(win.begin(), win.end());
+    LidarStereoSettings ls = settings_.co.lidar;
+    ls.disparity_sigma = settings_.keyframe.stereo.disparity_sigma;
+    const LidarStereoResult r = solveLidarStereo(cwin, T_cl, ls);
+    e.T_cam_lidar = r.T_cam_lidar;
+    e.T_right_left = T_rl;
+    e.cov_lidar = r.covariance;
+    e.cov_stereo = Matrix6d::Zero();
+    std::copy(r.observable, r.observable + 6, e.observable_lidar);
+    std::fill(e.observable_stereo, e.observable_stereo + 6, true);
+    e.converged = r.converged;
+    e.cost_lidar = r.final_cost;
+    e.iterations_lidar = r.iterations;
+    *msg = r.message;
+  }
+  e.keyframes_used = static_cast<int>(snapshot.size());
+  e.stamp = snapshot.back()->stamp;
+  e.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!e.converged) {
+    *msg = "not converged (" + *msg + "): keeping the previous estimate";
+    return false;
+  }
+  const double trace_new = e.cov_lidar.trace() + e.cov_stereo.trace();
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (estimate_) {
+    const double trace_old = estimate_->cov_lidar.trace() + estimate_->cov_stereo.trace();
+    if (!std::isfinite(trace_new) || trace_new > settings_.max_trace_growth * trace_old) {
+      *msg = "new estimate is less certain than the published one (covariance trace " +
+             std::to_string(trace_new) + " vs " + std::to_string(trace_old) + "): kept the old one";
+      return false;
+    }
+  }
+  estimate_ = e;
+  return true;
+}
+
+void OnlineCalibrator::reset() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  window_.clear();
+  estimate_.reset();
+  last_stamp_ = -1e300;
+  last_keyframe_stamp_ = -1e300;
+  new_keyframes_ = 0;
+}
+
+std::optional<OnlineEstimate> OnlineCalibrator::estimate() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return estimate_;
+}
+
+Eigen::Isometry3d OnlineCalibrator::currentTcamLidar() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return estimate_ ? estimate_->T_cam_lidar : rig_.T_cam_lidar;
+}
+
+Eigen::Isometry3d OnlineCalibrator::currentTrightLeft() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return estimate_ ? estimate_->T_right_left : rig_.T_right_left;
+}
+
+}  // namespace tescalib

@@ -1,0 +1,386 @@
+#include "tescalib/ros/calibration_nodelet.h"
+
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <random>
+
+#include <geometry_msgs/TransformStamped.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <tf2_eigen/tf2_eigen.h>
+
+#include "tescalib/core/geometry.h"
+#include "tescalib/ros/conversions.h"
+
+namespace tescalib {
+
+namespace {
+Eigen::Isometry3d fromVector7(const std::vector<double>& v) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
+  T.linear() = Eigen::Quaterniond(v[6], v[3], v[4], v[5]).normalized().toRotationMatrix();
+  return T;
+}
+
+/// Writes `text` to `path` atomically: a temporary file in the same folder, then rename.
+bool writeAtomically(const std::string& path, const std::string& text, std::string* error) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp);
+    if (!out || !(out << text) || !out.flush()) {
+      *error = "cannot write " + tmp;
+      return false;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    *error = "cannot rename " + tmp + " to " + path;
+    return false;
+  }
+  return true;
+}
+
+std::string matrixRow(const Eigen::Matrix<double, 3, 4>& M) {
+  std::ostringstream o;
+  o << std::setprecision(12);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) o << (r || c ? " " : "") << M(r, c);
+  return o.str();
+}
+}  // namespace
+
+CalibrationNodelet::~CalibrationNodelet() {
+  running_ = false;
+  cv_.notify_all();
+  if (preprocess_thread_.joinable()) preprocess_thread_.join();
+  if (solve_thread_.joinable()) solve_thread_.join();
+}
+
+void CalibrationNodelet::onInit() {
+  ros::NodeHandle& nh = getNodeHandle();
+  ros::NodeHandle& pnh = getPrivateNodeHandle();
+  std::string error;
+  if (!loadNodeParams(pnh, &params_, &error)) {
+    NODELET_FATAL("tescalib: invalid parameters: %s", error.c_str());
+    return;  // stays inert; the manager keeps running
+  }
+  tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
+  tf_pub_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+  lidar_pub_ = pnh.advertise<ExtrinsicEstimate>("lidar_to_left", 1, true);
+  stereo_pub_ = pnh.advertise<ExtrinsicEstimate>("left_to_right", 1, true);
+  lidar_pose_pub_ = pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("lidar_to_left_pose", 1, true);
+  stereo_pose_pub_ = pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("left_to_right_pose", 1, true);
+  reset_srv_ = pnh.advertiseService("reset", &CalibrationNodelet::onReset, this);
+  save_srv_ = pnh.advertiseService("save", &CalibrationNodelet::onSave, this);
+
+  const uint32_t q = 5;
+  cloud_sub_.subscribe(nh, "points", q);
+  left_sub_.subscribe(nh, "left/image_raw", q);
+  left_info_sub_.subscribe(nh, "left/camera_info", q);
+  right_sub_.subscribe(nh, "right/image_raw", q);
+  right_info_sub_.subscribe(nh, "right/camera_info", q);
+  left_sub_.registerCallback(
+      boost::function<void(const Image::ConstPtr&)>([this](const Image::ConstPtr&) { ++images_seen_; }));
+  if (params_.approximate_sync) {
+    approx_sync_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(
+        ApproxPolicy(params_.sync_queue), cloud_sub_, left_sub_, left_info_sub_, right_sub_,
+        right_info_sub_);
+    approx_sync_->registerCallback(&CalibrationNodelet::syncCallback, this);
+  } else {
+    exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
+        ExactPolicy(params_.sync_queue), cloud_sub_, left_sub_, left_info_sub_, right_sub_,
+        right_info_sub_);
+    exact_sync_->registerCallback(&CalibrationNodelet::syncCallback, this);
+  }
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh);
+  diagnostics_->setHardwareID("tescalib");
+  diagnostics_->add("calibration", this, &CalibrationNodelet::diagnose);
+  watchdog_timer_ = nh.createTimer(ros::Duration(1.0), &CalibrationNodelet::watchdog, this);
+  running_ = true;
+  preprocess_thread_ = std::thread(&CalibrationNodelet::preprocessLoop, this);
+  solve_thread_ = std::thread(&CalibrationNodelet::solveLoop, this);
+  NODELET_INFO("tescalib: waiting for synchronized points, left/right image_raw and camera_info "
+               "(window %d keyframes >= %.2f s apart, %s sync)",
+               params_.online.window_size, params_.online.keyframe_min_dt,
+               params_.approximate_sync ? "approximate" : "exact");
+}
+
+bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_info,
+                                        const Info& right_info) {
+  StereoRig rig;
+  std::string error;
+  if (!ros_conv::fromCameraInfo(left_info, &rig.left, &error) ||
+      !ros_conv::fromCameraInfo(right_info, &rig.right, &error)) {
+    NODELET_WARN_THROTTLE(5.0, "tescalib: unusable camera_info: %s", error.c_str());
+    return false;
+  }
+  lidar_frame_ = params_.lidar_frame.empty() ? cloud.header.frame_id : params_.lidar_frame;
+  if (!params_.initial_T_cam_lidar.empty()) {
+    rig.T_cam_lidar = fromVector7(params_.initial_T_cam_lidar);
+  } else {
+    try {
+      const auto t = tf_buffer_->lookupTransform(params_.initial_tf_camera_frame, lidar_frame_,
+                                                 ros::Time(0), ros::Duration(0.5));
+      rig.T_cam_lidar = tf2::transformToEigen(t.transform);
+    } catch (const tf2::TransformException& ex) {
+      NODELET_WARN_THROTTLE(5.0, "tescalib: no initial extrinsic: tf %s -> %s: %s",
+                            lidar_frame_.c_str(), params_.initial_tf_camera_frame.c_str(), ex.what());
+      return false;
+    }
+  }
+  if (!params_.initial_T_right_left.empty()) {
+    rig.T_right_left = fromVector7(params_.initial_T_right_left);
+  } else {
+    if (right_info.P[3] >= 0) {
+      NODELET_WARN_THROTTLE(5.0, "tescalib: right camera_info P[3] = %f is not -fx*baseline; set "
+                            "initial/T_right_left", right_info.P[3]);
+      return false;
+    }
+    rig.T_right_left.translation() = Eigen::Vector3d(right_info.P[3] / right_info.P[0], 0, 0);
+  }
+  if (params_.initial_perturb_rot_deg > 0 || params_.initial_perturb_trans_m > 0) {
+    std::mt19937_64 rng(params_.initial_perturb_seed);
+    rig.T_cam_lidar = perturb(rig.T_cam_lidar,
+                              randomPerturbation(params_.initial_perturb_rot_deg / kDegPerRad,
+                                                 params_.initial_perturb_trans_m, rng));
+    NODELET_WARN("tescalib: initial LiDAR extrinsic deliberately perturbed by %.2f deg / %.3f m",
+                 params_.initial_perturb_rot_deg, params_.initial_perturb_trans_m);
+  }
+  calibrator_ = std::make_unique<OnlineCalibrator>(rig, params_.online);
+  NODELET_INFO("tescalib: rig %dx%d fx %.1f baseline %.3f m, LiDAR frame '%s'", rig.left.width,
+               rig.left.height, rig.left.fx, rig.baseline(), lidar_frame_.c_str());
+  return true;
+}
+
+void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image::ConstPtr& left,
+                                      const Info::ConstPtr& left_info, const Image::ConstPtr& right,
+                                      const Info::ConstPtr& right_info) {
+  ++sync_sets_;
+  if (!calibrator_ && !initCalibrator(*cloud, *left_info, *right_info)) return;
+  const double stamp = left->header.stamp.toSec();
+  // Cheap keyframe pre-selection here; time going backwards is passed on (the window resets).
+  if (stamp >= last_enqueued_stamp_ && stamp - last_enqueued_stamp_ < params_.online.keyframe_min_dt - 1e-3)
+    return;
+  PendingFrame pf;
+  std::string error;
+  bool ring_recovered = false;
+  if (!ros_conv::fromPointCloud2(*cloud, &pf.frame.scan, &error, &ring_recovered)) {
+    ++rejected_;
+    NODELET_WARN_THROTTLE(5.0, "tescalib: point cloud rejected: %s", error.c_str());
+    return;
+  }
+  if (ring_recovered)
+    NODELET_WARN_THROTTLE(30.0, "tescalib: point cloud has no 'ring' field; rings recovered from "
+                          "scan order (KITTI-style clouds)");
+  if (!ros_conv::toBgr8(*left, &pf.frame.left, &error) ||
+      !ros_conv::toBgr8(*right, &pf.frame.right, &error)) {
+    ++rejected_;
+    NODELET_WARN_THROTTLE(5.0, "tescalib: image rejected: %s", error.c_str());
+    return;
+  }
+  pf.frame.stamp = stamp;
+  pf.lidar_stamp = cloud->header.stamp.toSec();
+  pf.header = left->header;
+  last_enqueued_stamp_ = stamp;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    queue_.push_back(std::move(pf));
+    while (queue_.size() > 2) {
+      queue_.pop_front();
+      ++dropped_;
+      NODELET_WARN_THROTTLE(5.0, "tescalib: preprocessing cannot keep up: dropped a keyframe candidate");
+    }
+  }
+  cv_.notify_all();
+  publishTf(left->header.stamp);
+}
+
+void CalibrationNodelet::preprocessLoop() {
+  while (running_) {
+    PendingFrame pf;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      cv_.wait_for(lock, std::chrono::milliseconds(200), [this] { return !queue_.empty() || !running_; });
+      if (!running_) return;
+      if (queue_.empty()) continue;
+      pf = std::move(queue_.front());
+      queue_.pop_front();
+    }
+    std::string msg;
+    const FrameResult r = calibrator_->addFrame(pf.frame, pf.lidar_stamp, &msg);
+    if (r == FrameResult::kKeyframe) {
+      ++keyframes_;
+      solve_requested_ = true;
+      cv_.notify_all();
+    } else if (r == FrameResult::kReset) {
+      NODELET_WARN("tescalib: %s", msg.c_str());
+      last_enqueued_stamp_ = pf.frame.stamp;
+    } else if (r == FrameResult::kRejected) {
+      ++rejected_;
+      NODELET_WARN_THROTTLE(5.0, "tescalib: frame rejected: %s", msg.c_str());
+      std::lock_guard<std::mutex> lock(mutex_);
+      last_problem_ = msg;
+    }
+  }
+}
+
+void CalibrationNodelet::solveLoop() {
+  while (running_) {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      cv_.wait_for(lock, std::chrono::milliseconds(200), [this] { return solve_requested_ || !running_; });
+    }
+    if (!running_) return;
+    if (!solve_requested_ || !calibrator_ || !calibrator_->readyToSolve()) continue;
+    solve_requested_ = false;
+    std::string msg;
+    const auto t0 = ros::WallTime::now();
+    const bool updated = calibrator_->solve(&msg);
+    last_solve_seconds_ = (ros::WallTime::now() - t0).toSec();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      last_solve_message_ = updated ? "updated" : msg;
+    }
+    if (updated) {
+      const auto e = calibrator_->estimate();
+      publish(*e, ros::Time(e->stamp));
+      NODELET_INFO("tescalib: new estimate from %d keyframes in %.2f s", e->keyframes_used,
+                   last_solve_seconds_.load());
+    } else {
+      NODELET_WARN_THROTTLE(5.0, "tescalib: %s", msg.c_str());
+    }
+  }
+}
+
+void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp) {
+  std_msgs::Header h;
+  h.stamp = stamp;
+  lidar_pub_.publish(ros_conv::toEstimateMsg(h, params_.left_frame, lidar_frame_, e.T_cam_lidar,
+                                             e.cov_lidar, e.observable_lidar, e.converged,
+                                             e.keyframes_used, e.cost_lidar, e.iterations_lidar));
+  stereo_pub_.publish(ros_conv::toEstimateMsg(h, params_.right_frame, params_.left_frame,
+                                              e.T_right_left, e.cov_stereo, e.observable_stereo,
+                                              e.converged, e.keyframes_used, e.cost_stereo,
+                                              e.iterations_stereo));
+  h.frame_id = params_.left_frame;
+  lidar_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_cam_lidar, e.cov_lidar));
+  h.frame_id = params_.right_frame;
+  stereo_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_right_left, e.cov_stereo));
+  publishTf(stamp);
+}
+
+void CalibrationNodelet::publishTf(const ros::Time& stamp) {
+  if (!calibrator_) return;
+  const auto e = calibrator_->estimate();
+  if (!e) return;  // nothing is published before the first converged estimate
+  geometry_msgs::TransformStamped a, b;
+  a.header.stamp = b.header.stamp = stamp;
+  // tf: the transform maps child points into the parent frame.
+  a.header.frame_id = lidar_frame_;
+  a.child_frame_id = params_.left_frame;
+  a.transform = ros_conv::toTransformMsg(e->T_cam_lidar.inverse());
+  b.header.frame_id = params_.left_frame;
+  b.child_frame_id = params_.right_frame;
+  b.transform = ros_conv::toTransformMsg(e->T_right_left.inverse());
+  tf_pub_->sendTransform({a, b});
+}
+
+void CalibrationNodelet::watchdog(const ros::TimerEvent&) {
+  diagnostics_->update();
+  if (images_seen_ > 20 && sync_sets_ == 0)
+    NODELET_WARN_THROTTLE(10.0, "tescalib: %d images but no synchronized set: check that points, "
+                          "left/right image_raw and both camera_info topics are published with "
+                          "matching stamps (sync/approximate, sync/max_skew)",
+                          images_seen_.load());
+}
+
+bool CalibrationNodelet::onReset(Reset::Request&, Reset::Response& res) {
+  if (calibrator_) calibrator_->reset();
+  last_enqueued_stamp_ = -1e300;
+  res.success = true;
+  res.message = "window cleared, back to the initial extrinsics";
+  NODELET_INFO("tescalib: reset");
+  return true;
+}
+
+bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
+  const std::string base = req.path.empty() ? params_.save_path : req.path;
+  const auto e = calibrator_ ? calibrator_->estimate() : std::nullopt;
+  if (!e) {
+    res.success = false;
+    res.message = "no converged estimate yet";
+    return true;
+  }
+  std::ostringstream yaml, calib, launch;
+  yaml << std::setprecision(12) << "# tescalib calibration (T_a_b maps points from b into a)\n";
+  auto block = [&yaml](const std::string& name, const std::string& parent, const std::string& child,
+                       const Eigen::Isometry3d& T, const Matrix6d& cov) {
+    const Eigen::Quaterniond q(T.linear());
+    yaml << name << ":\n  parent_frame: " << parent << "\n  child_frame: " << child
+         << "\n  translation: [" << T.translation().x() << ", " << T.translation().y() << ", "
+         << T.translation().z() << "]\n  rotation_xyzw: [" << q.x() << ", " << q.y() << ", " << q.z()
+         << ", " << q.w() << "]\n  covariance_phi_tau: [";
+    for (int i = 0; i < 36; ++i) yaml << (i ? ", " : "") << cov(i / 6, i % 6);
+    yaml << "]\n";
+  };
+  block("T_cam_lidar", params_.left_frame, lidar_frame_, e->T_cam_lidar, e->cov_lidar);
+  block("T_right_left", params_.right_frame, params_.left_frame, e->T_right_left, e->cov_stereo);
+  const StereoRig& rig = calibrator_->rig();
+  Eigen::Matrix<double, 3, 4> P2, P3;
+  P2 << rig.left.K(), Eigen::Vector3d::Zero();
+  P3 << rig.right.K(), rig.right.K() * e->T_right_left.translation();
+  calib << "P0: " << matrixRow(P2) << "\nP1: " << matrixRow(P3) << "\nP2: " << matrixRow(P2)
+        << "\nP3: " << matrixRow(P3) << "\nTr: " << matrixRow(e->T_cam_lidar.matrix().topRows<3>())
+        << "\n";
+  const Eigen::Isometry3d T_lc = e->T_cam_lidar.inverse(), T_lr = e->T_right_left.inverse();
+  auto stp = [&launch](const std::string& n, const std::string& p, const std::string& c,
+                       const Eigen::Isometry3d& T) {
+    const Eigen::Quaterniond q(T.linear());
+    launch << std::setprecision(12) << "  <node pkg=\"tf2_ros\" type=\"static_transform_publisher\" name=\""
+           << n << "\" args=\"" << T.translation().x() << " " << T.translation().y() << " "
+           << T.translation().z() << " " << q.x() << " " << q.y() << " " << q.z() << " " << q.w()
+           << " " << p << " " << c << "\"/>\n";
+  };
+  launch << "<launch>\n";
+  stp("tescalib_lidar_to_left", lidar_frame_, params_.left_frame, T_lc);
+  stp("tescalib_left_to_right", params_.left_frame, params_.right_frame, T_lr);
+  launch << "</launch>\n";
+  std::string error;
+  res.success = writeAtomically(base + ".yaml", yaml.str(), &error) &&
+                writeAtomically(base + "_calib.txt", calib.str(), &error) &&
+                writeAtomically(base + "_static_tf.launch", launch.str(), &error);
+  res.message = res.success ? "wrote " + base + ".yaml, " + base + "_calib.txt, " + base +
+                                  "_static_tf.launch"
+                            : error;
+  return true;
+}
+
+void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  const auto e = calibrator_ ? calibrator_->estimate() : std::nullopt;
+  std::string problem, solve_msg;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    problem = last_problem_;
+    solve_msg = last_solve_message_;
+  }
+  if (!calibrator_)
+    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "waiting for synchronized data");
+  else if (!e)
+    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "no converged estimate yet");
+  else
+    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::OK, "calibrated");
+  stat.add("window fill", calibrator_ ? calibrator_->windowFill() : 0);
+  stat.add("window size", params_.online.window_size);
+  stat.add("keyframes", keyframes_.load());
+  stat.add("synchronized sets", sync_sets_.load());
+  stat.add("dropped sync sets", dropped_.load());
+  stat.add("rejected frames", rejected_.load());
+  stat.add("last solve seconds", last_solve_seconds_.load());
+  stat.add("last solve", solve_msg);
+  stat.add("last problem", problem);
+  stat.add("converged", e ? e->converged : false);
+}
+
+}  // namespace tescalib
+
+PLUGINLIB_EXPORT_CLASS(tescalib::CalibrationNodelet, nodelet::Nodelet)

@@ -1,0 +1,80 @@
+#include "tescalib/ros/params.h"
+
+#include <sstream>
+
+namespace tescalib {
+
+namespace {
+template <typename T>
+void get(const ros::NodeHandle& nh, const std::string& name, T* value) {
+  nh.param(name, *value, *value);
+}
+}  // namespace
+
+bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* error) {
+  get(pnh, "sync/approximate", &p->approximate_sync);
+  get(pnh, "sync/queue_size", &p->sync_queue);
+  get(pnh, "sync/max_skew", &p->online.max_sync_skew);
+  get(pnh, "frames/lidar", &p->lidar_frame);
+  get(pnh, "frames/left", &p->left_frame);
+  get(pnh, "frames/right", &p->right_frame);
+  get(pnh, "window/keyframe_min_dt", &p->online.keyframe_min_dt);
+  get(pnh, "window/size", &p->online.window_size);
+  get(pnh, "window/min_keyframes", &p->online.min_keyframes);
+  get(pnh, "window/max_trace_growth", &p->online.max_trace_growth);
+  get(pnh, "co_calibration/estimate_stereo", &p->online.estimate_stereo);
+  get(pnh, "co_calibration/max_rounds", &p->online.co.max_rounds);
+  get(pnh, "stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
+  get(pnh, "stereo/block_size", &p->online.keyframe.stereo.block_size);
+  get(pnh, "stereo/max_depth", &p->online.keyframe.stereo.max_depth);
+  get(pnh, "stereo/disparity_sigma", &p->online.keyframe.stereo.disparity_sigma);
+  get(pnh, "lidar_stereo/normal_weight", &p->online.co.lidar.normal_weight);
+  get(pnh, "lidar_stereo/lidar_range_sigma", &p->online.co.lidar.lidar_range_sigma);
+  get(pnh, "lidar_stereo/max_depth", &p->online.co.lidar.max_depth);
+  get(pnh, "photometric/pyramid_levels", &p->online.co.stereo.pyramid_levels);
+  get(pnh, "photometric/huber", &p->online.co.stereo.huber);
+  get(pnh, "initial/T_cam_lidar", &p->initial_T_cam_lidar);
+  get(pnh, "initial/T_right_left", &p->initial_T_right_left);
+  get(pnh, "initial/tf_camera_frame", &p->initial_tf_camera_frame);
+  get(pnh, "initial/perturb_rot_deg", &p->initial_perturb_rot_deg);
+  get(pnh, "initial/perturb_trans_m", &p->initial_perturb_trans_m);
+  get(pnh, "initial/perturb_seed", &p->initial_perturb_seed);
+  get(pnh, "save_path", &p->save_path);
+  p->online.co.stereo_cloud = p->online.keyframe.stereo;
+  return validateNodeParams(*p, error);
+}
+
+bool validateNodeParams(const NodeParams& p, std::string* error) {
+  std::ostringstream e;
+  const auto& o = p.online;
+  if (o.keyframe_min_dt <= 0) e << "window/keyframe_min_dt must be > 0 (got " << o.keyframe_min_dt << "); ";
+  if (o.window_size < 1) e << "window/size must be >= 1 (got " << o.window_size << "); ";
+  if (o.min_keyframes < 1 || o.min_keyframes > o.window_size)
+    e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes << "); ";
+  if (o.max_trace_growth < 1) e << "window/max_trace_growth must be >= 1; ";
+  if (o.max_sync_skew <= 0) e << "sync/max_skew must be > 0; ";
+  if (p.sync_queue < 1) e << "sync/queue_size must be >= 1; ";
+  if (o.keyframe.stereo.num_disparities < 16 || o.keyframe.stereo.num_disparities % 16)
+    e << "stereo/num_disparities must be a positive multiple of 16 (got "
+      << o.keyframe.stereo.num_disparities << "); ";
+  if (o.keyframe.stereo.block_size < 1 || o.keyframe.stereo.block_size % 2 == 0)
+    e << "stereo/block_size must be odd (got " << o.keyframe.stereo.block_size << "); ";
+  if (o.keyframe.stereo.disparity_sigma <= 0) e << "stereo/disparity_sigma must be > 0; ";
+  if (o.co.max_rounds < 1) e << "co_calibration/max_rounds must be >= 1; ";
+  if (o.co.stereo.pyramid_levels < 1 || o.co.stereo.pyramid_levels > 5)
+    e << "photometric/pyramid_levels must be in [1, 5]; ";
+  if (!p.initial_T_cam_lidar.empty() && p.initial_T_cam_lidar.size() != 7)
+    e << "initial/T_cam_lidar must be [x, y, z, qx, qy, qz, qw] (7 values, got "
+      << p.initial_T_cam_lidar.size() << "); ";
+  if (!p.initial_T_right_left.empty() && p.initial_T_right_left.size() != 7)
+    e << "initial/T_right_left must be [x, y, z, qx, qy, qz, qw] (7 values, got "
+      << p.initial_T_right_left.size() << "); ";
+  if (p.initial_T_cam_lidar.empty() && p.initial_tf_camera_frame.empty())
+    e << "set initial/T_cam_lidar or initial/tf_camera_frame (an initial LiDAR extrinsic is "
+         "required); ";
+  if (p.left_frame.empty() || p.right_frame.empty()) e << "frames/left and frames/right must be set; ";
+  *error = e.str();
+  return error->empty();
+}
+
+}  // namespace tescalib
