@@ -10,7 +10,10 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   if (scan.empty()) return mesh;
   int rings = 0;
   for (const auto& p : scan) rings = std::max(rings, int(p.ring) + 1);
-  const int cols = s.azimuth_bins;
+  // No finer azimuth bins than the densest ring has returns: neighbours must be adjacent bins.
+  std::vector<int> per_ring(rings, 0);
+  for (const auto& p : scan) ++per_ring[p.ring];
+  const int cols = std::max(16, std::min(s.azimuth_bins, *std::max_element(per_ring.begin(), per_ring.end())));
   // Range image: the closest return per (ring, azimuth bin).
   std::vector<int> grid(static_cast<size_t>(rings) * cols, -1);
   std::vector<float> grid_range(grid.size(), 0.f);

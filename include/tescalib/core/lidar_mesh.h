@@ -13,7 +13,8 @@
 namespace tescalib {
 
 struct LidarMeshSettings {
-  int azimuth_bins = 2000;             ///< columns of the range image (HDL-64E: ~2000 per turn)
+  int azimuth_bins = 2000;             ///< max columns of the range image (HDL-64E: ~2000 per
+                                       ///< turn); fewer when the densest ring has fewer returns
   double max_range = 80.0;             ///< m; farther returns are not meshed
   double min_range = 2.0;              ///< m; closer returns (the vehicle itself) are ignored
   double max_edge_ratio = 0.06;        ///< reject when any edge is longer than this times range
