@@ -1,0 +1,36 @@
+// rostest: every shipped config/*.yaml loads and validates; invalid values are named.
+#include <gtest/gtest.h>
+#include <ros/ros.h>
+
+#include "tescalib/ros/params.h"
+
+TEST(Params, ShippedConfigLoadsAndValidates) {
+  ros::NodeHandle pnh("~kitti");
+  tescalib::NodeParams p;
+  std::string error;
+  EXPECT_TRUE(tescalib::loadNodeParams(pnh, &p, &error)) << error;
+  EXPECT_EQ(p.online.window_size, 10);
+  EXPECT_DOUBLE_EQ(p.online.keyframe_min_dt, 0.5);
+  EXPECT_EQ(p.initial_tf_camera_frame, "camera_color_left");
+  EXPECT_EQ(p.left_frame, "tescalib_left");
+}
+
+TEST(Params, InvalidValuesAreNamed) {
+  ros::NodeHandle pnh("~bad");
+  pnh.setParam("stereo/num_disparities", 100);
+  pnh.setParam("window/size", 0);
+  pnh.setParam("initial/T_cam_lidar", std::vector<double>{1, 2, 3});
+  tescalib::NodeParams p;
+  std::string error;
+  EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
+  EXPECT_NE(error.find("stereo/num_disparities"), std::string::npos) << error;
+  EXPECT_NE(error.find("window/size"), std::string::npos) << error;
+  EXPECT_NE(error.find("initial/T_cam_lidar must be [x, y, z, qx, qy, qz, qw] (7 values, got 3)"),
+            std::string::npos) << error;
+}
+
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  ros::init(argc, argv, "test_params");
+  return RUN_ALL_TESTS();
+}
