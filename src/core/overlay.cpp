@@ -1,0 +1,30 @@
+#include "tescalib/core/overlay.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+namespace tescalib {
+
+int drawLidarOverlay(const LidarScan& scan, const Eigen::Isometry3d& T, const CameraIntrinsics& cam,
+                     cv::Mat* image, double max_depth) {
+  cv::Mat lut(1, 256, CV_8UC1);
+  for (int i = 0; i < 256; ++i) lut.at<uint8_t>(i) = static_cast<uint8_t>(i);
+  cv::Mat colors;
+  cv::applyColorMap(lut, colors, cv::COLORMAP_JET);
+  int drawn = 0;
+  for (const auto& p : scan) {
+    const Eigen::Vector3d c = T * Eigen::Vector3d(p.x, p.y, p.z);
+    if (c.z() < 1.0 || c.z() > max_depth) continue;
+    const int u = static_cast<int>(std::lround(cam.fx * c.x() / c.z() + cam.cx));
+    const int v = static_cast<int>(std::lround(cam.fy * c.y() / c.z() + cam.cy));
+    if (u < 0 || v < 0 || u >= image->cols || v >= image->rows) continue;
+    const int k = 255 - std::min(255, static_cast<int>(255.0 * c.z() / max_depth));
+    cv::circle(*image, {u, v}, 1, cv::Scalar(colors.at<cv::Vec3b>(0, k)), cv::FILLED);
+    ++drawn;
+  }
+  return drawn;
+}
+
+}  // namespace tescalib
