@@ -12,8 +12,9 @@
 #pragma once
 
 #include <ceres/ceres.h>
-#include <ceres/rotation.h>
 #include <Eigen/Core>
+
+#include "tescalib/core/residuals/point_plane_distance.h"
 
 namespace tescalib {
 
@@ -25,13 +26,8 @@ struct PointPlaneNormalResidual {
 
   template <typename T>
   bool operator()(const T* const delta, const T* const scale, T* residual) const {
-    const T q[3] = {T(q_.x()), T(q_.y()), T(q_.z())};
-    const T m[3] = {T(m_.x()), T(m_.y()), T(m_.z())};
-    T c[3], n[3];
-    ceres::AngleAxisRotatePoint(delta, q, c);
-    ceres::AngleAxisRotatePoint(delta, m, n);
-    T dist = T(0);
-    for (int i = 0; i < 3; ++i) dist += n[i] * (c[i] + T(t_ref_[i]) + delta[3 + i] - scale[0] * T(p_s_[i]));
+    T n[3];
+    const T dist = pointPlaneDistance(delta, scale, q_, m_, t_ref_, p_s_, n);
     residual[0] = dist * T(inv_sigma_);
     residual[1] = T(w_) * (n[1] * T(n_s_.z()) - n[2] * T(n_s_.y()));
     residual[2] = T(w_) * (n[2] * T(n_s_.x()) - n[0] * T(n_s_.z()));
