@@ -158,6 +158,7 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
   ++sync_sets_;
   if (!calibrator_ && !initCalibrator(*cloud, *left_info, *right_info)) return;
   const double stamp = left->header.stamp.toSec();
+  publishTf(left->header.stamp);  // every set, so tf lookups at any image stamp interpolate
   // Cheap keyframe pre-selection here; time going backwards is passed on (the window resets).
   if (stamp >= last_enqueued_stamp_ && stamp - last_enqueued_stamp_ < params_.online.keyframe_min_dt - 1e-3)
     return;
@@ -192,7 +193,6 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     }
   }
   cv_.notify_all();
-  publishTf(left->header.stamp);
 }
 
 void CalibrationNodelet::preprocessLoop() {
