@@ -26,7 +26,8 @@ void expectDataError(Fn fn, std::initializer_list<std::string> fragments) {
     ADD_FAILURE() << "expected a DataError";
   } catch (const DataError& e) {
     const std::string msg = e.what();
-    for (const auto& f : fragments) EXPECT_NE(msg.find(f), std::string::npos) << msg << " lacks " << f;
+    for (const auto& f : fragments)
+      EXPECT_NE(msg.find(f), std::string::npos) << msg << " lacks " << f;
   }
 }
 
@@ -91,9 +92,9 @@ TEST(KittiReaderReal, GroundTruthPredictsTheStereoDisparityAndAWrongOneDoesNot) 
     const auto bad = lidarDisparityAgreement(f.scan, f.left, f.right, seq.rig(),
                                              perturb(seq.rig().T_cam_lidar, delta));
     std::cout << "[ sequence " << name << " ] ground truth: " << good.points << " points, "
-              << good.fraction_within_1px << " within 1 px, global shift "
-              << good.best_global_shift << "; wrong: " << bad.fraction_within_1px
-              << " within 1 px, global shift " << bad.best_global_shift << "\n";
+              << good.fraction_within_1px << " within 1 px, global shift " << good.best_global_shift
+              << "; wrong: " << bad.fraction_within_1px << " within 1 px, global shift "
+              << bad.best_global_shift << "\n";
     EXPECT_GT(good.points, 2000);
     EXPECT_EQ(good.best_global_shift, 0);
     EXPECT_EQ(good.median_shift, 0);

@@ -32,7 +32,7 @@ double cast(const std::vector<Plane>& planes, const Eigen::Vector3d& o, const Ei
     const double den = planes[i].n.dot(r);
     if (std::fabs(den) < 1e-9) continue;
     const double t = (planes[i].h - planes[i].n.dot(o)) / den;
-    if (t > 1e-6 && t < best) best = t, hit ? *hit = int(i) : 0;
+    if (t > 1e-6 && t < best) best = t, hit ? * hit = int(i) : 0;
   }
   return best;
 }
@@ -134,8 +134,8 @@ TEST(LidarStereoSolver, RecoversKnownPerturbationsOnAPlaneScene) {
   std::mt19937_64 rng(5);
   for (int trial = 0; trial < 3; ++trial) {
     const Vector6d delta = randomPerturbation(3.0 / kDegPerRad, 0.3, rng);
-    const LidarStereoResult r = solveLidarStereo(window, perturb(rig.T_cam_lidar, delta),
-                                                 testSettings());
+    const LidarStereoResult r =
+        solveLidarStereo(window, perturb(rig.T_cam_lidar, delta), testSettings());
     const Vector6d e = poseError(r.T_cam_lidar, rig.T_cam_lidar);
     EXPECT_TRUE(r.converged) << r.message;
     EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.05) << "trial " << trial;

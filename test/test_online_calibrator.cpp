@@ -106,7 +106,8 @@ TEST(OnlineCalibratorReal, PublishesOnlyTrustworthyEstimates) {
   settings.window_size = 8;
   OnlineCalibrator cal(rig, settings);
   std::string msg;
-  for (const auto& f : frames) ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  for (const auto& f : frames)
+    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
   ASSERT_TRUE(cal.solve(&msg)) << msg;
   const auto first = cal.estimate();
   ASSERT_TRUE(first.has_value());

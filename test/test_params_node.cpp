@@ -26,7 +26,8 @@ TEST(Params, InvalidValuesAreNamed) {
   EXPECT_NE(error.find("stereo/num_disparities"), std::string::npos) << error;
   EXPECT_NE(error.find("window/size"), std::string::npos) << error;
   EXPECT_NE(error.find("initial/T_cam_lidar must be [x, y, z, qx, qy, qz, qw] (7 values, got 3)"),
-            std::string::npos) << error;
+            std::string::npos)
+      << error;
 }
 
 int main(int argc, char** argv) {

@@ -59,8 +59,8 @@ TEST(PhotometricSolverReal, RecoversKnownPerturbationsAndExposureChange) {
   std::vector<PhotometricResult> results;
   for (int trial = 0; trial < 2; ++trial) {
     const Vector6d delta = randomPerturbation(1.0 / kDegPerRad, 0.1, rng);
-    const PhotometricResult r = solvePhotometric(w.window(), w.rig, w.rig.T_cam_lidar,
-                                                 perturb(w.rig.T_right_left, delta));
+    const PhotometricResult r =
+        solvePhotometric(w.window(), w.rig, w.rig.T_cam_lidar, perturb(w.rig.T_right_left, delta));
     const Vector6d e = poseError(r.T_right_left, w.rig.T_right_left);
     // Measured on this window: 0.036 deg / 7.5 mm from the rectified ground truth.
     EXPECT_TRUE(r.converged) << r.message;
@@ -71,9 +71,9 @@ TEST(PhotometricSolverReal, RecoversKnownPerturbationsAndExposureChange) {
   }
   // A known exposure change of the right camera: I_r' = 1.15 I_r + 8 (saturating at 255).
   for (auto& kf : w.kfs) kf.right_gray.convertTo(kf.right_gray, CV_8U, 1.15, 8.0);
-  const PhotometricResult r2 = solvePhotometric(
-      w.window(), w.rig, w.rig.T_cam_lidar,
-      perturb(w.rig.T_right_left, randomPerturbation(1.0 / kDegPerRad, 0.1, rng)));
+  const PhotometricResult r2 =
+      solvePhotometric(w.window(), w.rig, w.rig.T_cam_lidar,
+                       perturb(w.rig.T_right_left, randomPerturbation(1.0 / kDegPerRad, 0.1, rng)));
   EXPECT_TRUE(r2.converged) << r2.message;
   EXPECT_LT(poseError(r2.T_right_left, results[0].T_right_left).tail<3>().norm(), 0.005);
   // The estimated mapping I_l -> I_r must follow: f'(I) = 1.15 f(I) + 8, f(I) = e^a I + b.
@@ -86,7 +86,8 @@ TEST(PhotometricSolverReal, RecoversKnownPerturbationsAndExposureChange) {
       const double f2 = std::exp(after.x()) * I + after.y();
       // Measured: within 0.5 grey levels at 60 and 3.5-4 (3 %) at 120, where saturated
       // right-image pixels pull the gain down.
-      EXPECT_NEAR(f2, 1.15 * f + 8.0, 0.04 * (1.15 * f + 8.0)) << "keyframe " << k << ", grey level " << I;
+      EXPECT_NEAR(f2, 1.15 * f + 8.0, 0.04 * (1.15 * f + 8.0))
+          << "keyframe " << k << ", grey level " << I;
     }
   }
 }

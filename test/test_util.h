@@ -20,9 +20,9 @@ namespace fs = std::filesystem;
 
 inline std::string kittiDir() { return TESCALIB_KITTI_DIR; }
 inline bool haveKitti() { return fs::is_directory(kittiDir() + "/sequences/00"); }
-#define SKIP_WITHOUT_KITTI()                                                           \
-  if (!tescalib_test::haveKitti())                                                     \
-  GTEST_SKIP() << "KITTI frames not found at " << tescalib_test::kittiDir()          \
+#define SKIP_WITHOUT_KITTI()                                                \
+  if (!tescalib_test::haveKitti())                                          \
+  GTEST_SKIP() << "KITTI frames not found at " << tescalib_test::kittiDir() \
                << " (../shared/data/kitti_odometry_mini); skipping the real-data test"
 
 /// A fresh temporary folder removed at destruction.

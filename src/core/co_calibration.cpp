@@ -9,7 +9,8 @@ namespace tescalib {
 namespace {
 bool moved(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const CoCalibrationSettings& s) {
   const Vector6d d = poseError(a, b);
-  return d.head<3>().norm() * kDegPerRad > s.stable_rot_deg || d.tail<3>().norm() > s.stable_trans_m;
+  return d.head<3>().norm() * kDegPerRad > s.stable_rot_deg ||
+         d.tail<3>().norm() > s.stable_trans_m;
 }
 }  // namespace
 
@@ -47,11 +48,14 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     const bool any_moved = moved(T_cl_new, T_cl, s) || moved(T_rl_new, T_rl, s);
     if (std::getenv("TESCALIB_DEBUG")) {
       const Eigen::Vector3d r = logSO3(T_rl_new.linear()) * kDegPerRad;
-      std::fprintf(stderr, "co round %d: scale %.4f T_rl rot [%.4f %.4f %.4f] deg t [%.4f %.4f %.4f]; lidar %s %s; T_cl t [%.4f %.4f %.4f]\n",
-                   res.rounds, res.lidar.stereo_scale, r.x(), r.y(), r.z(), T_rl_new.translation().x(),
-                   T_rl_new.translation().y(), T_rl_new.translation().z(),
-                   res.lidar.converged ? "conv" : "not conv", res.lidar.message.c_str(),
-                   T_cl_new.translation().x(), T_cl_new.translation().y(), T_cl_new.translation().z());
+      std::fprintf(stderr,
+                   "co round %d: scale %.4f T_rl rot [%.4f %.4f %.4f] deg t [%.4f %.4f %.4f]; "
+                   "lidar %s %s; T_cl t [%.4f %.4f %.4f]\n",
+                   res.rounds, res.lidar.stereo_scale, r.x(), r.y(), r.z(),
+                   T_rl_new.translation().x(), T_rl_new.translation().y(),
+                   T_rl_new.translation().z(), res.lidar.converged ? "conv" : "not conv",
+                   res.lidar.message.c_str(), T_cl_new.translation().x(),
+                   T_cl_new.translation().y(), T_cl_new.translation().z());
     }
     T_cl = T_cl_new, T_rl = T_rl_new;
     if (!any_moved && res.rounds > 1) {

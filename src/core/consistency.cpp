@@ -49,10 +49,9 @@ DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat&
   std::vector<double> sorted = best_shifts;
   std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
   out.median_shift = sorted[sorted.size() / 2];
-  out.fraction_within_1px =
-      double(std::count_if(best_shifts.begin(), best_shifts.end(),
-                           [](double s) { return std::fabs(s) <= 1.0; })) /
-      double(best_shifts.size());
+  out.fraction_within_1px = double(std::count_if(best_shifts.begin(), best_shifts.end(),
+                                                 [](double s) { return std::fabs(s) <= 1.0; })) /
+                            double(best_shifts.size());
   out.best_global_shift =
       int(std::min_element(global.begin(), global.end()) - global.begin()) - max_shift;
   return out;

@@ -17,8 +17,8 @@ Keyframe makeKeyframe(const Frame& frame, const StereoRig& rig,
   LidarMeshSettings ms = s.mesh;
   // Camera optical axis in the LiDAR frame; half the diagonal field of view plus a margin.
   ms.view_axis = T_cam_lidar_guess.linear().transpose() * Eigen::Vector3d::UnitZ();
-  const double half_diag = std::atan(std::hypot(rig.left.width / 2.0 / rig.left.fx,
-                                                rig.left.height / 2.0 / rig.left.fy));
+  const double half_diag = std::atan(
+      std::hypot(rig.left.width / 2.0 / rig.left.fx, rig.left.height / 2.0 / rig.left.fy));
   ms.view_half_angle_deg = std::min(89.0, half_diag * 180.0 / M_PI + s.view_margin_deg);
   kf.mesh = buildLidarMesh(frame.scan, ms);
   kf.seconds_mesh = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -160,7 +160,8 @@ StereoRig rigFromOdometryCalib(const KittiOdometryCalib& calib) {
   T_cam0_velo.translation() = calib.Tr.col(3);
   rig.T_cam_lidar = T_cam2_cam0 * T_cam0_velo;
   // Re-orthonormalise (calib.txt has 6-7 significant digits).
-  rig.T_cam_lidar.linear() = Eigen::Quaterniond(rig.T_cam_lidar.linear()).normalized().toRotationMatrix();
+  rig.T_cam_lidar.linear() =
+      Eigen::Quaterniond(rig.T_cam_lidar.linear()).normalized().toRotationMatrix();
   rig.T_right_left = Eigen::Isometry3d::Identity();
   rig.T_right_left.translation() = K_inv * (calib.P[3].col(3) - calib.P[2].col(3));
   return rig;
@@ -198,7 +199,8 @@ void writeVelodyneBin(const std::string& path, const LidarScan& scan) {
     raw[4 * i + 2] = scan[i].z;
     raw[4 * i + 3] = scan[i].intensity;
   }
-  out.write(reinterpret_cast<const char*>(raw.data()), static_cast<std::streamsize>(raw.size() * 4));
+  out.write(reinterpret_cast<const char*>(raw.data()),
+            static_cast<std::streamsize>(raw.size() * 4));
 }
 
 int recoverRings(LidarScan& scan) {
@@ -226,8 +228,8 @@ int recoverRings(LidarScan& scan) {
   for (size_t i = 1; i < scan.size(); ++i) {
     const float prev = direction * az[i - 1];
     const float cur = direction * az[i];
-    const bool crosses_forward = prev < 0.f && prev > -float(M_PI_2) && cur >= 0.f &&
-                                 cur < float(M_PI_2);
+    const bool crosses_forward =
+        prev < 0.f && prev > -float(M_PI_2) && cur >= 0.f && cur < float(M_PI_2);
     if (crosses_forward && i - starts.back() >= kMinRingPoints) starts.push_back(i);
   }
   starts.push_back(scan.size());
@@ -263,11 +265,13 @@ KittiSequence::KittiSequence(const std::string& dir) : dir_(dir) {
     layout_ = KittiLayout::kRaw;
     openRaw();
   } else {
-    throw DataError(dir + ": neither a KITTI odometry sequence (calib.txt, image_2/) nor a KITTI "
+    throw DataError(dir +
+                    ": neither a KITTI odometry sequence (calib.txt, image_2/) nor a KITTI "
                     "raw drive (image_02/data/)");
   }
   if (frame_ids_.empty())
-    throw DataError(dir + ": no frames (no frame has a left image, a right image and a LiDAR scan)");
+    throw DataError(dir +
+                    ": no frames (no frame has a left image, a right image and a LiDAR scan)");
   checkImageSizes();
 }
 
@@ -309,9 +313,11 @@ void KittiSequence::openRaw() {
   const std::string c2c = (calib_dir / "calib_cam_to_cam.txt").string();
   const std::string v2c = (calib_dir / "calib_velo_to_cam.txt").string();
   if (!fs::exists(c2c))
-    throw DataError(c2c + ": calibration file not found (looked in the drive folder and its parent)");
+    throw DataError(c2c +
+                    ": calibration file not found (looked in the drive folder and its parent)");
   if (!fs::exists(v2c))
-    throw DataError(v2c + ": calibration file not found (looked in the drive folder and its parent)");
+    throw DataError(v2c +
+                    ": calibration file not found (looked in the drive folder and its parent)");
   const auto cam = readKeyValueFile(c2c, true);
   const auto velo = readKeyValueFile(v2c, true);
   KittiOdometryCalib calib;

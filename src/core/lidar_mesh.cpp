@@ -13,7 +13,8 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   // No finer azimuth bins than the densest ring has returns: neighbours must be adjacent bins.
   std::vector<int> per_ring(rings, 0);
   for (const auto& p : scan) ++per_ring[p.ring];
-  const int cols = std::max(16, std::min(s.azimuth_bins, *std::max_element(per_ring.begin(), per_ring.end())));
+  const int cols =
+      std::max(16, std::min(s.azimuth_bins, *std::max_element(per_ring.begin(), per_ring.end())));
   // Range image: the closest return per (ring, azimuth bin).
   std::vector<int> grid(static_cast<size_t>(rings) * cols, -1);
   std::vector<float> grid_range(grid.size(), 0.f);
@@ -28,7 +29,9 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
     if (grid[k] < 0 || r < grid_range[k]) grid[k] = static_cast<int>(i), grid_range[k] = r;
   }
   // Fill single-bin gaps inside a ring (bins are slightly finer than the beam spacing).
-  auto at = [&](int ring, int col) { return grid[static_cast<size_t>(ring) * cols + ((col + cols) % cols)]; };
+  auto at = [&](int ring, int col) {
+    return grid[static_cast<size_t>(ring) * cols + ((col + cols) % cols)];
+  };
   const double cos_max_inc = std::cos(s.max_incidence_deg * M_PI / 180.0);
   const double cos_view = std::cos(s.view_half_angle_deg * M_PI / 180.0);
   const Eigen::Vector3f axis = s.view_axis.normalized().cast<float>();

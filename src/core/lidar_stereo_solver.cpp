@@ -76,14 +76,13 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
     loss = std::make_unique<ceres::HuberLoss>(loss_scale);
   for (const auto& a : as) {
     if (coarse) {
-      problem.AddResidualBlock(PointPlaneNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.n_s,
-                                                                a.inv_sigma,
-                                                                s.normal_residual_weight),
-                               loss.get(), delta, scale);
-    } else {
       problem.AddResidualBlock(
-          LidarNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.inv_sigma), loss.get(), delta,
-          scale);
+          PointPlaneNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.n_s, a.inv_sigma,
+                                           s.normal_residual_weight),
+          loss.get(), delta, scale);
+    } else {
+      problem.AddResidualBlock(LidarNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.inv_sigma),
+                               loss.get(), delta, scale);
     }
   }
   if (!as.empty()) {
@@ -115,8 +114,7 @@ bool smallUpdate(const Vector6d& d, const LidarStereoSettings& s) {
 }  // namespace
 
 LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
-                                   const Eigen::Isometry3d& T_init,
-                                   const LidarStereoSettings& s) {
+                                   const Eigen::Isometry3d& T_init, const LidarStereoSettings& s) {
   LidarStereoResult res;
   res.T_cam_lidar = T_init;
   res.T_after_coarse = T_init;
@@ -172,9 +170,12 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
             const double u = st.fx * pr.x() / pr.z() + st.cx, v = st.fy * pr.y() / pr.z() + st.cy;
             if (u < 0 || v < 0 || u >= st.disparity.cols || v >= st.disparity.rows) continue;
             pcl::PointNormal query;
-            query.x = float(c.x() / scale), query.y = float(c.y() / scale), query.z = float(c.z() / scale);
-            query.normal_x = float(m.x()), query.normal_y = float(m.y()), query.normal_z = float(m.z());
-            if (trees[k].nearestKSearch(query, 1, nn, nn_d2) < 1 || nn_d2[0] > gate * gate) continue;
+            query.x = float(c.x() / scale), query.y = float(c.y() / scale),
+            query.z = float(c.z() / scale);
+            query.normal_x = float(m.x()), query.normal_y = float(m.y()),
+            query.normal_z = float(m.z());
+            if (trees[k].nearestKSearch(query, 1, nn, nn_d2) < 1 || nn_d2[0] > gate * gate)
+              continue;
             const StereoPoint& sp = pts[tree_index[k][nn[0]]];
             Association a;
             a.q = q, a.m = m;
@@ -238,8 +239,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       if (static_cast<int>(as.size()) < s.min_inliers) break;
       const Vector6d d = solveUpdate(as, T.translation(), false, s, s.fine_huber, &scale);
       if (std::getenv("TESCALIB_DEBUG"))
-        std::fprintf(stderr, "fine it %d: %zu assoc, update %.5f deg %.5f m\n", it,
-                     as.size(), d.head<3>().norm() * kDegPerRad, d.tail<3>().norm());
+        std::fprintf(stderr, "fine it %d: %zu assoc, update %.5f deg %.5f m\n", it, as.size(),
+                     d.head<3>().norm() * kDegPerRad, d.tail<3>().norm());
       T = perturb(T, d);
       if (smallUpdate(d, s)) {
         settled = true;

@@ -9,7 +9,8 @@ namespace tescalib {
 MeshDepth renderMeshDepth(const LidarMesh& mesh, const Eigen::Isometry3d& T,
                           const CameraIntrinsics& cam) {
   MeshDepth out;
-  out.depth = cv::Mat(cam.height, cam.width, CV_32F, cv::Scalar(std::numeric_limits<float>::infinity()));
+  out.depth =
+      cv::Mat(cam.height, cam.width, CV_32F, cv::Scalar(std::numeric_limits<float>::infinity()));
   out.face_id = cv::Mat(cam.height, cam.width, CV_32S, cv::Scalar(-1));
   const Eigen::Matrix3f R = T.linear().cast<float>();
   const Eigen::Vector3f t = T.translation().cast<float>();
@@ -26,7 +27,8 @@ MeshDepth renderMeshDepth(const LidarMesh& mesh, const Eigen::Isometry3d& T,
     const int v0 = std::max(0, int(std::floor(std::min({pa.y(), pb.y(), pc.y()}))));
     const int v1 = std::min(cam.height - 1, int(std::ceil(std::max({pa.y(), pb.y(), pc.y()}))));
     if (u0 > u1 || v0 > v1 || (u1 - u0) * (v1 - v0) > 4000) continue;
-    const float area = (pb.x() - pa.x()) * (pc.y() - pa.y()) - (pc.x() - pa.x()) * (pb.y() - pa.y());
+    const float area =
+        (pb.x() - pa.x()) * (pc.y() - pa.y()) - (pc.x() - pa.x()) * (pb.y() - pa.y());
     if (std::fabs(area) < 1e-6f) continue;
     for (int v = v0; v <= v1; ++v) {
       for (int u = u0; u <= u1; ++u) {

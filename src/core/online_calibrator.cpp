@@ -44,7 +44,8 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
       return FrameResult::kReset;
     }
     last_stamp_ = frame.stamp;
-    if (frame.stamp - last_keyframe_stamp_ < settings_.keyframe_min_dt - 1e-3) return FrameResult::kTooClose;
+    if (frame.stamp - last_keyframe_stamp_ < settings_.keyframe_min_dt - 1e-3)
+      return FrameResult::kTooClose;
     last_keyframe_stamp_ = frame.stamp;
     T_cl = estimate_ ? estimate_->T_cam_lidar : rig_.T_cam_lidar;
     T_rl = estimate_ ? estimate_->T_right_left : rig_.T_right_left;

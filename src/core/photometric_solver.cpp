@@ -79,8 +79,8 @@ std::vector<KeyPoint> selectKeyPoints(const Keyframe& kf, const MeshDepth& md,
 
 }  // namespace
 
-PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window,
-                                   const StereoRig& rig, const Eigen::Isometry3d& T_cam_lidar,
+PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, const StereoRig& rig,
+                                   const Eigen::Isometry3d& T_cam_lidar,
                                    const Eigen::Isometry3d& T_init, const PhotometricSettings& s) {
   const auto t0 = std::chrono::steady_clock::now();
   PhotometricResult res;
@@ -118,7 +118,8 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window,
       lv.right = r.clone();
       lv.right_data.assign(reinterpret_cast<const double*>(r.data),
                            reinterpret_cast<const double*>(r.data) + r.total());
-      lv.grid = std::make_unique<ceres::Grid2D<double, 1>>(lv.right_data.data(), 0, r.rows, 0, r.cols);
+      lv.grid =
+          std::make_unique<ceres::Grid2D<double, 1>>(lv.right_data.data(), 0, r.rows, 0, r.cols);
       lv.interp = std::make_unique<ImageInterpolator>(*lv.grid);
       lv.left_cam = scaled(rig.left, L, l.cols, l.rows);
       lv.right_cam = scaled(rig.right, L, r.cols, r.rows);
@@ -206,7 +207,8 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window,
         double C[36];
         cov.GetCovarianceBlock(delta, delta, C);
         // Ceres' covariance assumes unit residual variance: scale by the residuals' own.
-        const double sigma2 = 2.0 * summary.final_cost / std::max(1, n - 6 - 2 * int(window.size()));
+        const double sigma2 =
+            2.0 * summary.final_cost / std::max(1, n - 6 - 2 * int(window.size()));
         for (int i = 0; i < 36; ++i) res.covariance(i / 6, i % 6) = C[i] * sigma2;
       }
     }

@@ -61,7 +61,8 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
     out.baseline = -T_right_left.translation().x();
     // The right camera of a rectified pair may have its own principal point: shift the right
     // image so that both share the left's (KITTI's P2/P3 share cx, cy).
-    if (std::fabs(rig.right.cx - rig.left.cx) > 1e-6 || std::fabs(rig.right.cy - rig.left.cy) > 1e-6) {
+    if (std::fabs(rig.right.cx - rig.left.cx) > 1e-6 ||
+        std::fabs(rig.right.cy - rig.left.cy) > 1e-6) {
       const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, rig.left.cx - rig.right.cx, 0, 1,
                              rig.left.cy - rig.right.cy);
       cv::warpAffine(right, right, shift, right.size(), cv::INTER_LINEAR);
@@ -92,11 +93,10 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
 
   const auto t_sgbm = std::chrono::steady_clock::now();
   const int bs = s.block_size;
-  auto sgbm = cv::StereoSGBM::create(0, s.num_disparities, bs, 8 * bs * bs, 32 * bs * bs,
-                                     s.disp12_max_diff, 0, s.uniqueness_ratio, s.speckle_window,
-                                     s.speckle_range,
-                                     s.three_way ? cv::StereoSGBM::MODE_SGBM_3WAY
-                                                 : cv::StereoSGBM::MODE_SGBM);
+  auto sgbm = cv::StereoSGBM::create(
+      0, s.num_disparities, bs, 8 * bs * bs, 32 * bs * bs, s.disp12_max_diff, 0, s.uniqueness_ratio,
+      s.speckle_window, s.speckle_range,
+      s.three_way ? cv::StereoSGBM::MODE_SGBM_3WAY : cv::StereoSGBM::MODE_SGBM);
   cv::Mat disp16;
   sgbm->compute(left, right, disp16);
   out.seconds_sgbm = secondsSince(t_sgbm);
@@ -124,7 +124,8 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
       const float l = disp.at<float>(v, u - k), r = disp.at<float>(v, u + k);
       const float t = disp.at<float>(v - k, u), b = disp.at<float>(v + k, u);
       if (std::isnan(l) || std::isnan(r) || std::isnan(t) || std::isnan(b) ||
-          std::fabs(l + r - 2 * d) > s.max_second_diff || std::fabs(t + b - 2 * d) > s.max_second_diff)
+          std::fabs(l + r - 2 * d) > s.max_second_diff ||
+          std::fabs(t + b - 2 * d) > s.max_second_diff)
         edge.at<uint8_t>(v, u) = 255;
     }
   }

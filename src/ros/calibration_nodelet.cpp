@@ -6,8 +6,8 @@
 #include <random>
 
 #include <geometry_msgs/TransformStamped.h>
-#include <pluginlib/class_list_macros.hpp>
 #include <tf2_eigen/tf2_eigen.h>
+#include <pluginlib/class_list_macros.hpp>
 
 #include "tescalib/core/geometry.h"
 #include "tescalib/ros/conversions.h"
@@ -68,8 +68,10 @@ void CalibrationNodelet::onInit() {
   tf_pub_ = std::make_unique<tf2_ros::TransformBroadcaster>();
   lidar_pub_ = pnh.advertise<ExtrinsicEstimate>("lidar_to_left", 1, true);
   stereo_pub_ = pnh.advertise<ExtrinsicEstimate>("left_to_right", 1, true);
-  lidar_pose_pub_ = pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("lidar_to_left_pose", 1, true);
-  stereo_pose_pub_ = pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("left_to_right_pose", 1, true);
+  lidar_pose_pub_ =
+      pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("lidar_to_left_pose", 1, true);
+  stereo_pose_pub_ =
+      pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("left_to_right_pose", 1, true);
   reset_srv_ = pnh.advertiseService("reset", &CalibrationNodelet::onReset, this);
   save_srv_ = pnh.advertiseService("save", &CalibrationNodelet::onSave, this);
 
@@ -79,8 +81,8 @@ void CalibrationNodelet::onInit() {
   left_info_sub_.subscribe(nh, "left/camera_info", q);
   right_sub_.subscribe(nh, "right/image_raw", q);
   right_info_sub_.subscribe(nh, "right/camera_info", q);
-  left_sub_.registerCallback(
-      boost::function<void(const Image::ConstPtr&)>([this](const Image::ConstPtr&) { ++images_seen_; }));
+  left_sub_.registerCallback(boost::function<void(const Image::ConstPtr&)>(
+      [this](const Image::ConstPtr&) { ++images_seen_; }));
   if (params_.approximate_sync) {
     approx_sync_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(
         ApproxPolicy(params_.sync_queue), cloud_sub_, left_sub_, left_info_sub_, right_sub_,
@@ -99,10 +101,11 @@ void CalibrationNodelet::onInit() {
   running_ = true;
   preprocess_thread_ = std::thread(&CalibrationNodelet::preprocessLoop, this);
   solve_thread_ = std::thread(&CalibrationNodelet::solveLoop, this);
-  NODELET_INFO("tescalib: waiting for synchronized points, left/right image_raw and camera_info "
-               "(window %d keyframes >= %.2f s apart, %s sync)",
-               params_.online.window_size, params_.online.keyframe_min_dt,
-               params_.approximate_sync ? "approximate" : "exact");
+  NODELET_INFO(
+      "tescalib: waiting for synchronized points, left/right image_raw and camera_info "
+      "(window %d keyframes >= %.2f s apart, %s sync)",
+      params_.online.window_size, params_.online.keyframe_min_dt,
+      params_.approximate_sync ? "approximate" : "exact");
 }
 
 bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_info,
@@ -124,7 +127,8 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
       rig.T_cam_lidar = tf2::transformToEigen(t.transform);
     } catch (const tf2::TransformException& ex) {
       NODELET_WARN_THROTTLE(5.0, "tescalib: no initial extrinsic: tf %s -> %s: %s",
-                            lidar_frame_.c_str(), params_.initial_tf_camera_frame.c_str(), ex.what());
+                            lidar_frame_.c_str(), params_.initial_tf_camera_frame.c_str(),
+                            ex.what());
       return false;
     }
   }
@@ -132,17 +136,19 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
     rig.T_right_left = fromVector7(params_.initial_T_right_left);
   } else {
     if (right_info.P[3] >= 0) {
-      NODELET_WARN_THROTTLE(5.0, "tescalib: right camera_info P[3] = %f is not -fx*baseline; set "
-                            "initial/T_right_left", right_info.P[3]);
+      NODELET_WARN_THROTTLE(5.0,
+                            "tescalib: right camera_info P[3] = %f is not -fx*baseline; set "
+                            "initial/T_right_left",
+                            right_info.P[3]);
       return false;
     }
     rig.T_right_left.translation() = Eigen::Vector3d(right_info.P[3] / right_info.P[0], 0, 0);
   }
   if (params_.initial_perturb_rot_deg > 0 || params_.initial_perturb_trans_m > 0) {
     std::mt19937_64 rng(params_.initial_perturb_seed);
-    rig.T_cam_lidar = perturb(rig.T_cam_lidar,
-                              randomPerturbation(params_.initial_perturb_rot_deg / kDegPerRad,
-                                                 params_.initial_perturb_trans_m, rng));
+    rig.T_cam_lidar =
+        perturb(rig.T_cam_lidar, randomPerturbation(params_.initial_perturb_rot_deg / kDegPerRad,
+                                                    params_.initial_perturb_trans_m, rng));
     NODELET_WARN("tescalib: initial LiDAR extrinsic deliberately perturbed by %.2f deg / %.3f m",
                  params_.initial_perturb_rot_deg, params_.initial_perturb_trans_m);
   }
@@ -160,7 +166,8 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
   const double stamp = left->header.stamp.toSec();
   publishTf(left->header.stamp);  // every set, so tf lookups at any image stamp interpolate
   // Cheap keyframe pre-selection here; time going backwards is passed on (the window resets).
-  if (stamp >= last_enqueued_stamp_ && stamp - last_enqueued_stamp_ < params_.online.keyframe_min_dt - 1e-3)
+  if (stamp >= last_enqueued_stamp_ &&
+      stamp - last_enqueued_stamp_ < params_.online.keyframe_min_dt - 1e-3)
     return;
   PendingFrame pf;
   std::string error;
@@ -171,7 +178,8 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     return;
   }
   if (ring_recovered)
-    NODELET_WARN_THROTTLE(30.0, "tescalib: point cloud has no 'ring' field; rings recovered from "
+    NODELET_WARN_THROTTLE(30.0,
+                          "tescalib: point cloud has no 'ring' field; rings recovered from "
                           "scan order (KITTI-style clouds)");
   if (!ros_conv::toBgr8(*left, &pf.frame.left, &error) ||
       !ros_conv::toBgr8(*right, &pf.frame.right, &error)) {
@@ -189,7 +197,8 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     while (queue_.size() > 2) {
       queue_.pop_front();
       ++dropped_;
-      NODELET_WARN_THROTTLE(5.0, "tescalib: preprocessing cannot keep up: dropped a keyframe candidate");
+      NODELET_WARN_THROTTLE(5.0,
+                            "tescalib: preprocessing cannot keep up: dropped a keyframe candidate");
     }
   }
   cv_.notify_all();
@@ -200,7 +209,8 @@ void CalibrationNodelet::preprocessLoop() {
     PendingFrame pf;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      cv_.wait_for(lock, std::chrono::milliseconds(200), [this] { return !queue_.empty() || !running_; });
+      cv_.wait_for(lock, std::chrono::milliseconds(200),
+                   [this] { return !queue_.empty() || !running_; });
       if (!running_) return;
       if (queue_.empty()) continue;
       pf = std::move(queue_.front());
@@ -228,7 +238,8 @@ void CalibrationNodelet::solveLoop() {
   while (running_) {
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      cv_.wait_for(lock, std::chrono::milliseconds(200), [this] { return solve_requested_ || !running_; });
+      cv_.wait_for(lock, std::chrono::milliseconds(200),
+                   [this] { return solve_requested_ || !running_; });
     }
     if (!running_) return;
     if (!solve_requested_ || !calibrator_ || !calibrator_->readyToSolve()) continue;
@@ -258,10 +269,9 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
   lidar_pub_.publish(ros_conv::toEstimateMsg(h, params_.left_frame, lidar_frame_, e.T_cam_lidar,
                                              e.cov_lidar, e.observable_lidar, e.converged,
                                              e.keyframes_used, e.cost_lidar, e.iterations_lidar));
-  stereo_pub_.publish(ros_conv::toEstimateMsg(h, params_.right_frame, params_.left_frame,
-                                              e.T_right_left, e.cov_stereo, e.observable_stereo,
-                                              e.converged, e.keyframes_used, e.cost_stereo,
-                                              e.iterations_stereo));
+  stereo_pub_.publish(ros_conv::toEstimateMsg(
+      h, params_.right_frame, params_.left_frame, e.T_right_left, e.cov_stereo, e.observable_stereo,
+      e.converged, e.keyframes_used, e.cost_stereo, e.iterations_stereo));
   h.frame_id = params_.left_frame;
   lidar_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_cam_lidar, e.cov_lidar));
   h.frame_id = params_.right_frame;
@@ -288,7 +298,8 @@ void CalibrationNodelet::publishTf(const ros::Time& stamp) {
 void CalibrationNodelet::watchdog(const ros::TimerEvent&) {
   diagnostics_->update();
   if (images_seen_ > 20 && sync_sets_ == 0)
-    NODELET_WARN_THROTTLE(10.0, "tescalib: %d images but no synchronized set: check that points, "
+    NODELET_WARN_THROTTLE(10.0,
+                          "tescalib: %d images but no synchronized set: check that points, "
                           "left/right image_raw and both camera_info topics are published with "
                           "matching stamps (sync/approximate, sync/max_skew)",
                           images_seen_.load());
@@ -318,8 +329,8 @@ bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
     const Eigen::Quaterniond q(T.linear());
     yaml << name << ":\n  parent_frame: " << parent << "\n  child_frame: " << child
          << "\n  translation: [" << T.translation().x() << ", " << T.translation().y() << ", "
-         << T.translation().z() << "]\n  rotation_xyzw: [" << q.x() << ", " << q.y() << ", " << q.z()
-         << ", " << q.w() << "]\n  covariance_phi_tau: [";
+         << T.translation().z() << "]\n  rotation_xyzw: [" << q.x() << ", " << q.y() << ", "
+         << q.z() << ", " << q.w() << "]\n  covariance_phi_tau: [";
     for (int i = 0; i < 36; ++i) yaml << (i ? ", " : "") << cov(i / 6, i % 6);
     yaml << "]\n";
   };
@@ -336,8 +347,9 @@ bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
   auto stp = [&launch](const std::string& n, const std::string& p, const std::string& c,
                        const Eigen::Isometry3d& T) {
     const Eigen::Quaterniond q(T.linear());
-    launch << std::setprecision(12) << "  <node pkg=\"tf2_ros\" type=\"static_transform_publisher\" name=\""
-           << n << "\" args=\"" << T.translation().x() << " " << T.translation().y() << " "
+    launch << std::setprecision(12)
+           << "  <node pkg=\"tf2_ros\" type=\"static_transform_publisher\" name=\"" << n
+           << "\" args=\"" << T.translation().x() << " " << T.translation().y() << " "
            << T.translation().z() << " " << q.x() << " " << q.y() << " " << q.z() << " " << q.w()
            << " " << p << " " << c << "\"/>\n";
   };
@@ -349,9 +361,9 @@ bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
   res.success = writeAtomically(base + ".yaml", yaml.str(), &error) &&
                 writeAtomically(base + "_calib.txt", calib.str(), &error) &&
                 writeAtomically(base + "_static_tf.launch", launch.str(), &error);
-  res.message = res.success ? "wrote " + base + ".yaml, " + base + "_calib.txt, " + base +
-                                  "_static_tf.launch"
-                            : error;
+  res.message =
+      res.success ? "wrote " + base + ".yaml, " + base + "_calib.txt, " + base + "_static_tf.launch"
+                  : error;
   return true;
 }
 
@@ -364,7 +376,8 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
     solve_msg = last_solve_message_;
   }
   if (!calibrator_)
-    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "waiting for synchronized data");
+    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN,
+                 "waiting for synchronized data");
   else if (!e)
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "no converged estimate yet");
   else

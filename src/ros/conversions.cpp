@@ -4,9 +4,9 @@
 #include <cstring>
 
 #include <cv_bridge/cv_bridge.h>
-#include <opencv2/imgproc.hpp>
 #include <sensor_msgs/image_encodings.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
+#include <opencv2/imgproc.hpp>
 
 #include "tescalib/core/kitti_reader.h"
 
@@ -19,15 +19,15 @@ sensor_msgs::PointCloud2 toPointCloud2(const LidarScan& scan, const std_msgs::He
   msg.height = 1;
   msg.width = static_cast<uint32_t>(scan.size());
   sensor_msgs::PointCloud2Modifier mod(msg);
-  mod.setPointCloud2Fields(5, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
-                           sensor_msgs::PointField::FLOAT32, "z", 1,
-                           sensor_msgs::PointField::FLOAT32, "intensity", 1,
-                           sensor_msgs::PointField::FLOAT32, "ring", 1,
-                           sensor_msgs::PointField::UINT16);
+  mod.setPointCloud2Fields(
+      5, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32, "z", 1,
+      sensor_msgs::PointField::FLOAT32, "intensity", 1, sensor_msgs::PointField::FLOAT32, "ring", 1,
+      sensor_msgs::PointField::UINT16);
   mod.resize(scan.size());
   msg.is_dense = true;
   msg.is_bigendian = false;
-  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z"), i(msg, "intensity");
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z"),
+      i(msg, "intensity");
   sensor_msgs::PointCloud2Iterator<uint16_t> r(msg, "ring");
   for (const auto& p : scan) {
     *x = p.x;
@@ -41,7 +41,8 @@ sensor_msgs::PointCloud2 toPointCloud2(const LidarScan& scan, const std_msgs::He
 }
 
 namespace {
-const sensor_msgs::PointField* findField(const sensor_msgs::PointCloud2& msg, const std::string& n) {
+const sensor_msgs::PointField* findField(const sensor_msgs::PointCloud2& msg,
+                                         const std::string& n) {
   for (const auto& f : msg.fields)
     if (f.name == n) return &f;
   return nullptr;
@@ -49,15 +50,42 @@ const sensor_msgs::PointField* findField(const sensor_msgs::PointCloud2& msg, co
 
 double readScalar(const uint8_t* data, uint8_t datatype) {
   switch (datatype) {
-    case sensor_msgs::PointField::FLOAT32: { float v; std::memcpy(&v, data, 4); return v; }
-    case sensor_msgs::PointField::FLOAT64: { double v; std::memcpy(&v, data, 8); return v; }
-    case sensor_msgs::PointField::UINT8: return *data;
-    case sensor_msgs::PointField::INT8: return static_cast<int8_t>(*data);
-    case sensor_msgs::PointField::UINT16: { uint16_t v; std::memcpy(&v, data, 2); return v; }
-    case sensor_msgs::PointField::INT16: { int16_t v; std::memcpy(&v, data, 2); return v; }
-    case sensor_msgs::PointField::UINT32: { uint32_t v; std::memcpy(&v, data, 4); return v; }
-    case sensor_msgs::PointField::INT32: { int32_t v; std::memcpy(&v, data, 4); return v; }
-    default: return std::nan("");
+    case sensor_msgs::PointField::FLOAT32: {
+      float v;
+      std::memcpy(&v, data, 4);
+      return v;
+    }
+    case sensor_msgs::PointField::FLOAT64: {
+      double v;
+      std::memcpy(&v, data, 8);
+      return v;
+    }
+    case sensor_msgs::PointField::UINT8:
+      return *data;
+    case sensor_msgs::PointField::INT8:
+      return static_cast<int8_t>(*data);
+    case sensor_msgs::PointField::UINT16: {
+      uint16_t v;
+      std::memcpy(&v, data, 2);
+      return v;
+    }
+    case sensor_msgs::PointField::INT16: {
+      int16_t v;
+      std::memcpy(&v, data, 2);
+      return v;
+    }
+    case sensor_msgs::PointField::UINT32: {
+      uint32_t v;
+      std::memcpy(&v, data, 4);
+      return v;
+    }
+    case sensor_msgs::PointField::INT32: {
+      int32_t v;
+      std::memcpy(&v, data, 4);
+      return v;
+    }
+    default:
+      return std::nan("");
   }
 }
 }  // namespace
@@ -237,7 +265,8 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
 }
 
 geometry_msgs::PoseWithCovarianceStamped toPoseMsg(const std_msgs::Header& header,
-                                                   const Eigen::Isometry3d& T, const Matrix6d& cov) {
+                                                   const Eigen::Isometry3d& T,
+                                                   const Matrix6d& cov) {
   geometry_msgs::PoseWithCovarianceStamped m;
   m.header = header;
   const geometry_msgs::Transform t = toTransformMsg(T);

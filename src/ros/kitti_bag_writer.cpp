@@ -1,16 +1,16 @@
 #include "tescalib/ros/kitti_bag_writer.h"
 
 #include <geometry_msgs/TransformStamped.h>
-#include <boost/make_shared.hpp>
 #include <rosbag/bag.h>
 #include <tf2_msgs/TFMessage.h>
+#include <boost/make_shared.hpp>
 
 #include "tescalib/ros/conversions.h"
 
 namespace tescalib {
 
-void writeKittiBag(const KittiSequence& seq, const std::string& bag_path,
-                   const KittiBagOptions& o, const std::function<void(size_t, size_t)>& progress) {
+void writeKittiBag(const KittiSequence& seq, const std::string& bag_path, const KittiBagOptions& o,
+                   const std::function<void(size_t, size_t)>& progress) {
   writeKittiBag(std::vector<const KittiSequence*>{&seq}, bag_path, o, progress);
 }
 
@@ -53,35 +53,35 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
   const double Tx_right = -rig.right.fx * rig.T_right_left.translation().norm();
   size_t written = 0;
   for (size_t si = 0; si < seqs.size(); ++si) {
-  const KittiSequence& cur = *seqs[si];
-  if (si > 0 && cur.layout() == KittiLayout::kOdometry)
-    offset = seqs[si - 1]->stamp(seqs[si - 1]->size() - 1) + offset + 1.0 - cur.stamp(0);
-  const size_t n = o.max_frames < 0 ? cur.size()
-                                    : std::min(cur.size(), static_cast<size_t>(o.max_frames));
-  for (size_t i = 0; i < n; ++i) {
-    const Frame f = cur.load(i);
-    const ros::Time stamp(f.stamp + offset);
-    std_msgs::Header h;
-    h.stamp = stamp;
-    h.seq = static_cast<uint32_t>(written);
+    const KittiSequence& cur = *seqs[si];
+    if (si > 0 && cur.layout() == KittiLayout::kOdometry)
+      offset = seqs[si - 1]->stamp(seqs[si - 1]->size() - 1) + offset + 1.0 - cur.stamp(0);
+    const size_t n =
+        o.max_frames < 0 ? cur.size() : std::min(cur.size(), static_cast<size_t>(o.max_frames));
+    for (size_t i = 0; i < n; ++i) {
+      const Frame f = cur.load(i);
+      const ros::Time stamp(f.stamp + offset);
+      std_msgs::Header h;
+      h.stamp = stamp;
+      h.seq = static_cast<uint32_t>(written);
 
-    for (auto& t : tf_static.transforms) t.header.stamp = stamp;
-    bag.write("/tf_static", stamp, tf_static, latched);
+      for (auto& t : tf_static.transforms) t.header.stamp = stamp;
+      bag.write("/tf_static", stamp, tf_static, latched);
 
-    h.frame_id = o.velo_frame;
-    bag.write(o.velo_topic, stamp, ros_conv::toPointCloud2(f.scan, h));
+      h.frame_id = o.velo_frame;
+      bag.write(o.velo_topic, stamp, ros_conv::toPointCloud2(f.scan, h));
 
-    h.frame_id = o.left_frame;
-    bag.write(o.left_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.left, h, "rgb8"));
-    bag.write(o.left_prefix + "/camera_info", stamp, ros_conv::toCameraInfo(rig.left, 0.0, h));
+      h.frame_id = o.left_frame;
+      bag.write(o.left_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.left, h, "rgb8"));
+      bag.write(o.left_prefix + "/camera_info", stamp, ros_conv::toCameraInfo(rig.left, 0.0, h));
 
-    h.frame_id = o.right_frame;
-    bag.write(o.right_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.right, h, "rgb8"));
-    bag.write(o.right_prefix + "/camera_info", stamp,
-              ros_conv::toCameraInfo(rig.right, Tx_right, h));
-    ++written;
-    if (progress) progress(written, total);
-  }
+      h.frame_id = o.right_frame;
+      bag.write(o.right_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.right, h, "rgb8"));
+      bag.write(o.right_prefix + "/camera_info", stamp,
+                ros_conv::toCameraInfo(rig.right, Tx_right, h));
+      ++written;
+      if (progress) progress(written, total);
+    }
   }
   bag.close();
 }

@@ -13,16 +13,16 @@ void OverlayNodelet::onInit() {
   pnh.param("max_depth", max_depth_, max_depth_);
   left_pub_ = pnh.advertise<Image>("left/overlay", 1);
   right_pub_ = pnh.advertise<Image>("right/overlay", 1);
-  lidar_est_sub_ = nh.subscribe<ExtrinsicEstimate>(
-      "lidar_to_left", 1, [this](const ExtrinsicEstimate::ConstPtr& m) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        lidar_est_ = *m;
-      });
-  stereo_est_sub_ = nh.subscribe<ExtrinsicEstimate>(
-      "left_to_right", 1, [this](const ExtrinsicEstimate::ConstPtr& m) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        stereo_est_ = *m;
-      });
+  lidar_est_sub_ = nh.subscribe<ExtrinsicEstimate>("lidar_to_left", 1,
+                                                   [this](const ExtrinsicEstimate::ConstPtr& m) {
+                                                     std::lock_guard<std::mutex> lock(mutex_);
+                                                     lidar_est_ = *m;
+                                                   });
+  stereo_est_sub_ = nh.subscribe<ExtrinsicEstimate>("left_to_right", 1,
+                                                    [this](const ExtrinsicEstimate::ConstPtr& m) {
+                                                      std::lock_guard<std::mutex> lock(mutex_);
+                                                      stereo_est_ = *m;
+                                                    });
   cloud_sub_.subscribe(nh, "points", 2);
   left_sub_.subscribe(nh, "left/image_raw", 2);
   left_info_sub_.subscribe(nh, "left/camera_info", 2);

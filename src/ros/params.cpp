@@ -47,7 +47,8 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
 bool validateNodeParams(const NodeParams& p, std::string* error) {
   std::ostringstream e;
   const auto& o = p.online;
-  if (o.keyframe_min_dt <= 0) e << "window/keyframe_min_dt must be > 0 (got " << o.keyframe_min_dt << "); ";
+  if (o.keyframe_min_dt <= 0)
+    e << "window/keyframe_min_dt must be > 0 (got " << o.keyframe_min_dt << "); ";
   if (o.window_size < 1) e << "window/size must be >= 1 (got " << o.window_size << "); ";
   if (o.min_keyframes < 1 || o.min_keyframes > o.window_size)
     e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes << "); ";
@@ -72,7 +73,8 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (p.initial_T_cam_lidar.empty() && p.initial_tf_camera_frame.empty())
     e << "set initial/T_cam_lidar or initial/tf_camera_frame (an initial LiDAR extrinsic is "
          "required); ";
-  if (p.left_frame.empty() || p.right_frame.empty()) e << "frames/left and frames/right must be set; ";
+  if (p.left_frame.empty() || p.right_frame.empty())
+    e << "frames/left and frames/right must be set; ";
   *error = e.str();
   return error->empty();
 }

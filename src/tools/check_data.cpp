@@ -29,8 +29,9 @@ int main(int argc, char** argv) {
           tescalib::lidarDisparityAgreement(f.scan, f.left, f.right, rig, rig.T_cam_lidar);
       const Eigen::Vector3d rpy = tescalib::logSO3(rig.T_cam_lidar.linear()) * tescalib::kDegPerRad;
       std::cout << std::fixed << std::setprecision(4) << argv[a] << "\n"
-                << "  layout " << (seq.layout() == tescalib::KittiLayout::kOdometry ? "odometry" : "raw")
-                << ", " << seq.size() << " frames, " << kf.size() << " keyframes (>= 0.5 s apart), "
+                << "  layout "
+                << (seq.layout() == tescalib::KittiLayout::kOdometry ? "odometry" : "raw") << ", "
+                << seq.size() << " frames, " << kf.size() << " keyframes (>= 0.5 s apart), "
                 << rig.left.width << "x" << rig.left.height << ", fx " << rig.left.fx
                 << ", baseline " << rig.baseline() << " m\n"
                 << "  T_cam_lidar: rotation vector [" << rpy.transpose() << "] deg, translation ["

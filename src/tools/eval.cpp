@@ -46,15 +46,19 @@ struct Args {
 void usage() {
   std::cout
       << "usage: rosrun tescalib tescalib_eval --sequences DIR[,DIR...] [--mode lidar_stereo]\n"
-         "         [--method tescalib|pcl_gicp] [--trials N] [--init-rot-deg R] [--init-trans-m T]\n"
+         "         [--method tescalib|pcl_gicp] [--trials N] [--init-rot-deg R] [--init-trans-m "
+         "T]\n"
          "         [--init-stereo-rot-deg R] [--init-stereo-trans-m T] [--seed S] [--window W]\n"
          "         [--json FILE] [--stages coarse,fine] [--lidar-rot-deg R --lidar-trans-m T]\n"
-         "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo (T_right_left\n"
+         "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
+         "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
          "(both: LiDAR from the --init sizes, stereo from the --init-stereo sizes).\n"
-         "Sequences are KITTI-odometry-layout folders sharing one calibration (real, or written by\n"
+         "Sequences are KITTI-odometry-layout folders sharing one calibration (real, or written "
+         "by\n"
          "tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds the first W.\n"
-         "A trial perturbs the ground truth by exactly R deg about a random axis and T m in a random\n"
+         "A trial perturbs the ground truth by exactly R deg about a random axis and T m in a "
+         "random\n"
          "direction and succeeds when the error is below 0.2 deg and 3 cm.\n";
 }
 
@@ -80,20 +84,34 @@ bool parse(int argc, char** argv, Args* a) {
     }
     const std::string v = argv[++i];
     try {
-      if (k == "--sequences") a->sequences = split(v, ',');
-      else if (k == "--mode") a->mode = v;
-      else if (k == "--method") a->method = v;
-      else if (k == "--trials") a->trials = std::stoi(v);
-      else if (k == "--init-rot-deg") a->init_rot_deg = std::stod(v);
-      else if (k == "--init-trans-m") a->init_trans_m = std::stod(v);
-      else if (k == "--init-stereo-rot-deg") a->init_stereo_rot_deg = std::stod(v);
-      else if (k == "--init-stereo-trans-m") a->init_stereo_trans_m = std::stod(v);
-      else if (k == "--seed") a->seed = std::stoull(v);
-      else if (k == "--window") a->window = std::stoi(v);
-      else if (k == "--json") a->json = v;
-      else if (k == "--stages") a->stages = v;
-      else if (k == "--lidar-rot-deg") a->lidar_rot_deg = std::stod(v);
-      else if (k == "--lidar-trans-m") a->lidar_trans_m = std::stod(v);
+      if (k == "--sequences")
+        a->sequences = split(v, ',');
+      else if (k == "--mode")
+        a->mode = v;
+      else if (k == "--method")
+        a->method = v;
+      else if (k == "--trials")
+        a->trials = std::stoi(v);
+      else if (k == "--init-rot-deg")
+        a->init_rot_deg = std::stod(v);
+      else if (k == "--init-trans-m")
+        a->init_trans_m = std::stod(v);
+      else if (k == "--init-stereo-rot-deg")
+        a->init_stereo_rot_deg = std::stod(v);
+      else if (k == "--init-stereo-trans-m")
+        a->init_stereo_trans_m = std::stod(v);
+      else if (k == "--seed")
+        a->seed = std::stoull(v);
+      else if (k == "--window")
+        a->window = std::stoi(v);
+      else if (k == "--json")
+        a->json = v;
+      else if (k == "--stages")
+        a->stages = v;
+      else if (k == "--lidar-rot-deg")
+        a->lidar_rot_deg = std::stod(v);
+      else if (k == "--lidar-trans-m")
+        a->lidar_trans_m = std::stod(v);
       else {
         std::cerr << "tescalib_eval: unknown option " << k << "\n";
         return false;
@@ -189,11 +207,13 @@ int main(int argc, char** argv) {
       seqs.push_back(std::make_unique<KittiSequence>(dir));
       const auto& a = seqs.front()->rig();
       const auto& b = seqs.back()->rig();
-      if (poseError(a.T_cam_lidar, b.T_cam_lidar).norm() > 1e-4 || std::fabs(a.left.fx - b.left.fx) > 1e-3)
+      if (poseError(a.T_cam_lidar, b.T_cam_lidar).norm() > 1e-4 ||
+          std::fabs(a.left.fx - b.left.fx) > 1e-3)
         throw DataError(dir + ": calibration differs from " + args.sequences.front() +
                         " (a window must share one calibration)");
       for (size_t i : seqs.back()->keyframes(0.5))
-        if (static_cast<int>(keyframes.size()) < args.window) keyframes.emplace_back(seqs.size() - 1, i);
+        if (static_cast<int>(keyframes.size()) < args.window)
+          keyframes.emplace_back(seqs.size() - 1, i);
     }
   } catch (const DataError& e) {
     std::cerr << "tescalib_eval: " << e.what() << "\n";
@@ -224,8 +244,8 @@ int main(int argc, char** argv) {
         base.push_back(std::move(kf));
         continue;
       }
-      kf.stereo = computeStereoCloud(frames.back().left, frames.back().right, rig,
-                                     rig.T_right_left, kfs.stereo);
+      kf.stereo = computeStereoCloud(frames.back().left, frames.back().right, rig, rig.T_right_left,
+                                     kfs.stereo);
       kf.T_right_left_used = rig.T_right_left;
       stereo_seconds += kf.stereo.seconds_total;
       const cv::Mat& disp = kf.stereo.disparity;
@@ -270,13 +290,15 @@ int main(int argc, char** argv) {
     const auto t_pre = Clock::now();
     LidarMeshSettings ms = kfs.mesh;
     ms.view_axis = T_init.linear().transpose() * Eigen::Vector3d::UnitZ();
-    const double half_diag = std::atan(std::hypot(rig.left.width / 2.0 / rig.left.fx,
-                                                  rig.left.height / 2.0 / rig.left.fy));
+    const double half_diag = std::atan(
+        std::hypot(rig.left.width / 2.0 / rig.left.fx, rig.left.height / 2.0 / rig.left.fy));
     ms.view_half_angle_deg = std::min(89.0, half_diag * kDegPerRad + kfs.view_margin_deg);
     std::vector<const Keyframe*> window;
     for (auto& kf : base) {
       kf.mesh = buildLidarMesh(kf.scan, ms);
-      if (t == 0) std::printf("  keyframe %zu: %zu LiDAR faces in view\n", window.size(), kf.mesh.faces.size());
+      if (t == 0)
+        std::printf("  keyframe %zu: %zu LiDAR faces in view\n", window.size(),
+                    kf.mesh.faces.size());
       window.push_back(&kf);
     }
     tr.preprocess = std::chrono::duration<double>(Clock::now() - t_pre).count() + stereo_seconds;
@@ -286,8 +308,8 @@ int main(int argc, char** argv) {
       std::vector<Keyframe*> mwin;
       for (auto& kf : base) mwin.push_back(&kf);
       CoCalibrationSettings cs;
-      const CoCalibrationResult r = coCalibrate(mwin, rig, T_init,
-                                                perturb(rig.T_right_left, tr.stereo.init), cs);
+      const CoCalibrationResult r =
+          coCalibrate(mwin, rig, T_init, perturb(rig.T_right_left, tr.stereo.init), cs);
       tr.converged = r.converged;
       tr.iterations = r.rounds;
       tr.lidar.cov = r.lidar.covariance;
@@ -298,8 +320,8 @@ int main(int argc, char** argv) {
       tr.brightness = r.stereo.brightness;
     } else if (stereo_mode) {
       PhotometricSettings ps;
-      const PhotometricResult r = solvePhotometric(window, rig, T_init,
-                                                   perturb(rig.T_right_left, tr.stereo.init), ps);
+      const PhotometricResult r =
+          solvePhotometric(window, rig, T_init, perturb(rig.T_right_left, tr.stereo.init), ps);
       tr.converged = r.converged;
       tr.iterations = r.iterations;
       tr.stereo.cov = r.covariance;
@@ -331,22 +353,25 @@ int main(int argc, char** argv) {
       }
     }
     const Vector6d& e = est.err;
-    std::printf(" %4d   %s   %4.2f/%4.2f  [%7.4f %7.4f %7.4f]  [%7.3f %7.3f %7.3f]  %6.3f/%6.2f  %4d  %6.2f  %6.2f %s\n",
-                t, tr.converged ? "yes" : " no", est.init.head<3>().norm() * kDegPerRad,
-                est.init.tail<3>().norm(), e[0] * kDegPerRad, e[1] * kDegPerRad,
-                e[2] * kDegPerRad, e[3] * 100, e[4] * 100, e[5] * 100,
-                std::sqrt(est.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
-                std::sqrt(est.cov.bottomRightCorner<3, 3>().trace() / 3) * 100,
-                tr.iterations, tr.preprocess, tr.solve,
-                (est.success() && (!co_mode || tr.stereo.success())) ? "" : (" FAIL " + tr.message).c_str());
+    std::printf(
+        " %4d   %s   %4.2f/%4.2f  [%7.4f %7.4f %7.4f]  [%7.3f %7.3f %7.3f]  %6.3f/%6.2f  %4d  "
+        "%6.2f  %6.2f %s\n",
+        t, tr.converged ? "yes" : " no", est.init.head<3>().norm() * kDegPerRad,
+        est.init.tail<3>().norm(), e[0] * kDegPerRad, e[1] * kDegPerRad, e[2] * kDegPerRad,
+        e[3] * 100, e[4] * 100, e[5] * 100,
+        std::sqrt(est.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
+        std::sqrt(est.cov.bottomRightCorner<3, 3>().trace() / 3) * 100, tr.iterations,
+        tr.preprocess, tr.solve,
+        (est.success() && (!co_mode || tr.stereo.success())) ? ""
+                                                             : (" FAIL " + tr.message).c_str());
     if (co_mode) {
       const Vector6d& es = tr.stereo.err;
-      std::printf("        stereo  %4.2f/%4.2f  [%7.4f %7.4f %7.4f]  [%7.3f %7.3f %7.3f]  %6.3f/%6.2f\n",
-                  tr.stereo.init.head<3>().norm() * kDegPerRad, tr.stereo.init.tail<3>().norm(),
-                  es[0] * kDegPerRad, es[1] * kDegPerRad, es[2] * kDegPerRad, es[3] * 100,
-                  es[4] * 100, es[5] * 100,
-                  std::sqrt(tr.stereo.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
-                  std::sqrt(tr.stereo.cov.bottomRightCorner<3, 3>().trace() / 3) * 100);
+      std::printf(
+          "        stereo  %4.2f/%4.2f  [%7.4f %7.4f %7.4f]  [%7.3f %7.3f %7.3f]  %6.3f/%6.2f\n",
+          tr.stereo.init.head<3>().norm() * kDegPerRad, tr.stereo.init.tail<3>().norm(),
+          es[0] * kDegPerRad, es[1] * kDegPerRad, es[2] * kDegPerRad, es[3] * 100, es[4] * 100,
+          es[5] * 100, std::sqrt(tr.stereo.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
+          std::sqrt(tr.stereo.cov.bottomRightCorner<3, 3>().trace() / 3) * 100);
     }
     std::fflush(stdout);
     trials.push_back(tr);
@@ -412,8 +437,9 @@ int main(int argc, char** argv) {
                  << ", \"median_rot_err_norm_deg\": " << median(rn)
                  << ", \"median_trans_err_norm_m\": " << median(tn) << "}, ";
   }
-  std::printf("  time per window: preprocess %.2f s (stereo %.2f s, %zu keyframes), solve median %.2f s\n",
-              median(pre), stereo_seconds, keyframes.size(), median(sol));
+  std::printf(
+      "  time per window: preprocess %.2f s (stereo %.2f s, %zu keyframes), solve median %.2f s\n",
+      median(pre), stereo_seconds, keyframes.size(), median(sol));
   if (std::isfinite(mean_nees)) std::printf("  mean NEES (6 DoF, ideal 6): %.2f\n", mean_nees);
 
   if (!args.json.empty()) {
@@ -432,18 +458,20 @@ int main(int argc, char** argv) {
       if (stereo_mode || co_mode) {
         js << ", \"stereo\": " << tr.stereo.json() << ", \"brightness\": [";
         for (size_t b = 0; b < tr.brightness.size(); ++b)
-          js << (b ? ", " : "") << "[" << tr.brightness[b].x() << ", " << tr.brightness[b].y() << "]";
+          js << (b ? ", " : "") << "[" << tr.brightness[b].x() << ", " << tr.brightness[b].y()
+             << "]";
         js << "]";
       }
-      js << ", \"nees\": "
-         << (std::isfinite(tr.nees) ? tr.nees : -1.0) << ", \"seconds\": {\"preprocess\": "
-         << tr.preprocess << ", \"solve\": " << tr.solve
-         << ", \"total\": " << tr.preprocess + tr.solve << "}}" << (i + 1 < trials.size() ? ",\n" : "\n");
+      js << ", \"nees\": " << (std::isfinite(tr.nees) ? tr.nees : -1.0)
+         << ", \"seconds\": {\"preprocess\": " << tr.preprocess << ", \"solve\": " << tr.solve
+         << ", \"total\": " << tr.preprocess + tr.solve << "}}"
+         << (i + 1 < trials.size() ? ",\n" : "\n");
     }
-    js << "], \"summary\": {" << summary_json.str() << "\"success_rate\": "
-       << double(ok_all) / trials.size() << ", \"mean_nees\": "
-       << (std::isfinite(mean_nees) ? mean_nees : -1.0) << ", \"seconds\": {\"preprocess\": "
-       << median(pre) << ", \"solve\": " << median(sol) << "}}}\n";
+    js << "], \"summary\": {" << summary_json.str()
+       << "\"success_rate\": " << double(ok_all) / trials.size()
+       << ", \"mean_nees\": " << (std::isfinite(mean_nees) ? mean_nees : -1.0)
+       << ", \"seconds\": {\"preprocess\": " << median(pre) << ", \"solve\": " << median(sol)
+       << "}}}\n";
     std::cout << "wrote " << args.json << "\n";
   }
   return 0;

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include <rosbag/exceptions.h>
 #include <ros/time.h>
+#include <rosbag/exceptions.h>
 
 #include "tescalib/core/error.h"
 #include "tescalib/core/geometry.h"
@@ -16,13 +16,14 @@
 
 namespace {
 void usage() {
-  std::cout << "usage: rosrun tescalib kitti_to_bag --in DIR[,DIR...] --out FILE.bag [--max-frames N]\n"
-               "  DIR: a KITTI odometry sequence (calib.txt, times.txt, image_2/, image_3/,\n"
-               "       velodyne/) or a KITTI raw drive folder (image_02/data, image_03/data,\n"
-               "       velodyne_points/data; calib_*.txt in it or in its parent).\n"
-               "  Several DIRs (one rig) are written one after the other, 1 s apart.\n"
-               "  Topics: /kitti/velo/pointcloud (velo_link; x y z intensity ring),\n"
-               "          /kitti/camera_color_{left,right}/{image_raw,camera_info}, /tf_static\n";
+  std::cout
+      << "usage: rosrun tescalib kitti_to_bag --in DIR[,DIR...] --out FILE.bag [--max-frames N]\n"
+         "  DIR: a KITTI odometry sequence (calib.txt, times.txt, image_2/, image_3/,\n"
+         "       velodyne/) or a KITTI raw drive folder (image_02/data, image_03/data,\n"
+         "       velodyne_points/data; calib_*.txt in it or in its parent).\n"
+         "  Several DIRs (one rig) are written one after the other, 1 s apart.\n"
+         "  Topics: /kitti/velo/pointcloud (velo_link; x y z intensity ring),\n"
+         "          /kitti/camera_color_{left,right}/{image_raw,camera_info}, /tf_static\n";
 }
 }  // namespace
 
@@ -38,11 +39,20 @@ int main(int argc, char** argv) {
       }
       return argv[++i];
     };
-    if (a == "--in") in = next();
-    else if (a == "--out") out = next();
-    else if (a == "--max-frames") options.max_frames = std::stoi(next());
-    else if (a == "-h" || a == "--help") { usage(); return 0; }
-    else { std::cerr << "kitti_to_bag: unknown argument " << a << "\n"; usage(); return 2; }
+    if (a == "--in")
+      in = next();
+    else if (a == "--out")
+      out = next();
+    else if (a == "--max-frames")
+      options.max_frames = std::stoi(next());
+    else if (a == "-h" || a == "--help") {
+      usage();
+      return 0;
+    } else {
+      std::cerr << "kitti_to_bag: unknown argument " << a << "\n";
+      usage();
+      return 2;
+    }
   }
   if (in.empty() || out.empty()) {
     usage();

@@ -23,11 +23,11 @@ struct CoCalibrationSettings {
 };
 
 struct CoCalibrationResult {
-  LidarStereoResult lidar;     ///< last LiDAR-stereo solve (T_cam_lidar, covariance, ...)
-  PhotometricResult stereo;    ///< last left-right solve (T_right_left, covariance, ...)
+  LidarStereoResult lidar;   ///< last LiDAR-stereo solve (T_cam_lidar, covariance, ...)
+  PhotometricResult stereo;  ///< last left-right solve (T_right_left, covariance, ...)
   int rounds = 0;
-  bool stable = false;         ///< the stability criterion was met within max_rounds
-  bool converged = false;      ///< stable and both solvers converged
+  bool stable = false;              ///< the stability criterion was met within max_rounds
+  bool converged = false;           ///< stable and both solvers converged
   double seconds_stereo_cloud = 0;  ///< time spent recomputing stereo clouds
   double seconds = 0;
   std::string message;

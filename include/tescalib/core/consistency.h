@@ -11,10 +11,10 @@
 namespace tescalib {
 
 struct DisparityAgreement {
-  int points = 0;               ///< LiDAR points that were tested (textured, inside both images)
-  double median_shift = 0;      ///< median over points of the best extra shift (px)
+  int points = 0;                  ///< LiDAR points that were tested (textured, inside both images)
+  double median_shift = 0;         ///< median over points of the best extra shift (px)
   double fraction_within_1px = 0;  ///< fraction of points whose best extra shift is within 1 px
-  int best_global_shift = 0;    ///< arg-min of the summed SAD over all points
+  int best_global_shift = 0;       ///< arg-min of the summed SAD over all points
 };
 
 /// For every LiDAR point projected into the left image with `T_cam_lidar`, the predicted
@@ -23,7 +23,6 @@ struct DisparityAgreement {
 /// Only points on textured pixels (gradient above a threshold) are used.
 DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat& left_bgr,
                                            const cv::Mat& right_bgr, const StereoRig& rig,
-                                           const Eigen::Isometry3d& T_cam_lidar,
-                                           int max_shift = 8);
+                                           const Eigen::Isometry3d& T_cam_lidar, int max_shift = 8);
 
 }  // namespace tescalib

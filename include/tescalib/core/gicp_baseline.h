@@ -12,16 +12,16 @@
 namespace tescalib {
 
 struct GicpBaselineSettings {
-  double voxel = 0.2;                  ///< m, both clouds
-  double max_correspondence = 1.0;     ///< m
+  double voxel = 0.2;               ///< m, both clouds
+  double max_correspondence = 1.0;  ///< m
   int max_iterations = 50;
-  double max_depth = 40.0;             ///< m, both clouds (like the stereo cloud)
+  double max_depth = 40.0;  ///< m, both clouds (like the stereo cloud)
 };
 
 struct GicpBaselineResult {
   Eigen::Isometry3d T_cam_lidar = Eigen::Isometry3d::Identity();
-  bool converged = false;              ///< GICP reported convergence on every keyframe
-  double fitness = 0;                  ///< mean PCL fitness score
+  bool converged = false;  ///< GICP reported convergence on every keyframe
+  double fitness = 0;      ///< mean PCL fitness score
 };
 
 GicpBaselineResult solveGicpBaseline(const std::vector<const Keyframe*>& window,

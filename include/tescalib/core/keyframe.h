@@ -20,9 +20,9 @@ struct KeyframeSettings {
 
 struct Keyframe {
   double stamp = 0;
-  LidarScan scan;             ///< the raw scan (LiDAR frame), kept for overlays
-  LidarMesh mesh;             ///< LiDAR frame, faces in view of the cameras
-  StereoCloud stereo;         ///< left camera frame, computed with `T_right_left_used`
+  LidarScan scan;      ///< the raw scan (LiDAR frame), kept for overlays
+  LidarMesh mesh;      ///< LiDAR frame, faces in view of the cameras
+  StereoCloud stereo;  ///< left camera frame, computed with `T_right_left_used`
   Eigen::Isometry3d T_right_left_used = Eigen::Isometry3d::Identity();
   cv::Mat left_gray, right_gray;  ///< CV_8U, as delivered (the photometric solver rectifies)
   double seconds_mesh = 0;

@@ -24,8 +24,8 @@ enum class KittiLayout { kOdometry, kRaw };
 
 /// The parsed calibration of a KITTI odometry `calib.txt`.
 struct KittiOdometryCalib {
-  Eigen::Matrix<double, 3, 4> P[4];    ///< rectified projection matrices P0..P3
-  Eigen::Matrix<double, 3, 4> Tr;      ///< velodyne -> rectified cam0
+  Eigen::Matrix<double, 3, 4> P[4];  ///< rectified projection matrices P0..P3
+  Eigen::Matrix<double, 3, 4> Tr;    ///< velodyne -> rectified cam0
 };
 
 /// Parses a KITTI odometry calib.txt. Throws DataError naming the file and the bad key.

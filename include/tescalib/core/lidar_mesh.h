@@ -13,13 +13,13 @@
 namespace tescalib {
 
 struct LidarMeshSettings {
-  int azimuth_bins = 2000;             ///< max columns of the range image (HDL-64E: ~2000 per
-                                       ///< turn); fewer when the densest ring has fewer returns
-  double max_range = 80.0;             ///< m; farther returns are not meshed
-  double min_range = 2.0;              ///< m; closer returns (the vehicle itself) are ignored
-  double max_edge_ratio = 0.06;        ///< reject when any edge is longer than this times range
-  double max_edge_abs = 2.5;           ///< m; and never longer than this
-  double max_incidence_deg = 80.0;     ///< reject faces seen at a more grazing angle
+  int azimuth_bins = 2000;          ///< max columns of the range image (HDL-64E: ~2000 per
+                                    ///< turn); fewer when the densest ring has fewer returns
+  double max_range = 80.0;          ///< m; farther returns are not meshed
+  double min_range = 2.0;           ///< m; closer returns (the vehicle itself) are ignored
+  double max_edge_ratio = 0.06;     ///< reject when any edge is longer than this times range
+  double max_edge_abs = 2.5;        ///< m; and never longer than this
+  double max_incidence_deg = 80.0;  ///< reject faces seen at a more grazing angle
   /// Face normals are averaged over the faces within +-smooth_cols azimuth bins and +-1 ring that
   /// agree within `smooth_max_angle_deg`: a single face's normal (edges of 10-30 cm, 2 cm range
   /// noise) is off by several degrees, which would invent constraints along a plane.
@@ -33,10 +33,10 @@ struct LidarMeshSettings {
 
 /// One triangle of the mesh, in the LiDAR frame.
 struct MeshFace {
-  Eigen::Vector3f a, b, c;     ///< vertices
-  Eigen::Vector3f centroid;    ///< (a + b + c) / 3
-  Eigen::Vector3f normal;      ///< unit normal, oriented towards the sensor
-  float range = 0.f;           ///< distance of the centroid from the sensor, m
+  Eigen::Vector3f a, b, c;   ///< vertices
+  Eigen::Vector3f centroid;  ///< (a + b + c) / 3
+  Eigen::Vector3f normal;    ///< unit normal, oriented towards the sensor
+  float range = 0.f;         ///< distance of the centroid from the sensor, m
 };
 
 struct LidarMesh {

@@ -15,35 +15,35 @@ namespace tescalib {
 struct LidarStereoSettings {
   // Coarse stage (eq. KD6 association, eq. point_plane_normal_obj).
   bool run_coarse = true;
-  int coarse_faces_per_keyframe = 1500;    ///< LiDAR faces sampled per keyframe
+  int coarse_faces_per_keyframe = 1500;          ///< LiDAR faces sampled per keyframe
   int coarse_stereo_points_per_keyframe = 8000;  ///< stereo points in the 6-D search tree
-  double normal_weight = 0.5;              ///< w of eq. KD6 (m per unit normal difference)
-  double normal_residual_weight = 0.5;     ///< w of eq. point_plane_normal_obj
+  double normal_weight = 0.5;                    ///< w of eq. KD6 (m per unit normal difference)
+  double normal_residual_weight = 0.5;           ///< w of eq. point_plane_normal_obj
   std::vector<double> coarse_gates = {2.0, 1.0, 0.5};  ///< 6-D association gate per stage, m
-  int coarse_reassociations = 8;           ///< per stage, until the update is below the threshold
-  double coarse_loss_scale = 2.0;          ///< Cauchy scale (normalised residual units)
+  int coarse_reassociations = 8;   ///< per stage, until the update is below the threshold
+  double coarse_loss_scale = 2.0;  ///< Cauchy scale (normalised residual units)
   // Fine stage (eq. point_point_normal_obj, projective association).
   bool run_fine = true;
   int fine_faces_per_keyframe = 4000;
   int fine_reassociations = 12;
-  double fine_huber = 1.5;                 ///< Huber threshold in sigma units
-  double fine_gate_sigma = 8.0;            ///< associations beyond this many sigma are dropped
-  double max_depth = 40.0;                 ///< m; farther LiDAR faces are not associated
+  double fine_huber = 1.5;       ///< Huber threshold in sigma units
+  double fine_gate_sigma = 8.0;  ///< associations beyond this many sigma are dropped
+  double max_depth = 40.0;       ///< m; farther LiDAR faces are not associated
   /// Also estimate a scale of the stereo clouds (= true baseline / the baseline they were
   /// computed with). Used by co-calibration; off, the scale is held at 1.
   bool estimate_stereo_scale = false;
   // Noise model (paper eq. lidar_noise and the disparity noise).
-  double lidar_range_sigma = 0.02;         ///< m
-  double lidar_beam_sigma_deg = 0.02;      ///< beam direction, deg
-  double disparity_sigma = 0.35;           ///< px
+  double lidar_range_sigma = 0.02;     ///< m
+  double lidar_beam_sigma_deg = 0.02;  ///< beam direction, deg
+  double disparity_sigma = 0.35;       ///< px
   // Termination and honesty.
   int ceres_iterations = 8;
-  double converge_rot_deg = 2e-4;          ///< stop re-associating below this update
+  double converge_rot_deg = 2e-4;  ///< stop re-associating below this update
   double converge_trans_m = 2e-5;
   int min_inliers = 300;
-  double max_sigma_rot_deg = 0.1;          ///< an axis looser than this (1 sigma) is unconstrained
+  double max_sigma_rot_deg = 0.1;  ///< an axis looser than this (1 sigma) is unconstrained
   double max_sigma_trans_m = 0.01;
-  double max_correction_rot_deg = 25.0;    ///< a larger correction from the start is divergence
+  double max_correction_rot_deg = 25.0;  ///< a larger correction from the start is divergence
   double max_correction_trans_m = 2.5;
   int threads = 2;
 };
@@ -51,18 +51,18 @@ struct LidarStereoSettings {
 struct LidarStereoResult {
   Eigen::Isometry3d T_cam_lidar = Eigen::Isometry3d::Identity();  ///< estimate
   Eigen::Isometry3d T_after_coarse = Eigen::Isometry3d::Identity();
-  bool converged = false;        ///< fine stage settled, enough inliers, every axis constrained
-  int iterations = 0;            ///< re-associations, coarse + fine
-  double final_cost = 0;         ///< mean squared normalised fine residual (Huber-weighted)
-  int coarse_inliers = 0;        ///< associations in the last coarse solve
-  int fine_inliers = 0;          ///< associations in the last fine solve
+  bool converged = false;  ///< fine stage settled, enough inliers, every axis constrained
+  int iterations = 0;      ///< re-associations, coarse + fine
+  double final_cost = 0;   ///< mean squared normalised fine residual (Huber-weighted)
+  int coarse_inliers = 0;  ///< associations in the last coarse solve
+  int fine_inliers = 0;    ///< associations in the last fine solve
   Matrix6d information = Matrix6d::Zero();  ///< J^T W J of the final fine problem
-  double stereo_scale = 1.0;     ///< estimated stereo scale (1 unless estimate_stereo_scale)
-  double residual_scale = 1.0;   ///< robust std of the normalised residuals (1 if the model fits)
+  double stereo_scale = 1.0;    ///< estimated stereo scale (1 unless estimate_stereo_scale)
+  double residual_scale = 1.0;  ///< robust std of the normalised residuals (1 if the model fits)
   Matrix6d covariance = Matrix6d::Identity();  ///< residual_scale^2 * information^-1
   bool observable[6] = {false, false, false, false, false, false};  ///< per axis
   double seconds_coarse = 0, seconds_fine = 0;
-  std::string message;           ///< why it did not converge, when it did not
+  std::string message;  ///< why it did not converge, when it did not
 };
 
 /// Solves T_cam_lidar over the window from `T_init`. Never throws on bad data: an empty window or

@@ -18,11 +18,11 @@
 namespace tescalib {
 
 struct OnlineSettings {
-  double keyframe_min_dt = 0.5;   ///< s between keyframes
-  int window_size = 10;           ///< keyframes in the sliding window (paper's co-calibration: 10)
-  int min_keyframes = 3;          ///< solve only with at least this many
-  bool estimate_stereo = true;    ///< co-calibration; false: LiDAR-stereo only, stereo fixed
-  double max_sync_skew = 0.05;    ///< s; LiDAR and image stamps further apart are rejected
+  double keyframe_min_dt = 0.5;  ///< s between keyframes
+  int window_size = 10;          ///< keyframes in the sliding window (paper's co-calibration: 10)
+  int min_keyframes = 3;         ///< solve only with at least this many
+  bool estimate_stereo = true;   ///< co-calibration; false: LiDAR-stereo only, stereo fixed
+  double max_sync_skew = 0.05;   ///< s; LiDAR and image stamps further apart are rejected
   double max_time_jump_back = 0.0;  ///< s; a stamp earlier than the last by more resets the window
   /// A new estimate replaces the current one only when converged and its covariance trace is at
   /// most this factor times the current one's (never publish something less trustworthy).
@@ -43,7 +43,7 @@ struct OnlineEstimate {
   int keyframes_used = 0;
   double cost_lidar = 0, cost_stereo = 0;
   int iterations_lidar = 0, iterations_stereo = 0;
-  double stamp = 0;               ///< stamp of the newest keyframe of the window it came from
+  double stamp = 0;  ///< stamp of the newest keyframe of the window it came from
   double solve_seconds = 0;
 };
 
@@ -69,7 +69,7 @@ class OnlineCalibrator {
   size_t windowFill() const;
   bool readyToSolve() const;
   const StereoRig& rig() const { return rig_; }
-  Eigen::Isometry3d currentTcamLidar() const;   ///< estimate, or the initial guess
+  Eigen::Isometry3d currentTcamLidar() const;  ///< estimate, or the initial guess
   Eigen::Isometry3d currentTrightLeft() const;
 
  private:

@@ -13,17 +13,17 @@
 namespace tescalib {
 
 struct PhotometricSettings {
-  int cell_size = 14;              ///< one key point per cell of this many pixels (Stereo DSO style)
-  double min_gradient = 12.0;      ///< grey levels per pixel (Scharr / 32)
+  int cell_size = 14;          ///< one key point per cell of this many pixels (Stereo DSO style)
+  double min_gradient = 12.0;  ///< grey levels per pixel (Scharr / 32)
   int max_keypoints_per_keyframe = 900;
-  double gradient_weight_c = 50.0; ///< c of w_p = c^2 / (c^2 + |grad I|^2)
-  double huber = 9.0;              ///< grey levels
-  int pyramid_levels = 3;          ///< coarse-to-fine: 1/4, 1/2, 1
+  double gradient_weight_c = 50.0;  ///< c of w_p = c^2 / (c^2 + |grad I|^2)
+  double huber = 9.0;               ///< grey levels
+  int pyramid_levels = 3;           ///< coarse-to-fine: 1/4, 1/2, 1
   int iterations_per_level = 25;
   double occlusion_tolerance = 0.05;  ///< relative depth difference tolerated in the right view
   double min_depth = 2.0, max_depth = 60.0;  ///< m, key point depth
   int min_keypoints = 150;
-  double max_sigma_rot_deg = 0.05; ///< an axis looser than this (1 sigma) is unconstrained
+  double max_sigma_rot_deg = 0.05;  ///< an axis looser than this (1 sigma) is unconstrained
   double max_sigma_trans_m = 0.01;
   double max_correction_rot_deg = 10.0;
   double max_correction_trans_m = 1.0;
@@ -33,11 +33,11 @@ struct PhotometricSettings {
 struct PhotometricResult {
   Eigen::Isometry3d T_right_left = Eigen::Isometry3d::Identity();
   bool converged = false;
-  int iterations = 0;              ///< Ceres iterations over all levels
-  double final_cost = 0;           ///< mean Huber cost per residual at full resolution
-  int keypoints = 0;               ///< key points with LiDAR depth (all keyframes)
-  int occluded = 0;                ///< key points hidden in the right image (last level)
-  int inliers = 0;                 ///< key points used at the last level
+  int iterations = 0;                       ///< Ceres iterations over all levels
+  double final_cost = 0;                    ///< mean Huber cost per residual at full resolution
+  int keypoints = 0;                        ///< key points with LiDAR depth (all keyframes)
+  int occluded = 0;                         ///< key points hidden in the right image (last level)
+  int inliers = 0;                          ///< key points used at the last level
   std::vector<Eigen::Vector2d> brightness;  ///< per keyframe (a, b): I_r = e^a I_l + b
   Matrix6d covariance = Matrix6d::Identity();
   bool observable[6] = {false, false, false, false, false, false};
@@ -48,8 +48,8 @@ struct PhotometricResult {
 /// Solves T_right_left over the window from `T_init`, with the LiDAR extrinsic `T_cam_lidar`
 /// giving the key points' depth. The keyframes' images are used as delivered (rectified with
 /// the rig's intrinsics `rig.left`, `rig.right`).
-PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window,
-                                   const StereoRig& rig, const Eigen::Isometry3d& T_cam_lidar,
+PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, const StereoRig& rig,
+                                   const Eigen::Isometry3d& T_cam_lidar,
                                    const Eigen::Isometry3d& T_init,
                                    const PhotometricSettings& settings = {});
 

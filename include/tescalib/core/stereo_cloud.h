@@ -14,27 +14,27 @@
 namespace tescalib {
 
 struct StereoSettings {
-  int num_disparities = 128;   ///< SGBM search range (multiple of 16)
-  int block_size = 5;          ///< SGBM block size (odd)
-  bool three_way = true;       ///< MODE_SGBM_3WAY (2.5x faster than MODE_SGBM, same quality here)
-  int uniqueness_ratio = 10;   ///< SGBM uniqueness margin (%)
-  int speckle_window = 100;    ///< SGBM speckle filter window (px)
-  int speckle_range = 2;       ///< SGBM speckle filter range (disparity units)
-  int disp12_max_diff = 1;     ///< left-right consistency check (px)
-  int sample_step = 4;         ///< take one stereo point every N pixels in u and v
-  double min_depth = 2.0;      ///< m
-  double max_depth = 40.0;     ///< m; stereo depth noise grows with Z^2, far points carry little
-  int normal_scale = 3;        ///< px; half-width of the finite differences for normals
+  int num_disparities = 128;     ///< SGBM search range (multiple of 16)
+  int block_size = 5;            ///< SGBM block size (odd)
+  bool three_way = true;         ///< MODE_SGBM_3WAY (2.5x faster than MODE_SGBM, same quality here)
+  int uniqueness_ratio = 10;     ///< SGBM uniqueness margin (%)
+  int speckle_window = 100;      ///< SGBM speckle filter window (px)
+  int speckle_range = 2;         ///< SGBM speckle filter range (disparity units)
+  int disp12_max_diff = 1;       ///< left-right consistency check (px)
+  int sample_step = 4;           ///< take one stereo point every N pixels in u and v
+  double min_depth = 2.0;        ///< m
+  double max_depth = 40.0;       ///< m; stereo depth noise grows with Z^2, far points carry little
+  int normal_scale = 3;          ///< px; half-width of the finite differences for normals
   double max_second_diff = 1.5;  ///< px; disparity is affine on a plane: larger curvature = edge
   int edge_dilation = 2;         ///< px removed around an edge (SGBM fattens foreground ~block/2)
-  double disparity_sigma = 0.35; ///< px; SGBM sub-pixel noise used by the noise model
+  double disparity_sigma = 0.35;  ///< px; SGBM sub-pixel noise used by the noise model
 };
 
 /// A stereo point in the left camera frame.
 struct StereoPoint {
-  Eigen::Vector3f p;     ///< position, m
-  Eigen::Vector3f n;     ///< unit normal, oriented towards the camera
-  float disparity = 0;   ///< px
+  Eigen::Vector3f p;    ///< position, m
+  Eigen::Vector3f n;    ///< unit normal, oriented towards the camera
+  float disparity = 0;  ///< px
 };
 
 struct StereoCloud {

@@ -48,11 +48,11 @@ struct StereoRig {
 
 /// One synchronized sensor frame.
 struct Frame {
-  int index = -1;     ///< frame number within its sequence (file name number)
-  double stamp = 0;   ///< seconds
-  LidarScan scan;     ///< LiDAR points with ring
-  cv::Mat left;       ///< left image, CV_8UC3 BGR
-  cv::Mat right;      ///< right image, CV_8UC3 BGR
+  int index = -1;    ///< frame number within its sequence (file name number)
+  double stamp = 0;  ///< seconds
+  LidarScan scan;    ///< LiDAR points with ring
+  cv::Mat left;      ///< left image, CV_8UC3 BGR
+  cv::Mat right;     ///< right image, CV_8UC3 BGR
 };
 
 }  // namespace tescalib

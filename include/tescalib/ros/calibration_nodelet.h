@@ -42,7 +42,8 @@ class CalibrationNodelet : public nodelet::Nodelet {
   using Cloud = sensor_msgs::PointCloud2;
   using Image = sensor_msgs::Image;
   using Info = sensor_msgs::CameraInfo;
-  using ApproxPolicy = message_filters::sync_policies::ApproximateTime<Cloud, Image, Info, Image, Info>;
+  using ApproxPolicy =
+      message_filters::sync_policies::ApproximateTime<Cloud, Image, Info, Image, Info>;
   using ExactPolicy = message_filters::sync_policies::ExactTime<Cloud, Image, Info, Image, Info>;
 
   struct PendingFrame {
@@ -84,7 +85,7 @@ class CalibrationNodelet : public nodelet::Nodelet {
 
   std::mutex mutex_;
   std::condition_variable cv_;
-  std::deque<PendingFrame> queue_;         ///< GUARDED_BY(mutex_), at most 2
+  std::deque<PendingFrame> queue_;  ///< GUARDED_BY(mutex_), at most 2
   std::atomic<bool> running_{false};
   std::atomic<bool> solve_requested_{false};
   std::thread preprocess_thread_, solve_thread_;
@@ -92,8 +93,8 @@ class CalibrationNodelet : public nodelet::Nodelet {
   std::atomic<int> sync_sets_{0}, dropped_{0}, rejected_{0}, keyframes_{0}, images_seen_{0};
   std::atomic<double> last_solve_seconds_{0};
   std::atomic<double> last_enqueued_stamp_{-1e300};
-  std::string last_problem_;               ///< GUARDED_BY(mutex_)
-  std::string last_solve_message_;         ///< GUARDED_BY(mutex_)
+  std::string last_problem_;        ///< GUARDED_BY(mutex_)
+  std::string last_solve_message_;  ///< GUARDED_BY(mutex_)
 };
 
 }  // namespace tescalib

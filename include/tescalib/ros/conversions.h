@@ -9,8 +9,8 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/Header.h>
-#include <opencv2/core.hpp>
 #include <tescalib/ExtrinsicEstimate.h>
+#include <opencv2/core.hpp>
 
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/types.h"

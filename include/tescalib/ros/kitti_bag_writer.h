@@ -13,7 +13,7 @@ namespace tescalib {
 struct KittiBagOptions {
   std::string velo_topic = "/kitti/velo/pointcloud";
   std::string velo_frame = "velo_link";
-  std::string left_prefix = "/kitti/camera_color_left";    ///< + /image_raw, /camera_info
+  std::string left_prefix = "/kitti/camera_color_left";  ///< + /image_raw, /camera_info
   std::string left_frame = "camera_color_left";
   std::string right_prefix = "/kitti/camera_color_right";
   std::string right_frame = "camera_color_right";

@@ -13,9 +13,9 @@ namespace tescalib {
 
 struct NodeParams {
   OnlineSettings online;
-  bool approximate_sync = true;       ///< message_filters ApproximateTime (else ExactTime)
+  bool approximate_sync = true;  ///< message_filters ApproximateTime (else ExactTime)
   int sync_queue = 10;
-  std::string lidar_frame;            ///< empty: the point cloud's header frame
+  std::string lidar_frame;                     ///< empty: the point cloud's header frame
   std::string left_frame = "tescalib_left";    ///< published (child of the LiDAR frame)
   std::string right_frame = "tescalib_right";  ///< published (child of left_frame)
   /// Initial T_cam_lidar as [x y z qx qy qz qw] (LiDAR -> left camera); empty: from tf.

@@ -1,6 +1,7 @@
 // Fine LiDAR-stereo residual, paper eq. (point_point_normal_obj):
 //   r = n^T [ T (p_l + w_l) - F(d + w_c) ] / sigma,   n = R n_l (LiDAR normal in the camera frame)
-// evaluated at the noise-free point; the noise enters through sigma (paper eq. residual_uncertainty):
+// evaluated at the noise-free point; the noise enters through sigma (paper eq.
+// residual_uncertainty):
 //   sigma^2 = n^T R Sigma_l R^T n + (n^T dF/dd)^2 sigma_d^2,   dF/dd = -F(d) / d
 // F(d) is the stereo point seen at the pixel where T p_l projects (projective association), held
 // fixed during one solve and re-associated between solves.

@@ -26,11 +26,20 @@ constexpr int kPattern[kPatternSize][2] = {{0, -2}, {-1, -1}, {1, -1}, {-2, 0},
 using ImageInterpolator = ceres::BiCubicInterpolator<ceres::Grid2D<double, 1>>;
 
 struct PhotometricResidual {
-  PhotometricResidual(const ImageInterpolator* right, const std::array<Eigen::Vector3d, kPatternSize>& q,
-                      const Eigen::Vector3d& t_ref, const std::array<double, kPatternSize>& left_value,
-                      double sqrt_weight, double fx, double fy, double cx, double cy)
-      : right_(right), q_(q), t_ref_(t_ref), left_(left_value), sqrt_w_(sqrt_weight),
-        fx_(fx), fy_(fy), cx_(cx), cy_(cy) {}
+  PhotometricResidual(const ImageInterpolator* right,
+                      const std::array<Eigen::Vector3d, kPatternSize>& q,
+                      const Eigen::Vector3d& t_ref,
+                      const std::array<double, kPatternSize>& left_value, double sqrt_weight,
+                      double fx, double fy, double cx, double cy)
+      : right_(right),
+        q_(q),
+        t_ref_(t_ref),
+        left_(left_value),
+        sqrt_w_(sqrt_weight),
+        fx_(fx),
+        fy_(fy),
+        cx_(cx),
+        cy_(cy) {}
 
   template <typename T>
   bool operator()(const T* const delta, const T* const ab, T* residual) const {

@@ -20,7 +20,8 @@ T pointPlaneDistance(const T* const delta, const T* const scale, const Eigen::Ve
   ceres::AngleAxisRotatePoint(delta, q, c);
   ceres::AngleAxisRotatePoint(delta, m, n);
   T dist = T(0);
-  for (int i = 0; i < 3; ++i) dist += n[i] * (c[i] + T(t_ref[i]) + delta[3 + i] - scale[0] * T(p_s[i]));
+  for (int i = 0; i < 3; ++i)
+    dist += n[i] * (c[i] + T(t_ref[i]) + delta[3 + i] - scale[0] * T(p_s[i]));
   return dist;
 }
 

@@ -22,7 +22,13 @@ struct PointPlaneNormalResidual {
   PointPlaneNormalResidual(const Eigen::Vector3d& q, const Eigen::Vector3d& m,
                            const Eigen::Vector3d& t_ref, const Eigen::Vector3d& p_s,
                            const Eigen::Vector3d& n_s, double inv_sigma, double normal_weight)
-      : q_(q), m_(m), t_ref_(t_ref), p_s_(p_s), n_s_(n_s), inv_sigma_(inv_sigma), w_(normal_weight) {}
+      : q_(q),
+        m_(m),
+        t_ref_(t_ref),
+        p_s_(p_s),
+        n_s_(n_s),
+        inv_sigma_(inv_sigma),
+        w_(normal_weight) {}
 
   template <typename T>
   bool operator()(const T* const delta, const T* const scale, T* residual) const {
