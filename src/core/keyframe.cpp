@@ -7,6 +7,17 @@
 
 namespace tescalib {
 
+LidarMeshSettings meshSettingsForView(const StereoRig& rig,
+                                      const Eigen::Isometry3d& T_cam_lidar_guess,
+                                      const KeyframeSettings& s) {
+  LidarMeshSettings ms = s.mesh;
+  ms.view_axis = T_cam_lidar_guess.linear().transpose() * Eigen::Vector3d::UnitZ();
+  const double half_diag = std::atan(
+      std::hypot(rig.left.width / 2.0 / rig.left.fx, rig.left.height / 2.0 / rig.left.fy));
+  ms.view_half_angle_deg = std::min(89.0, half_diag * 180.0 / M_PI + s.view_margin_deg);
+  return ms;
+}
+
 Keyframe makeKeyframe(const Frame& frame, const StereoRig& rig,
                       const Eigen::Isometry3d& T_cam_lidar_guess,
                       const Eigen::Isometry3d& T_right_left, const KeyframeSettings& s) {
@@ -14,13 +25,7 @@ Keyframe makeKeyframe(const Frame& frame, const StereoRig& rig,
   kf.stamp = frame.stamp;
   kf.scan = frame.scan;
   const auto t0 = std::chrono::steady_clock::now();
-  LidarMeshSettings ms = s.mesh;
-  // Camera optical axis in the LiDAR frame; half the diagonal field of view plus a margin.
-  ms.view_axis = T_cam_lidar_guess.linear().transpose() * Eigen::Vector3d::UnitZ();
-  const double half_diag = std::atan(
-      std::hypot(rig.left.width / 2.0 / rig.left.fx, rig.left.height / 2.0 / rig.left.fy));
-  ms.view_half_angle_deg = std::min(89.0, half_diag * 180.0 / M_PI + s.view_margin_deg);
-  kf.mesh = buildLidarMesh(frame.scan, ms);
+  kf.mesh = buildLidarMesh(frame.scan, meshSettingsForView(rig, T_cam_lidar_guess, s));
   kf.seconds_mesh = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   cv::cvtColor(frame.left, kf.left_gray, cv::COLOR_BGR2GRAY);
   cv::cvtColor(frame.right, kf.right_gray, cv::COLOR_BGR2GRAY);

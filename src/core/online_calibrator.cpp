@@ -90,8 +90,10 @@ bool OnlineCalibrator::solve(std::string* msg) {
              std::to_string(settings_.min_keyframes);
       return false;
     }
-    // Deep copies: co-calibration recomputes the stereo clouds in place.
-    for (const auto& k : window_) snapshot.push_back(std::make_shared<Keyframe>(*k));
+    // Co-calibration recomputes the stereo clouds in place: it gets deep copies. The LiDAR-stereo
+    // solve only reads, and the shared keyframes are never modified after insertion.
+    for (const auto& k : window_)
+      snapshot.push_back(settings_.estimate_stereo ? std::make_shared<Keyframe>(*k) : k);
     new_keyframes_ = 0;
     current = estimate_;
     T_cl = current ? current->T_cam_lidar : rig_.T_cam_lidar;

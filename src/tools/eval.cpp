@@ -288,11 +288,7 @@ int main(int argc, char** argv) {
     T_init = perturb(rig.T_cam_lidar, tr.lidar.init);
     // Per-trial meshes, view-filtered with the initial guess (never the ground truth).
     const auto t_pre = Clock::now();
-    LidarMeshSettings ms = kfs.mesh;
-    ms.view_axis = T_init.linear().transpose() * Eigen::Vector3d::UnitZ();
-    const double half_diag = std::atan(
-        std::hypot(rig.left.width / 2.0 / rig.left.fx, rig.left.height / 2.0 / rig.left.fy));
-    ms.view_half_angle_deg = std::min(89.0, half_diag * kDegPerRad + kfs.view_margin_deg);
+    const LidarMeshSettings ms = meshSettingsForView(rig, T_init, kfs);
     std::vector<const Keyframe*> window;
     for (auto& kf : base) {
       kf.mesh = buildLidarMesh(kf.scan, ms);

@@ -28,6 +28,12 @@ struct Keyframe {
   double seconds_mesh = 0;
 };
 
+/// Mesh settings restricted to what the left camera can see under `T_cam_lidar_guess`: its optical
+/// axis in the LiDAR frame and half its diagonal field of view plus `settings.view_margin_deg`.
+LidarMeshSettings meshSettingsForView(const StereoRig& rig,
+                                      const Eigen::Isometry3d& T_cam_lidar_guess,
+                                      const KeyframeSettings& settings);
+
 /// Preprocesses one frame: LiDAR mesh (restricted to what the cameras can see under the initial
 /// `T_cam_lidar` guess plus a margin) and the stereo cloud with `T_right_left`.
 Keyframe makeKeyframe(const Frame& frame, const StereoRig& rig,
