@@ -8,6 +8,8 @@ K=$ROOT/../shared/data/kitti_odometry_mini/sequences
 OUT=$ROOT/build/bench
 mkdir -p "$OUT"
 TRIALS=${TRIALS:-20}
+echo "=== tescalib_simulate speed"
+bash "$ROOT/scripts/bench_simulate.sh"
 if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data benchmarks"; exit 0; fi
 run() {  # name, args...
   local name=$1; shift

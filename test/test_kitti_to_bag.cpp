@@ -15,6 +15,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "tescalib/core/geometry.h"
+#include "tescalib/core/simulator.h"
 #include "tescalib/ros/conversions.h"
 #include "tescalib/ros/kitti_bag_writer.h"
 #include "test_util.h"
@@ -89,6 +90,50 @@ TEST(KittiToBag, RoundTripMatchesTheSequence) {
   EXPECT_EQ(counts["/kitti/camera_color_right/image_raw"], 3);
   EXPECT_EQ(counts["/kitti/camera_color_right/camera_info"], 3);
   EXPECT_EQ(counts["/tf_static"], 3);  // with every frame, latched, like kitti2bag
+}
+
+TEST(KittiToBag, ConvertsGeneratedSequences) {
+  // tescalib_simulate's output is a KITTI odometry folder: kitti_to_bag must take it as it is.
+  TempDir tmp;
+  SimOptions o;
+  o.frames = 2;
+  o.seed = 3;
+  const Simulator sim(o);
+  sim.writeSequence(tmp.str() + "/seq");
+  const KittiSequence seq(tmp.str() + "/seq");
+  writeKittiBag(seq, tmp.str() + "/sim.bag");
+  rosbag::Bag bag(tmp.str() + "/sim.bag", rosbag::bagmode::Read);
+  std::map<std::string, int> counts;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
+    ++counts[m.getTopic()];
+    if (m.getTopic() == "/kitti/velo/pointcloud") {
+      const auto msg = m.instantiate<sensor_msgs::PointCloud2>();
+      ASSERT_TRUE(msg);
+      LidarScan scan;
+      std::string err;
+      ASSERT_TRUE(ros_conv::fromPointCloud2(*msg, &scan, &err)) << err;
+      EXPECT_EQ(scan.size(), sim.renderScan(counts[m.getTopic()] - 1).size());
+      std::set<int> rings;
+      for (const auto& p : scan) rings.insert(p.ring);
+      EXPECT_EQ(rings.size(), 64u);
+    } else if (m.getTopic() == "/kitti/camera_color_left/camera_info") {
+      const auto msg = m.instantiate<sensor_msgs::CameraInfo>();
+      ASSERT_TRUE(msg);
+      EXPECT_EQ(msg->width, 1241u);
+      EXPECT_EQ(msg->height, 376u);
+      EXPECT_DOUBLE_EQ(msg->P[0], 718.856);
+    } else if (m.getTopic() == "/tf_static") {
+      const auto msg = m.instantiate<tf2_msgs::TFMessage>();
+      ASSERT_TRUE(msg);
+      ASSERT_EQ(msg->transforms.size(), 3u);
+      EXPECT_LT(poseError(ros_conv::fromTransformMsg(msg->transforms[1].transform).inverse(),
+                          sim.rig().T_cam_lidar)
+                    .norm(),
+                1e-6);
+    }
+  }
+  EXPECT_EQ(counts["/kitti/velo/pointcloud"], 2);
+  EXPECT_EQ(counts["/kitti/camera_color_right/image_raw"], 2);
 }
 
 TEST(Conversions, CloudWithoutRingNaNsAndEmpty) {

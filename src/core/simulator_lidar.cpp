@@ -1,0 +1,91 @@
+#include "tescalib/core/simulator_lidar.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "tescalib/core/scene_culling.h"
+#include "tescalib/core/scene_surface.h"
+#include "tescalib/core/simulator_parallel.h"
+#include "tescalib/core/simulator_random.h"
+
+namespace tescalib {
+namespace sim {
+
+namespace {
+constexpr int kAzimuthBins = 720;
+constexpr float kBeamDivergence = 0.002f;  // rad; the LiDAR's texture footprint
+}  // namespace
+
+LidarModel LidarModel::hdl64e() {
+  LidarModel m;
+  m.elevation_deg.resize(64);
+  for (int i = 0; i < 32; ++i) {
+    m.elevation_deg[i] = -24.9 + (24.9 - 8.83) * i / 31.0;      // lower block
+    m.elevation_deg[32 + i] = -8.33 + (8.33 + 2.0) * i / 31.0;  // upper block
+  }
+  return m;
+}
+
+LidarScan simulateLidarScan(const SceneWorld& world, const Eigen::Isometry3d& T_world_lidar,
+                            const LidarModel& model, const LidarNoise& noise, uint64_t seed,
+                            int threads) {
+  const Eigen::Matrix3f R = T_world_lidar.linear().cast<float>();
+  const Eigen::Vector3f origin = T_world_lidar.translation().cast<float>();
+  const TileCandidates sectors = cullSpinning(
+      world.prims, R.transpose(), origin, static_cast<float>(model.max_range) + 1.f, kAzimuthBins);
+  const int rings = static_cast<int>(model.elevation_deg.size());
+  const int n = model.points_per_ring;
+  const uint32_t seed32 = static_cast<uint32_t>(seed ^ (seed >> 32));
+  std::vector<LidarScan> per_ring(rings);
+  parallelFor(rings, resolveThreads(threads), [&](int order) {
+    const int ring = rings - 1 - order;  // stored top beam first
+    const double el = model.elevation_deg[ring] * M_PI / 180.0;
+    LidarScan& out = per_ring[order];
+    out.reserve(n);
+    for (int k = 0; k < n; ++k) {
+      const double az = 2 * M_PI * (k + 0.5) / n;  // counter-clockwise from the front
+      const Eigen::Vector3d omega(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
+                                  std::sin(el));
+      // Tangent basis N(omega) = [N1 N2]: azimuth and elevation directions.
+      const Eigen::Vector3d n1(-std::sin(az), std::cos(az), 0.0);
+      const Eigen::Vector3d n2 = omega.cross(n1);
+      const uint32_t id = static_cast<uint32_t>(ring * n + k);
+      const double w1 = noise.direction_sigma_rad * gaussianFromHash(hash32(seed32, id, 0u));
+      const double w2 = noise.direction_sigma_rad * gaussianFromHash(hash32(seed32, id, 1u));
+      const Eigen::Vector3f beam = (omega + w1 * n1 + w2 * n2).normalized().cast<float>();
+      const Eigen::Vector3f d = R * beam;
+      const int bin = azimuthBin(beam, kAzimuthBins);
+      const TraceResult hit = traceRay(world.prims, sectors.begin(bin, 0), sectors.end(bin, 0),
+                                       origin, d, static_cast<float>(model.max_range) + 1.f);
+      if (hit.prim == TraceResult::kNoHit) continue;
+      const double range = hit.t + noise.range_sigma * gaussianFromHash(hash32(seed32, id, 2u));
+      if (range > model.max_range || range < model.min_range) continue;
+      SurfacePoint sp = surfaceAt(world, hit, origin, d);
+      const Eigen::Vector3f t1 = sp.normal.unitOrthogonal();
+      sp.dpdx = hit.t * kBeamDivergence * t1;
+      sp.dpdy = hit.t * kBeamDivergence * sp.normal.cross(t1);
+      const SurfaceLook look = lookAt(world, hit, sp);
+      const float incidence = std::fabs(sp.normal.dot(d));
+      float intensity =
+          look.reflectivity * (0.35f + 0.65f * incidence) +
+          static_cast<float>(noise.intensity_sigma) * gaussianFromHash(hash32(seed32, id, 3u));
+      intensity = std::round(std::clamp(intensity, 0.f, 1.f) * 100.f) / 100.f;
+      LidarPoint p;
+      p.x = static_cast<float>(range * omega.x());
+      p.y = static_cast<float>(range * omega.y());
+      p.z = static_cast<float>(range * omega.z());
+      p.intensity = intensity;
+      p.ring = static_cast<uint16_t>(ring);
+      out.push_back(p);
+    }
+  });
+  LidarScan scan;
+  size_t total = 0;
+  for (const auto& r : per_ring) total += r.size();
+  scan.reserve(total);
+  for (const auto& r : per_ring) scan.insert(scan.end(), r.begin(), r.end());
+  return scan;
+}
+
+}  // namespace sim
+}  // namespace tescalib

@@ -1,0 +1,416 @@
+// Tests of the scene generator (tescalib_simulate's library): layout and ring order as KITTI,
+// ground truth consistent with what the images show (SGBM disparity, photometric error), noise
+// model, determinism, --calib honoured, and the scenarios' character.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <iterator>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "tescalib/core/consistency.h"
+#include "tescalib/core/error.h"
+#include "tescalib/core/geometry.h"
+#include "tescalib/core/kitti_reader.h"
+#include "tescalib/core/simulator.h"
+#include "test_util.h"
+
+using namespace tescalib;
+using tescalib_test::TempDir;
+namespace fs = std::filesystem;
+
+namespace {
+
+SimOptions options(Scenario scenario, int frames, uint64_t seed = 7) {
+  SimOptions o;
+  o.scenario = scenario;
+  o.frames = frames;
+  o.seed = seed;
+  return o;
+}
+
+/// OpenCV SGBM (128 disparities, block 5) on the grey images; disparity in px, invalid < 0.
+cv::Mat sgbmDisparity(const cv::Mat& left, const cv::Mat& right) {
+  cv::Mat gl, gr, d16, disp;
+  cv::cvtColor(left, gl, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(right, gr, cv::COLOR_BGR2GRAY);
+  const int block = 5;
+  auto sgbm = cv::StereoSGBM::create(0, 128, block, 8 * block * block, 32 * block * block, 1, 63,
+                                     10, 100, 2, cv::StereoSGBM::MODE_SGBM_3WAY);
+  sgbm->compute(gl, gr, d16);
+  d16.convertTo(disp, CV_32F, 1.0 / 16.0);
+  return disp;
+}
+
+struct DisparityComparison {
+  int projected = 0;             ///< LiDAR points inside the matched part of the image
+  int valid = 0;                 ///< of those, pixels where SGBM gave a disparity
+  double median_abs_diff = 1e9;  ///< median |SGBM - fx B / Z| over valid pixels (px)
+};
+
+/// LiDAR points projected with T_cam_lidar versus the SGBM disparity at their pixels.
+DisparityComparison compareWithLidar(const LidarScan& scan, const cv::Mat& disp,
+                                     const StereoRig& rig, const Eigen::Isometry3d& T_cam_lidar) {
+  DisparityComparison out;
+  std::vector<double> diffs;
+  const double fb = rig.left.fx * rig.baseline();
+  for (const auto& p : scan) {
+    const Eigen::Vector3d c = T_cam_lidar * Eigen::Vector3d(p.x, p.y, p.z);
+    if (c.z() < 3.0) continue;
+    const int u = static_cast<int>(std::lround(rig.left.fx * c.x() / c.z() + rig.left.cx));
+    const int v = static_cast<int>(std::lround(rig.left.fy * c.y() / c.z() + rig.left.cy));
+    if (u < 128 || v < 0 || u >= disp.cols || v >= disp.rows) continue;
+    ++out.projected;
+    const float d = disp.at<float>(v, u);
+    if (d <= 0.f) continue;
+    ++out.valid;
+    diffs.push_back(std::fabs(d - fb / c.z()));
+  }
+  if (!diffs.empty()) {
+    std::nth_element(diffs.begin(), diffs.begin() + diffs.size() / 2, diffs.end());
+    out.median_abs_diff = diffs[diffs.size() / 2];
+  }
+  return out;
+}
+
+float bilinear(const cv::Mat& img, double x, double y) {
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
+  const float a = img.at<float>(y0, x0), b = img.at<float>(y0, x0 + 1);
+  const float c = img.at<float>(y0 + 1, x0), d = img.at<float>(y0 + 1, x0 + 1);
+  return (1 - fy) * ((1 - fx) * a + fx * b) + fy * ((1 - fx) * c + fx * d);
+}
+
+/// Mean |I_right(u - d, v) - (a I_left(u, v) + b)| over the LiDAR points, with the disparity d of
+/// each point's true depth for a baseline scaled by `scale`.
+double photometricError(const Frame& f, const StereoRig& rig, double scale, double a, double b) {
+  cv::Mat lf, rf, gl, gr;
+  f.left.convertTo(lf, CV_32FC3);
+  f.right.convertTo(rf, CV_32FC3);
+  cv::cvtColor(lf, gl, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(rf, gr, cv::COLOR_BGR2GRAY);
+  const double fb = rig.left.fx * rig.baseline() * scale;
+  double sum = 0;
+  int n = 0;
+  for (const auto& p : f.scan) {
+    const Eigen::Vector3d c = rig.T_cam_lidar * Eigen::Vector3d(p.x, p.y, p.z);
+    if (c.z() < 3.0) continue;
+    const double u = rig.left.fx * c.x() / c.z() + rig.left.cx;
+    const double v = rig.left.fy * c.y() / c.z() + rig.left.cy;
+    const double ur = u - fb / c.z();
+    if (ur < 1 || u >= gl.cols - 2 || v < 1 || v >= gl.rows - 2) continue;
+    sum += std::fabs(bilinear(gr, ur, v) - (a * bilinear(gl, u, v) + b));
+    ++n;
+  }
+  return n > 0 ? sum / n : 1e9;
+}
+
+std::string readFile(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+/// Every regular file under dir, by relative path, with its bytes.
+std::map<std::string, std::string> readTree(const std::string& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) files[fs::relative(e.path(), dir).string()] = readFile(e.path());
+  return files;
+}
+
+/// "key: value" of sim_info.txt.
+std::map<std::string, std::string> readInfo(const std::string& path) {
+  std::map<std::string, std::string> kv;
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line)) {
+    const auto colon = line.find(':');
+    if (line.empty() || line[0] == '#' || colon == std::string::npos) continue;
+    kv[line.substr(0, colon)] = line.substr(colon + 2);
+  }
+  return kv;
+}
+
+/// Fraction of scan points higher than `height` m above the ground.
+double fractionAbove(const LidarScan& scan, const Eigen::Isometry3d& T_world_lidar, double height) {
+  int above = 0;
+  for (const auto& p : scan)
+    if ((T_world_lidar * Eigen::Vector3d(p.x, p.y, p.z)).z() > height) ++above;
+  return double(above) / double(scan.size());
+}
+
+}  // namespace
+
+TEST(Simulator, ParsesNamesAndRejectsBadOptions) {
+  Scenario s;
+  EXPECT_TRUE(sim::parseScenario("residential", &s));
+  EXPECT_EQ(s, Scenario::kResidential);
+  EXPECT_FALSE(sim::parseScenario("downtown", &s));
+  NoiseLevel n;
+  EXPECT_TRUE(parseNoiseLevel("high", &n));
+  EXPECT_EQ(n, NoiseLevel::kHigh);
+  EXPECT_FALSE(parseNoiseLevel("loud", &n));
+  EXPECT_DOUBLE_EQ(SimNoise::forLevel(NoiseLevel::kNone).image_sigma, 0.0);
+  EXPECT_DOUBLE_EQ(SimNoise::forLevel(NoiseLevel::kDefault).lidar_range_sigma_m, 0.02);
+  SimOptions bad = options(Scenario::kUrban, 0);
+  EXPECT_THROW(Simulator{bad}, DataError);
+  bad = options(Scenario::kUrban, 1);
+  bad.calib.Tr(0, 0) = 2.0;  // not a rotation
+  EXPECT_THROW(Simulator{bad}, DataError);
+  bad = options(Scenario::kUrban, 1);
+  bad.calib.P[3] = bad.calib.P[2];  // no baseline
+  EXPECT_THROW(Simulator{bad}, DataError);
+  // A folder with foreign files is not overwritten.
+  TempDir tmp;
+  std::ofstream(tmp.path / "precious.txt") << "keep";
+  EXPECT_THROW(simulateSequence(options(Scenario::kUrban, 1), tmp.str()), DataError);
+  EXPECT_TRUE(fs::exists(tmp.path / "precious.txt"));
+}
+
+TEST(Simulator, DefaultRigIsKittiLike) {
+  const Simulator sim(options(Scenario::kUrban, 1));
+  const StereoRig& rig = sim.rig();
+  EXPECT_DOUBLE_EQ(rig.left.fx, 718.856);
+  EXPECT_EQ(rig.left.width, 1241);
+  EXPECT_EQ(rig.left.height, 376);
+  EXPECT_NEAR(rig.baseline(), 0.54, 1e-9);
+  EXPECT_NEAR(rig.T_right_left.translation().x(), -0.54, 1e-9);
+  // LiDAR about 0.27 m behind and 0.08 m above cam0; the LiDAR sits 1.73 m above the ground.
+  EXPECT_NEAR(rig.T_cam_lidar.translation().norm(), 0.3, 0.1);
+  EXPECT_NEAR(sim.worldFromLidar(0).translation().z(), 1.73, 0.02);
+}
+
+TEST(Simulator, WritesKittiLayoutWithRingsPosesAndInfo) {
+  TempDir tmp;
+  const SimOptions o = options(Scenario::kUrban, 3);
+  const Simulator sim(o);
+  sim.writeSequence(tmp.str());
+  const KittiSequence seq(tmp.str());
+  ASSERT_EQ(seq.size(), 3u);
+  EXPECT_EQ(seq.rig().left.width, 1241);
+  EXPECT_EQ(seq.rig().left.height, 376);
+  EXPECT_NEAR(seq.stamp(2) - seq.stamp(1), 0.1, 1e-9);
+  EXPECT_LT(poseError(seq.rig().T_cam_lidar, sim.rig().T_cam_lidar).norm(), 1e-9);
+  for (size_t i = 0; i < seq.size(); ++i) {
+    SCOPED_TRACE("frame " + std::to_string(i));
+    const Frame f = seq.load(i);
+    EXPECT_EQ(f.left.type(), CV_8UC3);
+    // The reader recovers exactly the generator's rings from the storage order.
+    const LidarScan original = sim.renderScan(static_cast<int>(i));
+    ASSERT_EQ(f.scan.size(), original.size());
+    std::vector<int> per_ring(64, 0);
+    int mismatched = 0;
+    for (size_t k = 0; k < f.scan.size(); ++k) {
+      mismatched += f.scan[k].ring != original[k].ring;
+      ++per_ring[std::min<int>(f.scan[k].ring, 63)];
+    }
+    EXPECT_EQ(mismatched, 0);
+    std::set<int> rings;
+    for (const auto& p : f.scan) rings.insert(p.ring);
+    EXPECT_EQ(rings.size(), 64u);
+    EXPECT_LE(*std::max_element(per_ring.begin(), per_ring.end()), 2000);
+    EXPECT_GT(per_ring[0], 1900);  // the lowest beam always sees the ground
+    EXPECT_GT(f.scan.size(), 70000u);
+    EXPECT_LT(f.scan.size(), 128001u);
+    double max_range = 0, mean_i = 0, var_i = 0;
+    for (const auto& p : f.scan) {
+      max_range = std::max(max_range, std::sqrt(double(p.x) * p.x + p.y * p.y + p.z * p.z));
+      mean_i += p.intensity;
+      EXPECT_GE(p.intensity, 0.f);
+      EXPECT_LE(p.intensity, 1.f);
+    }
+    mean_i /= f.scan.size();
+    for (const auto& p : f.scan) var_i += (p.intensity - mean_i) * (p.intensity - mean_i);
+    EXPECT_LE(max_range, 120.0);
+    EXPECT_GT(std::sqrt(var_i / f.scan.size()), 0.05) << "intensity should vary with material";
+  }
+  // poses.txt: cam0 poses, identity first, moving forward (+z of cam0) at 8-14 m/s.
+  std::ifstream poses(tmp.path / "poses.txt");
+  std::vector<Eigen::Vector3d> positions;
+  std::string line;
+  while (std::getline(poses, line)) {
+    std::istringstream in(line);
+    std::vector<double> v{std::istream_iterator<double>(in), std::istream_iterator<double>()};
+    ASSERT_EQ(v.size(), 12u);
+    positions.emplace_back(v[3], v[7], v[11]);
+    if (positions.size() == 1) {
+      EXPECT_NEAR(v[0], 1.0, 1e-9);
+      EXPECT_NEAR(v[5], 1.0, 1e-9);
+      EXPECT_NEAR(v[10], 1.0, 1e-9);
+    }
+  }
+  ASSERT_EQ(positions.size(), 3u);
+  const Eigen::Vector3d step = positions[1] - positions[0];
+  EXPECT_GT(step.z(), 0.8);
+  EXPECT_LT(step.norm(), 1.4);
+  EXPECT_LT(std::fabs(step.x()), 0.1);
+  EXPECT_LT((sim.cam0Pose(2).translation() - positions[2]).norm(), 1e-9);
+  const auto info = readInfo((tmp.path / "sim_info.txt").string());
+  EXPECT_EQ(info.at("scenario"), "urban");
+  EXPECT_EQ(info.at("seed"), "7");
+  EXPECT_NEAR(std::stod(info.at("brightness_a")), o.right_gain / o.left_gain, 1e-9);
+  EXPECT_NEAR(std::stod(info.at("brightness_b")), o.right_offset, 1e-9);
+}
+
+TEST(Simulator, GroundTruthAgreesWithSgbmAndPhotometry) {
+  const SimOptions o = options(Scenario::kUrban, 21);
+  const Simulator sim(o);
+  for (int i : {0, 20}) {
+    SCOPED_TRACE("frame " + std::to_string(i));
+    const Frame f = sim.renderFrame(i);
+    const cv::Mat disp = sgbmDisparity(f.left, f.right);
+    const DisparityComparison c = compareWithLidar(f.scan, disp, sim.rig(), sim.rig().T_cam_lidar);
+    std::cout << "[ sgbm     ] frame " << i << ": " << c.valid << " of " << c.projected
+              << " LiDAR pixels have an SGBM disparity, median |diff| " << c.median_abs_diff
+              << " px\n";
+    EXPECT_GT(c.projected, 12000);
+    EXPECT_GT(c.valid, 0.8 * c.projected) << "SGBM disparity should be dense";
+    EXPECT_LT(c.median_abs_diff, 0.5);
+    // Photometric error along the true disparity, with the known brightness affine: minimal at
+    // the true baseline, and the affine explains the left/right brightness difference.
+    const double a = o.right_gain / o.left_gain, b = o.right_offset - a * o.left_offset;
+    std::map<double, double> err;
+    for (double s : {0.9, 0.97, 1.0, 1.03, 1.1}) err[s] = photometricError(f, sim.rig(), s, a, b);
+    std::cout << "[ photo    ] mean |I_r - (a I_l + b)| at baseline x0.9 " << err[0.9] << ", x0.97 "
+              << err[0.97] << ", x1 " << err[1.0] << ", x1.03 " << err[1.03] << ", x1.1 "
+              << err[1.1] << "\n";
+    for (double s : {0.9, 0.97, 1.03, 1.1}) EXPECT_LT(err[1.0], err[s]) << "scale " << s;
+    EXPECT_LT(err[1.0], 0.6 * err[0.9]);
+    EXPECT_LT(err[1.0], 0.6 * err[1.1]);
+    EXPECT_LT(err[1.0], 0.7 * photometricError(f, sim.rig(), 1.0, 1.0, 0.0));
+  }
+}
+
+TEST(Simulator, LidarNoiseFollowsTheNoiseLevel) {
+  // Height above the road of the points that hit it: exactly 0 without noise; with noise it
+  // spreads by about sigma_d * sin(elevation) plus range * sigma_l.
+  std::map<NoiseLevel, double> spread;
+  for (NoiseLevel level : {NoiseLevel::kNone, NoiseLevel::kDefault, NoiseLevel::kHigh}) {
+    SimOptions o = options(Scenario::kHighway, 1);
+    o.noise = level;
+    const Simulator sim(o);
+    const LidarScan scan = sim.renderScan(0);
+    const Eigen::Isometry3d T = sim.worldFromLidar(0);
+    std::vector<double> heights;
+    for (const auto& p : scan) {
+      const double z = (T * Eigen::Vector3d(p.x, p.y, p.z)).z();
+      if (std::fabs(z) < 0.2 && std::hypot(p.x, p.y) < 12.0) heights.push_back(std::fabs(z));
+    }
+    ASSERT_GT(heights.size(), 10000u);
+    std::nth_element(heights.begin(), heights.begin() + heights.size() / 2, heights.end());
+    spread[level] = heights[heights.size() / 2];
+  }
+  std::cout << "[ noise    ] median |height| of road points: none " << spread[NoiseLevel::kNone]
+            << " m, default " << spread[NoiseLevel::kDefault] << " m, high "
+            << spread[NoiseLevel::kHigh] << " m\n";
+  EXPECT_LT(spread[NoiseLevel::kNone], 1e-4);  // exact geometry without noise
+  EXPECT_GT(spread[NoiseLevel::kDefault], 0.002);
+  EXPECT_LT(spread[NoiseLevel::kDefault], 0.015);
+  EXPECT_GT(spread[NoiseLevel::kHigh], 2.0 * spread[NoiseLevel::kDefault]);
+}
+
+TEST(Simulator, SameSeedSameBytesAnyThreadCount) {
+  TempDir a, b, c;
+  SimOptions o = options(Scenario::kResidential, 2, 11);
+  o.threads = 1;
+  simulateSequence(o, a.str());
+  o.threads = 2;
+  simulateSequence(o, b.str());
+  const auto fa = readTree(a.str()), fb = readTree(b.str());
+  ASSERT_EQ(fa.size(), 10u);  // calib, times, poses, sim_info, 2 x (2 images + 1 scan)
+  for (const auto& [name, bytes] : fa) {
+    ASSERT_TRUE(fb.count(name)) << name;
+    EXPECT_TRUE(bytes == fb.at(name)) << name << " differs between two runs";
+  }
+  // Rewriting into an earlier output replaces it; another seed gives other data.
+  o.seed = 12;
+  simulateSequence(o, b.str());
+  const auto fc = readTree(b.str());
+  EXPECT_EQ(fc.size(), fa.size());
+  EXPECT_NE(fc.at("image_2/000000.png"), fa.at("image_2/000000.png"));
+  EXPECT_NE(fc.at("velodyne/000001.bin"), fa.at("velodyne/000001.bin"));
+  EXPECT_EQ(fc.at("calib.txt"), fa.at("calib.txt"));
+  // Rows and rings rendered on several threads give the same frame as on one.
+  const Simulator sim(o);
+  const Frame one = sim.renderFrame(1, 1), two = sim.renderFrame(1, 2);
+  EXPECT_EQ(cv::norm(one.left, two.left, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(one.right, two.right, cv::NORM_INF), 0.0);
+  ASSERT_EQ(one.scan.size(), two.scan.size());
+  int differing = 0;
+  for (size_t k = 0; k < one.scan.size(); ++k) {
+    const LidarPoint &p = one.scan[k], &q = two.scan[k];
+    differing +=
+        p.x != q.x || p.y != q.y || p.z != q.z || p.intensity != q.intensity || p.ring != q.ring;
+  }
+  EXPECT_EQ(differing, 0);
+}
+
+TEST(Simulator, CalibFileBecomesTheGroundTruth) {
+  // A rig whose camera is rotated by about 2.3 deg and shifted by 17 cm relative to the default.
+  KittiOdometryCalib calib = defaultSimCalib();
+  const Eigen::Matrix3d R = tescalib::expSO3(Eigen::Vector3d(1.5, -1.0, 1.5) / kDegPerRad);
+  calib.Tr.leftCols<3>() = R * calib.Tr.leftCols<3>();
+  calib.Tr.col(3) += Eigen::Vector3d(0.1, -0.05, 0.12);
+  TempDir tmp;
+  const std::string calib_path = (tmp.path / "my_calib.txt").string();
+  writeKittiOdometryCalib(calib_path, calib);
+  SimOptions o = options(Scenario::kUrban, 1, 5);
+  o.calib = readKittiOdometryCalib(calib_path);
+  simulateSequence(o, (tmp.path / "seq").string());
+  const KittiSequence seq((tmp.path / "seq").string());
+  const StereoRig expected = rigFromOdometryCalib(calib);
+  EXPECT_LT(poseError(seq.rig().T_cam_lidar, expected.T_cam_lidar).norm(), 1e-6);
+  const Frame f = seq.load(0);
+  const cv::Mat disp = sgbmDisparity(f.left, f.right);
+  const DisparityComparison right_gt =
+      compareWithLidar(f.scan, disp, seq.rig(), seq.rig().T_cam_lidar);
+  const Eigen::Isometry3d old_T = Simulator(options(Scenario::kUrban, 1)).rig().T_cam_lidar;
+  const DisparityComparison old_gt = compareWithLidar(f.scan, disp, seq.rig(), old_T);
+  std::cout << "[ calib    ] median |SGBM - LiDAR disparity|: given calib "
+            << right_gt.median_abs_diff << " px, default calib " << old_gt.median_abs_diff
+            << " px\n";
+  EXPECT_LT(right_gt.median_abs_diff, 0.5);
+  EXPECT_GT(old_gt.median_abs_diff, 1.0);
+  const DisparityAgreement agree =
+      lidarDisparityAgreement(f.scan, f.left, f.right, seq.rig(), seq.rig().T_cam_lidar);
+  EXPECT_EQ(agree.best_global_shift, 0);
+  EXPECT_GT(agree.fraction_within_1px, 0.8);
+}
+
+TEST(Simulator, HighwayHasHardlyAnyVerticalStructure) {
+  std::map<Scenario, double> above;
+  for (Scenario s : {Scenario::kUrban, Scenario::kResidential, Scenario::kHighway}) {
+    const Simulator sim(options(s, 31, 3));
+    double sum = 0;
+    for (int i : {0, 15, 30}) sum += fractionAbove(sim.renderScan(i), sim.worldFromLidar(i), 1.5);
+    above[s] = sum / 3;
+  }
+  std::cout << "[ scenario ] LiDAR points more than 1.5 m above the ground: urban "
+            << above[Scenario::kUrban] << ", residential " << above[Scenario::kResidential]
+            << ", highway " << above[Scenario::kHighway] << "\n";
+  EXPECT_GT(above[Scenario::kUrban], 0.1);
+  EXPECT_GT(above[Scenario::kResidential], 0.05);
+  EXPECT_LT(above[Scenario::kHighway], 0.01);
+  EXPECT_LT(above[Scenario::kHighway], 0.1 * above[Scenario::kResidential]);
+  EXPECT_LT(above[Scenario::kHighway], 0.1 * above[Scenario::kUrban]);
+}
+
+TEST(Simulator, VehicleDrivesAtCitySpeedsOnGentleCurves) {
+  const Simulator sim(options(Scenario::kUrban, 600, 9));
+  double max_yaw_rate = 0;
+  for (int i = 1; i < 600; ++i) {
+    const Eigen::Isometry3d a = sim.worldFromLidar(i - 1), b = sim.worldFromLidar(i);
+    const double v = (b.translation() - a.translation()).norm() / 0.1;
+    EXPECT_GE(v, 7.9);
+    EXPECT_LE(v, 14.1);
+    max_yaw_rate = std::max(max_yaw_rate, logSO3(a.linear().transpose() * b.linear()).norm() / 0.1);
+  }
+  EXPECT_LT(max_yaw_rate * kDegPerRad, 6.0);  // deg/s: radii of hundreds of metres
+}
