@@ -132,6 +132,7 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
   const int e = s.edge_dilation;
   cv::dilate(edge, edge, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * e + 1, 2 * e + 1)));
   disp.setTo(nan, edge);
+  refineDisparity(left, right, &disp, s.refinement);
   out.disparity = disp;
 
   for (int v = k; v < disp.rows - k; v += s.sample_step) {

@@ -28,6 +28,8 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "stereo/block_size", &p->online.keyframe.stereo.block_size);
   get(pnh, "stereo/max_depth", &p->online.keyframe.stereo.max_depth);
   get(pnh, "stereo/disparity_sigma", &p->online.keyframe.stereo.disparity_sigma);
+  get(pnh, "stereo/refine_iterations", &p->online.keyframe.stereo.refinement.iterations);
+  get(pnh, "stereo/refine_window_radius", &p->online.keyframe.stereo.refinement.window_radius);
   get(pnh, "lidar_stereo/normal_weight", &p->online.co.lidar.normal_weight);
   get(pnh, "lidar_stereo/lidar_range_sigma", &p->online.co.lidar.lidar_range_sigma);
   get(pnh, "lidar_stereo/max_depth", &p->online.co.lidar.max_depth);
@@ -61,6 +63,13 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.keyframe.stereo.block_size < 1 || o.keyframe.stereo.block_size % 2 == 0)
     e << "stereo/block_size must be odd (got " << o.keyframe.stereo.block_size << "); ";
   if (o.keyframe.stereo.disparity_sigma <= 0) e << "stereo/disparity_sigma must be > 0; ";
+  if (o.keyframe.stereo.refinement.iterations < 0 || o.keyframe.stereo.refinement.iterations > 5)
+    e << "stereo/refine_iterations must be between 0 and 5 (got "
+      << o.keyframe.stereo.refinement.iterations << "); ";
+  if (o.keyframe.stereo.refinement.window_radius < 1 ||
+      o.keyframe.stereo.refinement.window_radius > 15)
+    e << "stereo/refine_window_radius must be between 1 and 15 px (got "
+      << o.keyframe.stereo.refinement.window_radius << "); ";
   if (o.co.max_rounds < 1) e << "co_calibration/max_rounds must be >= 1; ";
   if (o.co.stereo.pyramid_levels < 1 || o.co.stereo.pyramid_levels > 5)
     e << "photometric/pyramid_levels must be in [1, 5]; ";

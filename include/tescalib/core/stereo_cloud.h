@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "tescalib/core/disparity_refinement.h"
 #include "tescalib/core/types.h"
 
 namespace tescalib {
@@ -27,7 +28,8 @@ struct StereoSettings {
   int normal_scale = 3;          ///< px; half-width of the finite differences for normals
   double max_second_diff = 1.5;  ///< px; disparity is affine on a plane: larger curvature = edge
   int edge_dilation = 2;         ///< px removed around an edge (SGBM fattens foreground ~block/2)
-  double disparity_sigma = 0.35;  ///< px; SGBM sub-pixel noise used by the noise model
+  double disparity_sigma = 0.35;           ///< px; SGBM sub-pixel noise used by the noise model
+  DisparityRefinementSettings refinement;  ///< slanted-window sub-pixel refinement after SGBM
 };
 
 /// A stereo point in the left camera frame.
