@@ -59,6 +59,7 @@ struct Association {
   Eigen::Vector3d p_l, n_l;  ///< face centroid and normal in the LiDAR frame
   Eigen::Vector3d p_s, n_s;  ///< stereo point and normal (camera frame)
   double inv_sigma = 1.0;
+  int cluster = 0;  ///< keyframe and image cell, for the cluster-robust covariance
 };
 
 /// Solves the 6-DoF update of one association set; returns [phi; tau].
@@ -231,8 +232,14 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                              dFdd * dFdd * s.disparity_sigma * s.disparity_sigma;
           const double inv_sigma = 1.0 / std::sqrt(var);
           if (std::fabs(m.dot(c - scale * ps)) * inv_sigma > s.fine_gate_sigma) continue;
+          const int cell =
+              std::clamp(static_cast<int>(u * s.cov_cells_x / st.disparity.cols), 0,
+                         s.cov_cells_x - 1) +
+              s.cov_cells_x * std::clamp(static_cast<int>(v * s.cov_cells_y / st.disparity.rows), 0,
+                                         s.cov_cells_y - 1);
           as.push_back({q, m, f.centroid.cast<double>(), f.normal.cast<double>(), ps,
-                        Eigen::Vector3d::Zero(), inv_sigma});
+                        Eigen::Vector3d::Zero(), inv_sigma,
+                        static_cast<int>(k) * s.cov_cells_x * s.cov_cells_y + cell});
         }
       }
       res.fine_inliers = static_cast<int>(as.size());
@@ -255,10 +262,23 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   // ---------------------------------------------------------------- information, honesty
   // Analytic Jacobian of r = (R m)^T (R q + t - s) / sigma at the estimate:
   //   dr/dphi = (m x (t - s))^T / sigma,  dr/dtau = m^T / sigma  (m, q already rotated).
+  // H = sum w J^T J is the information of eq. residual_uncertainty: the residuals are already
+  // divided by their noise-model sigma (J_w Sigma J_w^T of the paper), so H^-1 is the paper's
+  // covariance. It assumes independent residuals; neighbouring residuals share SGBM and
+  // association errors, so it is over-confident. The published covariance is the
+  // cluster-robust sandwich H^-1 (sum_c g_c g_c^T) H^-1 with g_c = sum_{i in c} w_i J_i^T r_i
+  // over clusters c = (keyframe, image cell): errors shared inside a cell count once (never below
+  // the paper's covariance scaled by the residuals' robust variance). Neither sees errors common
+  // to the whole window (association and matching biases), so a calibrated model-error
+  // covariance is added.
   std::vector<double> abs_res;
   Matrix6d H = Matrix6d::Zero();
+  std::vector<Vector6d> scores;
   double cost = 0;
   if (!as.empty()) {
+    int n_clusters = 0;
+    for (const auto& a0 : as) n_clusters = std::max(n_clusters, a0.cluster + 1);
+    scores.assign(n_clusters, Vector6d::Zero());
     for (const auto& a0 : as) {
       Eigen::Matrix<double, 1, 6> J;
       const Eigen::Vector3d m = T.linear() * a0.n_l, q = T.linear() * a0.p_l;
@@ -268,6 +288,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       J.tail<3>() = m.transpose() * a0.inv_sigma;
       const double w = std::fabs(r) <= s.fine_huber ? 1.0 : s.fine_huber / std::fabs(r);
       H += w * J.transpose() * J;
+      scores[a0.cluster] += w * r * J.transpose();
       cost += w * r * r;
       abs_res.push_back(std::fabs(r));
     }
@@ -281,7 +302,28 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   if (!as.empty()) {
     Eigen::SelfAdjointEigenSolver<Matrix6d> eig(H);
     if (eig.eigenvalues().minCoeff() > 1e-12) {
-      res.covariance = res.residual_scale * res.residual_scale * H.inverse();
+      const Matrix6d H_inv = H.inverse();
+      res.covariance_model = H_inv;
+      Matrix6d M = Matrix6d::Zero();
+      int used = 0;
+      for (const Vector6d& g : scores)
+        if (g.squaredNorm() > 0) M += g * g.transpose(), ++used;
+      if (used > 1) M *= double(used) / double(used - 1);  // small-sample correction
+      res.covariance = H_inv * M * H_inv;
+      res.covariance = 0.5 * (res.covariance + res.covariance.transpose()).eval();
+      // Never below the paper's model scaled by the residuals' own spread.
+      const Matrix6d floor = res.residual_scale * res.residual_scale * H_inv;
+      for (int i = 0; i < 6; ++i)
+        if (!(res.covariance(i, i) >= floor(i, i))) {
+          res.covariance = floor;
+          break;
+        }
+      // Model error that more data does not average away (calibrated on generated drives, see
+      // the README): added per axis.
+      for (int i = 0; i < 3; ++i) {
+        res.covariance(i, i) += std::pow(s.model_sigma_rot_deg[i] / kDegPerRad, 2);
+        res.covariance(3 + i, 3 + i) += std::pow(s.model_sigma_trans_m[i], 2);
+      }
       all_observable = true;
       for (int i = 0; i < 6; ++i) {
         const double sigma = std::sqrt(res.covariance(i, i));
@@ -290,7 +332,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
         all_observable = all_observable && res.observable[i];
       }
     } else {
-      res.covariance = Matrix6d::Identity() * 1e6;
+      res.covariance = res.covariance_model = Matrix6d::Identity() * 1e6;
     }
   }
   const Vector6d correction = poseError(T, T_init);

@@ -41,6 +41,9 @@ struct Args {
   int window = 20;
   std::string json;
   std::string stages = "coarse,fine";
+  int cov_cells_x = -1, cov_cells_y = -1;  ///< -1: the solver default
+  double cov_model_scale = -1;             ///< scales the solver's model-error sigmas (0: none)
+  std::string windows = "first";  ///< first: the first W keyframes; disjoint: every W in turn
 };
 
 void usage() {
@@ -50,6 +53,7 @@ void usage() {
          "T]\n"
          "         [--init-stereo-rot-deg R] [--init-stereo-trans-m T] [--seed S] [--window W]\n"
          "         [--json FILE] [--stages coarse,fine] [--lidar-rot-deg R --lidar-trans-m T]\n"
+         "         [--windows first|disjoint] [--cov-cells XxY] [--cov-model-scale K]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
@@ -59,7 +63,9 @@ void usage() {
          "tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds the first W.\n"
          "A trial perturbs the ground truth by exactly R deg about a random axis and T m in a "
          "random\n"
-         "direction and succeeds when the error is below 0.2 deg and 3 cm.\n";
+         "direction and succeeds when the error is below 0.2 deg and 3 cm.\n"
+         "--windows disjoint splits all keyframes into consecutive windows of W and trial t uses\n"
+         "window t mod (number of windows): independent windows, so mean NEES means something.\n";
 }
 
 std::vector<std::string> split(const std::string& s, char sep) {
@@ -112,6 +118,15 @@ bool parse(int argc, char** argv, Args* a) {
         a->lidar_rot_deg = std::stod(v);
       else if (k == "--lidar-trans-m")
         a->lidar_trans_m = std::stod(v);
+      else if (k == "--windows")
+        a->windows = v;
+      else if (k == "--cov-cells") {
+        const auto x = v.find('x');
+        if (x == std::string::npos) throw std::invalid_argument(v);
+        a->cov_cells_x = std::stoi(v.substr(0, x));
+        a->cov_cells_y = std::stoi(v.substr(x + 1));
+      } else if (k == "--cov-model-scale")
+        a->cov_model_scale = std::stod(v);
       else {
         std::cerr << "tescalib_eval: unknown option " << k << "\n";
         return false;
@@ -120,6 +135,10 @@ bool parse(int argc, char** argv, Args* a) {
       std::cerr << "tescalib_eval: bad value '" << v << "' for " << k << "\n";
       return false;
     }
+  }
+  if (a->windows != "first" && a->windows != "disjoint") {
+    std::cerr << "tescalib_eval: --windows must be first or disjoint\n";
+    return false;
   }
   if (a->sequences.empty()) {
     std::cerr << "tescalib_eval: --sequences is required\n";
@@ -185,6 +204,9 @@ struct Trial {
   bool converged = false;
   ExtrinsicOutcome lidar, stereo;
   double nees = std::nan("");
+  double nees_model = std::nan("");  ///< NEES with the paper's covariance (lidar_stereo mode)
+  Matrix6d lidar_cov_model = Matrix6d::Constant(std::nan(""));
+  int window_index = 0;
   double preprocess = 0, solve = 0;
   int iterations = 0;
   std::vector<Eigen::Vector2d> brightness;  ///< stereo mode: per keyframe (a, b)
@@ -212,7 +234,7 @@ int main(int argc, char** argv) {
         throw DataError(dir + ": calibration differs from " + args.sequences.front() +
                         " (a window must share one calibration)");
       for (size_t i : seqs.back()->keyframes(0.5))
-        if (static_cast<int>(keyframes.size()) < args.window)
+        if (args.windows == "disjoint" || static_cast<int>(keyframes.size()) < args.window)
           keyframes.emplace_back(seqs.size() - 1, i);
     }
   } catch (const DataError& e) {
@@ -220,10 +242,20 @@ int main(int argc, char** argv) {
     return 1;
   }
   const StereoRig rig = seqs.front()->rig();
+  const size_t window_size =
+      args.windows == "disjoint" ? static_cast<size_t>(args.window) : keyframes.size();
+  const size_t n_windows = window_size > 0 ? keyframes.size() / window_size : 0;
+  if (n_windows == 0) {
+    std::cerr << "tescalib_eval: not enough keyframes (" << keyframes.size()
+              << ") for one window of " << window_size << "\n";
+    return 1;
+  }
+  keyframes.resize(n_windows * window_size);
   std::cout << "tescalib_eval: mode " << args.mode << ", method " << args.method << ", "
             << keyframes.size() << " keyframes from " << seqs.size() << " sequence(s), "
-            << args.trials << " trials, init " << args.init_rot_deg << " deg / "
-            << args.init_trans_m << " m, seed " << args.seed << "\n";
+            << n_windows << " window(s) of " << window_size << ", " << args.trials
+            << " trials, init " << args.init_rot_deg << " deg / " << args.init_trans_m
+            << " m, seed " << args.seed << "\n";
 
   // Stereo clouds do not depend on the LiDAR extrinsic: computed once (stereo fixed at the
   // ground truth in lidar_stereo mode). Meshes depend on the view filter of the initial guess and
@@ -232,6 +264,7 @@ int main(int argc, char** argv) {
   std::vector<Frame> frames;
   std::vector<Keyframe> base;
   double stereo_seconds = 0;
+  std::vector<double> kf_stereo_seconds;
   try {
     for (const auto& [si, fi] : keyframes) {
       frames.push_back(seqs[si]->load(fi));
@@ -248,6 +281,7 @@ int main(int argc, char** argv) {
                                      kfs.stereo);
       kf.T_right_left_used = rig.T_right_left;
       stereo_seconds += kf.stereo.seconds_total;
+      kf_stereo_seconds.push_back(kf.stereo.seconds_total);
       const cv::Mat& disp = kf.stereo.disparity;
       const double valid = double(cv::countNonZero(disp == disp)) / disp.total();  // NaN != NaN
       std::printf("  keyframe %zu: %zu stereo points, %.0f %% valid disparity, SGBM %.3f s\n",
@@ -263,6 +297,12 @@ int main(int argc, char** argv) {
   solver_settings.disparity_sigma = kfs.stereo.disparity_sigma;
   solver_settings.run_coarse = args.stages.find("coarse") != std::string::npos;
   solver_settings.run_fine = args.stages.find("fine") != std::string::npos;
+  if (args.cov_cells_x > 0) solver_settings.cov_cells_x = args.cov_cells_x;
+  if (args.cov_cells_y > 0) solver_settings.cov_cells_y = args.cov_cells_y;
+  if (args.cov_model_scale >= 0) {
+    for (double& v : solver_settings.model_sigma_rot_deg) v *= args.cov_model_scale;
+    for (double& v : solver_settings.model_sigma_trans_m) v *= args.cov_model_scale;
+  }
   std::vector<Trial> trials;
   std::cout << " trial  conv  init(deg,m)    err rot [x y z] deg          err trans [x y z] cm"
                "        sigma(deg,cm)   iters  prep(s) solve(s)\n";
@@ -289,21 +329,33 @@ int main(int argc, char** argv) {
     // Per-trial meshes, view-filtered with the initial guess (never the ground truth).
     const auto t_pre = Clock::now();
     const LidarMeshSettings ms = meshSettingsForView(rig, T_init, kfs);
+    tr.window_index = static_cast<int>(t % n_windows);
+    const size_t first = tr.window_index * window_size;
+    std::vector<Keyframe*> mwin;
+    double window_stereo_seconds = 0;
+    for (size_t k = first; k < first + window_size; ++k) {
+      mwin.push_back(&base[k]);
+      if (k < kf_stereo_seconds.size()) window_stereo_seconds += kf_stereo_seconds[k];
+    }
     std::vector<const Keyframe*> window;
-    for (auto& kf : base) {
+    for (Keyframe* kfp : mwin) {
+      Keyframe& kf = *kfp;
       kf.mesh = buildLidarMesh(kf.scan, ms);
       if (t == 0)
         std::printf("  keyframe %zu: %zu LiDAR faces in view\n", window.size(),
                     kf.mesh.faces.size());
       window.push_back(&kf);
     }
-    tr.preprocess = std::chrono::duration<double>(Clock::now() - t_pre).count() + stereo_seconds;
+    tr.preprocess =
+        std::chrono::duration<double>(Clock::now() - t_pre).count() + window_stereo_seconds;
     const auto t_solve = Clock::now();
     Eigen::Isometry3d T_est = T_init;
     if (co_mode) {
-      std::vector<Keyframe*> mwin;
-      for (auto& kf : base) mwin.push_back(&kf);
       CoCalibrationSettings cs;
+      cs.lidar.cov_cells_x = solver_settings.cov_cells_x;
+      cs.lidar.cov_cells_y = solver_settings.cov_cells_y;
+      cs.lidar.model_sigma_rot_deg = solver_settings.model_sigma_rot_deg;
+      cs.lidar.model_sigma_trans_m = solver_settings.model_sigma_trans_m;
       const CoCalibrationResult r =
           coCalibrate(mwin, rig, T_init, perturb(rig.T_right_left, tr.stereo.init), cs);
       tr.converged = r.converged;
@@ -330,6 +382,7 @@ int main(int argc, char** argv) {
       tr.converged = r.converged;
       tr.iterations = r.iterations;
       tr.lidar.cov = r.covariance;
+      tr.lidar_cov_model = r.covariance_model;
       tr.message = r.message;
     } else {
       const GicpBaselineResult r = solveGicpBaseline(window, T_init);
@@ -343,6 +396,8 @@ int main(int argc, char** argv) {
     if (args.method == "tescalib") {
       Eigen::LDLT<Matrix6d> ldlt(est.cov);
       tr.nees = est.err.dot(ldlt.solve(est.err));
+      if (tr.lidar_cov_model.allFinite())
+        tr.nees_model = est.err.dot(tr.lidar_cov_model.ldlt().solve(est.err));
       if (co_mode) {  // mean of both extrinsics' 6-DoF NEES
         Eigen::LDLT<Matrix6d> ldlt_s(tr.stereo.cov);
         tr.nees = 0.5 * (tr.nees + tr.stereo.err.dot(ldlt_s.solve(tr.stereo.err)));
@@ -385,21 +440,27 @@ int main(int argc, char** argv) {
     for (const auto& e : estimated) ok = ok && (tr.*(e.second)).success();
     return ok;
   };
-  std::vector<double> pre, sol, nees;
+  std::vector<double> pre, sol, nees, nees_model;
   int ok_all = 0;
   for (const auto& tr : trials) {
     pre.push_back(tr.preprocess);
     sol.push_back(tr.solve);
     if (std::isfinite(tr.nees)) nees.push_back(tr.nees);
+    if (std::isfinite(tr.nees_model)) nees_model.push_back(tr.nees_model);
     ok_all += trialSuccess(tr);
+  }
+  double mean_nees_model = std::nan("");
+  if (!nees_model.empty()) {
+    mean_nees_model = 0;
+    for (double v : nees_model) mean_nees_model += v / nees_model.size();
   }
   double mean_nees = std::nan("");
   if (!nees.empty()) {
     mean_nees = 0;
     for (double v : nees) mean_nees += v / nees.size();
   }
-  std::printf("\nsummary (%s, %s, window %zu, %zu trials)\n", args.mode.c_str(),
-              args.method.c_str(), keyframes.size(), trials.size());
+  std::printf("\nsummary (%s, %s, %zu window(s) of %zu, %zu trials)\n", args.mode.c_str(),
+              args.method.c_str(), n_windows, window_size, trials.size());
   std::printf("  success rate (< 0.2 deg and < 3 cm%s): %.1f %%\n",
               estimated.size() > 1 ? ", both extrinsics" : "", 100.0 * ok_all / trials.size());
   std::ostringstream summary_json;
@@ -435,8 +496,11 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "  time per window: preprocess %.2f s (stereo %.2f s, %zu keyframes), solve median %.2f s\n",
-      median(pre), stereo_seconds, keyframes.size(), median(sol));
+      median(pre), stereo_seconds / n_windows, window_size, median(sol));
   if (std::isfinite(mean_nees)) std::printf("  mean NEES (6 DoF, ideal 6): %.2f\n", mean_nees);
+  if (std::isfinite(mean_nees_model))
+    std::printf("  mean NEES with the paper's covariance alone (eq. residual_uncertainty): %.2f\n",
+                mean_nees_model);
 
   if (!args.json.empty()) {
     std::ofstream js(args.json);
@@ -445,10 +509,12 @@ int main(int argc, char** argv) {
       return 1;
     }
     js << std::setprecision(10) << "{\"mode\": \"" << args.mode << "\", \"method\": \""
-       << args.method << "\", \"window\": " << keyframes.size() << ", \"trials\": [\n";
+       << args.method << "\", \"window\": " << window_size << ", \"windows\": " << n_windows
+       << ", \"trials\": [\n";
     for (size_t i = 0; i < trials.size(); ++i) {
       const auto& tr = trials[i];
-      js << "  {\"seed\": " << tr.seed << ", \"converged\": " << (tr.converged ? "true" : "false")
+      js << "  {\"seed\": " << tr.seed << ", \"window_index\": " << tr.window_index
+         << ", \"converged\": " << (tr.converged ? "true" : "false")
          << ", \"success\": " << (trialSuccess(tr) ? "true" : "false")
          << ", \"lidar\": " << tr.lidar.json();
       if (stereo_mode || co_mode) {
@@ -459,6 +525,7 @@ int main(int argc, char** argv) {
         js << "]";
       }
       js << ", \"nees\": " << (std::isfinite(tr.nees) ? tr.nees : -1.0)
+         << ", \"nees_model\": " << (std::isfinite(tr.nees_model) ? tr.nees_model : -1.0)
          << ", \"seconds\": {\"preprocess\": " << tr.preprocess << ", \"solve\": " << tr.solve
          << ", \"total\": " << tr.preprocess + tr.solve << "}}"
          << (i + 1 < trials.size() ? ",\n" : "\n");
@@ -466,6 +533,7 @@ int main(int argc, char** argv) {
     js << "], \"summary\": {" << summary_json.str()
        << "\"success_rate\": " << double(ok_all) / trials.size()
        << ", \"mean_nees\": " << (std::isfinite(mean_nees) ? mean_nees : -1.0)
+       << ", \"mean_nees_model\": " << (std::isfinite(mean_nees_model) ? mean_nees_model : -1.0)
        << ", \"seconds\": {\"preprocess\": " << median(pre) << ", \"solve\": " << median(sol)
        << "}}}\n";
     std::cout << "wrote " << args.json << "\n";
