@@ -1,111 +1,201 @@
 #!/usr/bin/env python3
-"""Waits for tescalib's first published estimates and prints them, their per-axis sigma and their
-error against the reference on /tf_static (the dataset's calibration), then exits.
-After the first estimate it keeps listening for `settle_s` seconds (the window keeps filling) and
-reports the last one. Usage: demo_report.py [timeout_s] [settle_s] [reference_camera_frame]"""
-import math
-import time
+"""Listens to a running tescalib pipeline (roslaunch tescalib kitti.launch ...) and prints what it
+measured: the last published extrinsics (T_cam_lidar and, when co-calibrating, T_right_left), their
+per-axis sigma and observability, their error against a reference, and the node's timings from
+/diagnostics (first estimate, keyframe builds, solves, keyframe-to-estimate latency, drops).
+
+The reference is the generator's ground truth (--ground-truth DIR/sim_info.txt) or, for a real
+KITTI bag, the dataset's calibration on /tf_static (--ref-tf-frame camera_color_left).
+
+It stops when the bag has ended (/clock stood still for --idle s) and the node is idle (two
+diagnostics in a row without a solve running or a set pending), or --settle s after the first
+estimate (for a looping bag), or at --timeout."""
+import argparse
+import os
 import sys
+import threading
+import time
 
 import rospy
+from diagnostic_msgs.msg import DiagnosticArray
+from rosgraph_msgs.msg import Clock
 from tescalib.msg import ExtrinsicEstimate
 from tf2_msgs.msg import TFMessage
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import extrinsics as ex  # noqa: E402
 
-def qmul(a, b):
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+AXES = 'rx ry rz tx ty tz'.split()
 
 
-def qconj(q):
-    return (q[0], -q[1], -q[2], -q[3])
+class Listener:
+    def __init__(self, ref_tf_frame):
+        self.lock = threading.Lock()
+        self.estimates = {'lidar_to_left': [], 'left_to_right': []}
+        self.diag = []  # (wall time, {key: value})
+        self.clock_wall = None  # wall time /clock last advanced
+        self.clock_value = None
+        self.ref_tf_frame = ref_tf_frame
+        self.ref = None
+        self.tf_estimate = None  # last tf LiDAR -> tescalib_left seen on /tf
+        self.left_frame = None
+        rospy.Subscriber('/tescalib/lidar_to_left', ExtrinsicEstimate, self.on_est,
+                         'lidar_to_left')
+        rospy.Subscriber('/tescalib/left_to_right', ExtrinsicEstimate, self.on_est,
+                         'left_to_right')
+        rospy.Subscriber('/diagnostics', DiagnosticArray, self.on_diag)
+        rospy.Subscriber('/clock', Clock, self.on_clock)
+        rospy.Subscriber('/tf', TFMessage, self.on_tf)
+        if ref_tf_frame:
+            rospy.Subscriber('/tf_static', TFMessage, self.on_tf_static)
+
+    def on_est(self, msg, name):
+        with self.lock:
+            self.estimates[name].append((time.time(), msg))
+            if name == 'lidar_to_left':
+                self.left_frame = msg.parent_frame_id
+
+    def on_diag(self, msg):
+        for s in msg.status:
+            if s.hardware_id == 'tescalib':
+                with self.lock:
+                    self.diag.append((time.time(), {kv.key: kv.value for kv in s.values}))
+
+    def on_clock(self, msg):
+        with self.lock:
+            if self.clock_value is None or msg.clock != self.clock_value:
+                self.clock_value = msg.clock
+                self.clock_wall = time.time()
+
+    def on_tf(self, msg):
+        for t in msg.transforms:
+            if self.left_frame is not None and t.child_frame_id == self.left_frame:
+                with self.lock:
+                    # tf carries T_lidar_left (left camera points into the LiDAR frame).
+                    self.tf_estimate = ex.invert(*ex.from_msg(t.transform))
+
+    def on_tf_static(self, msg):
+        for t in msg.transforms:
+            if t.child_frame_id == self.ref_tf_frame:
+                with self.lock:
+                    self.ref = {'T_cam_lidar': ex.invert(*ex.from_msg(t.transform))}
+
+    def bag_ended(self, idle):
+        with self.lock:
+            return self.clock_wall is not None and time.time() - self.clock_wall > idle
+
+    def node_idle_since(self, t):
+        """Two diagnostics after wall time t, the last two both idle with the same solve count."""
+        with self.lock:
+            d = [v for w, v in self.diag if w > t]
+        if len(d) < 2:
+            return False
+        a, b = d[-2], d[-1]
+        idle = all(x.get('solving') == 'False' and x.get('pending sets') == '0' for x in (a, b))
+        return idle and a.get('solves') == b.get('solves')
 
 
-def rotate(q, v):
-    w, x, y, z = qmul(qmul(q, (0.0,) + tuple(v)), qconj(q))
-    return (x, y, z)
+def fmt(values, scale=1.0, digits=4):
+    return ' '.join('%.*f' % (digits, scale * v) for v in values)
 
 
-def invert(q, t):
-    qi = qconj(q)
-    ti = rotate(qi, t)
-    return qi, (-ti[0], -ti[1], -ti[2])
-
-
-def rotvec(q):
-    w = max(-1.0, min(1.0, q[0]))
-    if w < 0:
-        q = tuple(-c for c in q)
-        w = -w
-    s = math.sqrt(max(0.0, 1 - w * w))
-    angle = 2 * math.atan2(s, w)
-    if s < 1e-12:
-        return (0.0, 0.0, 0.0)
-    return tuple(angle * c / s for c in q[1:])
+def print_estimate(title, msg, ref):
+    q, t = ex.from_msg(msg.transform)
+    print('  %s (%s -> %s): converged=%s, %d keyframes, %d iterations' % (
+        title, msg.child_frame_id, msg.parent_frame_id, msg.converged, msg.keyframes_used,
+        msg.iterations))
+    print('    translation [%s] m, rotation vector [%s] deg' % (
+        fmt(t), fmt(ex.rotvec(q), 57.29577951308232)))
+    print('    sigma rot [%s] deg, sigma trans [%s] cm' % (
+        fmt(msg.sigma_rot_deg), fmt(msg.sigma_trans_m, 100, 2)))
+    print('    observable: %s' % ' '.join(
+        '%s=%s' % (a, 'yes' if o else 'NO') for a, o in zip(AXES, msg.observable)))
+    if ref is not None:
+        phi, tau = ex.error((q, t), ref)
+        print('    error vs reference: rotation [%s] deg (norm %.4f deg), translation [%s] cm '
+              '(norm %.2f cm)' % (fmt(phi, 57.29577951308232), ex.norm(phi) * 57.29577951308232,
+                                  fmt(tau, 100, 2), 100 * ex.norm(tau)))
 
 
 def main():
-    timeout = float(sys.argv[1]) if len(sys.argv) > 1 else 120.0
-    settle = float(sys.argv[2]) if len(sys.argv) > 2 else 20.0
-    ref_frame = sys.argv[3] if len(sys.argv) > 3 else 'camera_color_left'
+    ap = argparse.ArgumentParser()
+    ap.add_argument('--ground-truth', help='sim_info.txt of the generated drive')
+    ap.add_argument('--ref-tf-frame', default='',
+                    help='camera frame on /tf_static to compare T_cam_lidar with (real KITTI)')
+    ap.add_argument('--frames', type=int, default=0, help='frames in the bag (for the drop count)')
+    ap.add_argument('--timeout', type=float, default=150.0)
+    ap.add_argument('--idle', type=float, default=2.0)
+    ap.add_argument('--settle', type=float, default=0.0,
+                    help='> 0: stop this long after the first estimate (looping bag)')
+    args = ap.parse_args(rospy.myargv()[1:])
     rospy.init_node('tescalib_demo_report', anonymous=True)
-    ref = {}
-    latest = {}
-
-    def on_est(msg):
-        latest['lidar'] = msg
-        latest['count'] = latest.get('count', 0) + 1
-
-    def on_tf(msg):
-        for t in msg.transforms:
-            if t.child_frame_id == ref_frame:
-                r = t.transform.rotation
-                p = t.transform.translation
-                # tf gives T_lidar_cam (camera points into the LiDAR frame): invert.
-                ref['T'] = invert((r.w, r.x, r.y, r.z), (p.x, p.y, p.z))
-    rospy.Subscriber('/tf_static', TFMessage, on_tf)
-    rospy.Subscriber('/tescalib/lidar_to_left', ExtrinsicEstimate, on_est)
+    ref = ex.read_sim_info(args.ground_truth) if args.ground_truth else None
+    lis = Listener(args.ref_tf_frame)
     start = time.time()
-    while 'lidar' not in latest and time.time() - start < timeout and not rospy.is_shutdown():
+    first = None
+    ended_at = None
+    while not rospy.is_shutdown() and time.time() - start < args.timeout:
         time.sleep(0.2)
-    if 'lidar' not in latest:
-        print('[demo] no converged estimate within %.0f s (see the node log)' % timeout)
+        with lis.lock:
+            if first is None and lis.estimates['lidar_to_left']:
+                first = lis.estimates['lidar_to_left'][0][0]
+        if args.settle > 0:
+            if first is not None and time.time() - first > args.settle:
+                break
+            continue
+        if ended_at is None and lis.bag_ended(args.idle):
+            ended_at = time.time()
+        if ended_at is not None and lis.node_idle_since(ended_at):
+            break
+    timed_out = time.time() - start >= args.timeout
+    with lis.lock:
+        est = {k: list(v) for k, v in lis.estimates.items()}
+        diag = lis.diag[-1][1] if lis.diag else {}
+        tf_est = lis.tf_estimate
+        if ref is None and lis.ref is not None:
+            ref = lis.ref
+    if timed_out:
+        print('[demo] stopped listening after the %.0f s timeout' % args.timeout)
+    if diag:
+        sets, frames = int(diag['synchronized sets']), args.frames
+        print('[demo] pipeline: %s synchronized sets%s, %s keyframes built, %s keyframe candidates '
+              'dropped (preprocessing behind), %s frames rejected' % (
+                  sets, ' of %d frames in the bag' % frames if frames else '', diag['keyframes'],
+                  diag['dropped sync sets'], diag['rejected frames']))
+        print('[demo] timings (wall clock): keyframe build mean %.2f s, max %.2f s; %s solves, mean '
+              '%.2f s, max %.2f s; keyframe arrival -> estimate from a window including it: '
+              'mean %.2f s, max %.2f s over %s keyframes' % (
+                  float(diag['keyframe build mean seconds']),
+                  float(diag['keyframe build max seconds']), diag['solves'],
+                  float(diag['solve mean seconds']), float(diag['solve max seconds']),
+                  float(diag['update latency mean seconds']),
+                  float(diag['update latency max seconds']), diag['update latency count']))
+        if int(diag['first estimate after keyframes']) > 0:
+            print('[demo] first estimate: after %s keyframes, %.2f s (wall) after the first '
+                  'synchronized set, from the first %.1f s of the drive' % (
+                      diag['first estimate after keyframes'],
+                      float(diag['first estimate wall seconds']),
+                      float(diag['first estimate sensor seconds'])))
+        print('[demo] last solve: %s' % diag.get('last solve', ''))
+    else:
+        print('[demo] no /diagnostics from tescalib received')
+    if not est['lidar_to_left']:
+        print('[demo] no estimate was published (no solve converged); see the node log')
         return 1
-    first = time.time() - start
-    print('[demo] first estimate %.1f s after start; listening %.0f s more' % (first, settle))
-    time.sleep(settle)
-    est = latest['lidar']
-    print('[demo] %d estimates published' % latest['count'])
-    stereo = None
-    try:
-        stereo = rospy.wait_for_message('/tescalib/left_to_right', ExtrinsicEstimate, timeout=2.0)
-    except rospy.ROSException:
-        pass
-    r, p = est.transform.rotation, est.transform.translation
-    q, t = (r.w, r.x, r.y, r.z), (p.x, p.y, p.z)
-    print('[demo] T_cam_lidar (LiDAR -> left camera) from %d keyframes, converged=%s, %d iterations'
-          % (est.keyframes_used, est.converged, est.iterations))
-    print('       translation [%.4f %.4f %.4f] m, rotation vector [%s] deg' % (
-        t[0], t[1], t[2], ' '.join('%.4f' % math.degrees(c) for c in rotvec(q))))
-    print('       sigma rot [%s] deg, sigma trans [%s] cm, observable %s' % (
-        ' '.join('%.4f' % s for s in est.sigma_rot_deg),
-        ' '.join('%.2f' % (100 * s) for s in est.sigma_trans_m), list(est.observable)))
-    if stereo is not None:
-        sp = stereo.transform.translation
-        print('[demo] T_right_left: translation [%.4f %.4f %.4f] m, sigma trans [%s] cm' % (
-            sp.x, sp.y, sp.z, ' '.join('%.2f' % (100 * s) for s in stereo.sigma_trans_m)))
-    time.sleep(0.5)  # wall time: a looping bag moves sim time backwards
-    if 'T' in ref:
-        qg, tg = ref['T']
-        phi = rotvec(qmul(q, qconj(qg)))
-        tau = tuple(a - b for a, b in zip(t, tg))
-        print('[demo] error against %s on /tf_static: rotation [%s] deg (norm %.4f), translation '
-              '[%s] cm (norm %.2f)' % (
-                  ref_frame, ' '.join('%.4f' % math.degrees(c) for c in phi),
-                  math.degrees(math.sqrt(sum(c * c for c in phi))),
-                  ' '.join('%.2f' % (100 * c) for c in tau), 100 * math.sqrt(sum(c * c for c in tau))))
+    print('[demo] %d estimates published; the last one:' % len(est['lidar_to_left']))
+    lidar = est['lidar_to_left'][-1][1]
+    print_estimate('T_cam_lidar', lidar, ref['T_cam_lidar'] if ref else None)
+    stereo = est['left_to_right'][-1][1] if est['left_to_right'] else None
+    if stereo is not None and any(s > 0 for s in stereo.sigma_trans_m):
+        print_estimate('T_right_left', stereo, ref.get('T_right_left') if ref else None)
+    elif stereo is not None:
+        print('  T_right_left: not estimated (LiDAR-stereo only), kept at the camera_info '
+              'baseline %.4f m' % -stereo.transform.translation.x)
+    if tf_est is not None:
+        phi, tau = ex.error(tf_est, ex.from_msg(lidar.transform))
+        print('[demo] tf %s -> %s agrees with it to %.1e deg / %.1e m' % (
+            lidar.child_frame_id, lidar.parent_frame_id, ex.norm(phi) * 57.29577951308232,
+            ex.norm(tau)))
     return 0
 
 

@@ -119,6 +119,7 @@ bool OnlineCalibrator::solve(std::string* msg) {
     std::vector<const Keyframe*> cwin(win.begin(), win.end());
     LidarStereoSettings ls = settings_.co.lidar;
     ls.disparity_sigma = settings_.keyframe.stereo.disparity_sigma;
+    if (current && settings_.warm_start_fine_only) ls.run_coarse = false;
     const LidarStereoResult r = solveLidarStereo(cwin, T_cl, ls);
     e.T_cam_lidar = r.T_cam_lidar;
     e.T_right_left = T_rl;

@@ -97,7 +97,8 @@ void CalibrationNodelet::onInit() {
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh);
   diagnostics_->setHardwareID("tescalib");
   diagnostics_->add("calibration", this, &CalibrationNodelet::diagnose);
-  watchdog_timer_ = nh.createTimer(ros::Duration(1.0), &CalibrationNodelet::watchdog, this);
+  // Wall time: diagnostics keep coming when a bag pauses or ends (sim time stands still then).
+  watchdog_timer_ = nh.createWallTimer(ros::WallDuration(1.0), &CalibrationNodelet::watchdog, this);
   running_ = true;
   preprocess_thread_ = std::thread(&CalibrationNodelet::preprocessLoop, this);
   solve_thread_ = std::thread(&CalibrationNodelet::solveLoop, this);
@@ -161,7 +162,12 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
 void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image::ConstPtr& left,
                                       const Info::ConstPtr& left_info, const Image::ConstPtr& right,
                                       const Info::ConstPtr& right_info) {
-  ++sync_sets_;
+  const ros::WallTime received = ros::WallTime::now();
+  if (sync_sets_++ == 0) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    first_set_wall_ = received;
+    first_set_stamp_ = left->header.stamp.toSec();
+  }
   if (!calibrator_ && !initCalibrator(*cloud, *left_info, *right_info)) return;
   const double stamp = left->header.stamp.toSec();
   publishTf(left->header.stamp);  // every set, so tf lookups at any image stamp interpolate
@@ -190,6 +196,7 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
   pf.frame.stamp = stamp;
   pf.lidar_stamp = cloud->header.stamp.toSec();
   pf.header = left->header;
+  pf.received = received;
   last_enqueued_stamp_ = stamp;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -217,14 +224,27 @@ void CalibrationNodelet::preprocessLoop() {
       queue_.pop_front();
     }
     std::string msg;
+    const ros::WallTime t0 = ros::WallTime::now();
     const FrameResult r = calibrator_->addFrame(pf.frame, pf.lidar_stamp, &msg);
     if (r == FrameResult::kKeyframe) {
+      const double build_s = (ros::WallTime::now() - t0).toSec();
+      const size_t fill = calibrator_->windowFill();
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        build_time_.add(build_s);
+        if (static_cast<int>(fill) >= params_.online.min_keyframes)
+          unsolved_arrivals_.push_back(pf.received);
+      }
+      NODELET_DEBUG("tescalib: keyframe %d built in %.3f s (window %zu)", keyframes_.load() + 1,
+                    build_s, fill);
       ++keyframes_;
       solve_requested_ = true;
       cv_.notify_all();
     } else if (r == FrameResult::kReset) {
       NODELET_WARN("tescalib: %s", msg.c_str());
       last_enqueued_stamp_ = pf.frame.stamp;
+      std::lock_guard<std::mutex> lock(mutex_);
+      unsolved_arrivals_.clear();
     } else if (r == FrameResult::kRejected) {
       ++rejected_;
       NODELET_WARN_THROTTLE(5.0, "tescalib: frame rejected: %s", msg.c_str());
@@ -242,21 +262,41 @@ void CalibrationNodelet::solveLoop() {
                    [this] { return solve_requested_ || !running_; });
     }
     if (!running_) return;
-    if (!solve_requested_ || !calibrator_ || !calibrator_->readyToSolve()) continue;
-    solve_requested_ = false;
+    // A request that finds the window not ready yet is consumed: the next keyframe renews it.
+    if (!solve_requested_.exchange(false) || !calibrator_ || !calibrator_->readyToSolve()) continue;
+    std::vector<ros::WallTime> arrivals;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      arrivals.swap(unsolved_arrivals_);
+    }
     std::string msg;
+    solving_ = true;
     const auto t0 = ros::WallTime::now();
     const bool updated = calibrator_->solve(&msg);
-    last_solve_seconds_ = (ros::WallTime::now() - t0).toSec();
+    const auto t1 = ros::WallTime::now();
+    solving_ = false;
+    last_solve_seconds_ = (t1 - t0).toSec();
+    double latency = 0;  // of the oldest keyframe this solve answered
+    const auto e = calibrator_->estimate();
     {
       std::lock_guard<std::mutex> lock(mutex_);
       last_solve_message_ = updated ? "updated" : msg;
+      solve_time_.add(last_solve_seconds_);
+      for (const auto& a : arrivals) {
+        update_latency_.add((t1 - a).toSec());
+        latency = std::max(latency, (t1 - a).toSec());
+      }
+      if (updated && first_estimate_keyframes_ == 0) {
+        first_estimate_keyframes_ = keyframes_;
+        first_estimate_wall_s_ = (t1 - first_set_wall_).toSec();
+        first_estimate_sim_s_ = e->stamp - first_set_stamp_;
+      }
     }
     if (updated) {
-      const auto e = calibrator_->estimate();
       publish(*e, ros::Time(e->stamp));
-      NODELET_INFO("tescalib: new estimate from %d keyframes in %.2f s", e->keyframes_used,
-                   last_solve_seconds_.load());
+      NODELET_INFO(
+          "tescalib: new estimate from %d keyframes in %.2f s (keyframe to estimate %.2f s)",
+          e->keyframes_used, last_solve_seconds_.load(), latency);
     } else {
       NODELET_WARN_THROTTLE(5.0, "tescalib: %s", msg.c_str());
     }
@@ -276,7 +316,14 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
   lidar_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_cam_lidar, e.cov_lidar));
   h.frame_id = params_.right_frame;
   stereo_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_right_left, e.cov_stereo));
-  publishTf(stamp);
+  // The keyframe's stamp usually has a tf already (sent with its synchronized set): a second one
+  // at the same stamp is rejected by every listener (TF_REPEATED_DATA). Just after the newest.
+  ros::Time tf_stamp = stamp;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!last_tf_stamp_.isZero()) tf_stamp = last_tf_stamp_ + ros::Duration(0, 1000);
+  }
+  publishTf(tf_stamp);
 }
 
 void CalibrationNodelet::publishTf(const ros::Time& stamp) {
@@ -293,10 +340,12 @@ void CalibrationNodelet::publishTf(const ros::Time& stamp) {
   b.child_frame_id = params_.right_frame;
   b.transform = ros_conv::toTransformMsg(e->T_right_left.inverse());
   tf_pub_->sendTransform({a, b});
+  std::lock_guard<std::mutex> lock(mutex_);
+  last_tf_stamp_ = stamp;
 }
 
-void CalibrationNodelet::watchdog(const ros::TimerEvent&) {
-  diagnostics_->update();
+void CalibrationNodelet::watchdog(const ros::WallTimerEvent&) {
+  diagnostics_->force_update();
   if (images_seen_ > 20 && sync_sets_ == 0)
     NODELET_WARN_THROTTLE(10.0,
                           "tescalib: %d images but no synchronized set: check that points, "
@@ -390,6 +439,22 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   stat.add("rejected frames", rejected_.load());
   stat.add("last solve seconds", last_solve_seconds_.load());
   stat.add("last solve", solve_msg);
+  stat.add("solving", solving_.load());
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stat.add("pending sets", queue_.size());
+    stat.add("keyframe build mean seconds", build_time_.mean());
+    stat.add("keyframe build max seconds", build_time_.max);
+    stat.add("solves", solve_time_.count);
+    stat.add("solve mean seconds", solve_time_.mean());
+    stat.add("solve max seconds", solve_time_.max);
+    stat.add("update latency count", update_latency_.count);
+    stat.add("update latency mean seconds", update_latency_.mean());
+    stat.add("update latency max seconds", update_latency_.max);
+    stat.add("first estimate after keyframes", first_estimate_keyframes_);
+    stat.add("first estimate wall seconds", first_estimate_wall_s_);
+    stat.add("first estimate sensor seconds", first_estimate_sim_s_);
+  }
   stat.add("last problem", problem);
   stat.add("converged", e ? e->converged : false);
 }

@@ -22,6 +22,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "window/size", &p->online.window_size);
   get(pnh, "window/min_keyframes", &p->online.min_keyframes);
   get(pnh, "window/max_trace_growth", &p->online.max_trace_growth);
+  get(pnh, "window/warm_start_fine_only", &p->online.warm_start_fine_only);
   get(pnh, "co_calibration/estimate_stereo", &p->online.estimate_stereo);
   get(pnh, "co_calibration/max_rounds", &p->online.co.max_rounds);
   get(pnh, "stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);

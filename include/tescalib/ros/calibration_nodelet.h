@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <message_filters/subscriber.h>
@@ -50,6 +51,19 @@ class CalibrationNodelet : public nodelet::Nodelet {
     Frame frame;
     double lidar_stamp = 0;
     std_msgs::Header header;
+    ros::WallTime received;  ///< when the synchronized set arrived
+  };
+
+  /// Wall-clock durations of one kind (keyframe builds, solves, update latencies), for
+  /// /diagnostics and the demo's report.
+  struct Durations {
+    int count = 0;
+    double sum = 0, max = 0, last = 0;
+    void add(double s) {
+      ++count, sum += s, last = s;
+      if (s > max) max = s;
+    }
+    double mean() const { return count ? sum / count : 0.0; }
   };
 
   void onInit() override;
@@ -61,7 +75,7 @@ class CalibrationNodelet : public nodelet::Nodelet {
   void solveLoop();
   void publish(const OnlineEstimate& e, const ros::Time& stamp);
   void publishTf(const ros::Time& stamp);
-  void watchdog(const ros::TimerEvent&);
+  void watchdog(const ros::WallTimerEvent&);
   bool onReset(Reset::Request& req, Reset::Response& res);
   bool onSave(Save::Request& req, Save::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
@@ -77,7 +91,7 @@ class CalibrationNodelet : public nodelet::Nodelet {
   std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
   ros::Publisher lidar_pub_, stereo_pub_, lidar_pose_pub_, stereo_pose_pub_;
   ros::ServiceServer reset_srv_, save_srv_;
-  ros::Timer watchdog_timer_;
+  ros::WallTimer watchdog_timer_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_pub_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
@@ -92,7 +106,20 @@ class CalibrationNodelet : public nodelet::Nodelet {
 
   std::atomic<int> sync_sets_{0}, dropped_{0}, rejected_{0}, keyframes_{0}, images_seen_{0};
   std::atomic<double> last_solve_seconds_{0};
+  std::atomic<bool> solving_{false};
+  // Timing, GUARDED_BY(mutex_). The update latency of a keyframe runs from the arrival of its
+  // synchronized set to the end of the first solve that includes it; it is only recorded for
+  // keyframes that find the window ready (>= window/min_keyframes), so waiting for the window to
+  // fill is not counted (that is what `first_estimate_*` reports).
+  Durations build_time_, solve_time_, update_latency_;
+  std::vector<ros::WallTime> unsolved_arrivals_;
+  ros::WallTime first_set_wall_;
+  double first_set_stamp_ = 0;
+  int first_estimate_keyframes_ = 0;   ///< keyframes built when the first estimate was published
+  double first_estimate_wall_s_ = -1;  ///< wall s from the first synchronized set to it
+  double first_estimate_sim_s_ = -1;   ///< same in sensor (bag) time
   std::atomic<double> last_enqueued_stamp_{-1e300};
+  ros::Time last_tf_stamp_;         ///< GUARDED_BY(mutex_), of the newest tf sent
   std::string last_problem_;        ///< GUARDED_BY(mutex_)
   std::string last_solve_message_;  ///< GUARDED_BY(mutex_)
 };
