@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # make bench: the accuracy/speed benchmarks whose tables go into the README. Long; not in make test.
+# BENCH=sim|kitti|all (default all) selects the generated-drive or the real-KITTI part.
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
@@ -8,14 +9,33 @@ K=$ROOT/../shared/data/kitti_odometry_mini/sequences
 OUT=$ROOT/build/bench
 mkdir -p "$OUT"
 TRIALS=${TRIALS:-20}
-echo "=== tescalib_simulate speed"
-bash "$ROOT/scripts/bench_simulate.sh"
-if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data benchmarks"; exit 0; fi
+SIM_TRIALS=${SIM_TRIALS:-30}
+BENCH=${BENCH:-all}
 run() {  # name, args...
   local name=$1; shift
   echo "=== $name"
   rosrun tescalib tescalib_eval "$@" --json "$OUT/$name.json" | grep -v '^  keyframe [0-9]' | sed -n '/^summary/,$p'
 }
+simulate() {  # scenario seed frames [noise] -> prints the folder (generated once, then cached)
+  local dir="$OUT/sim_$1_s$2_f$3_${4:-default}"
+  [ -f "$dir/sim_info.txt" ] || rosrun tescalib tescalib_simulate --scenario "$1" --seed "$2" \
+    --frames "$3" --noise "${4:-default}" --out "$dir" > /dev/null || exit 1
+  echo "$dir"
+}
+if [ "$BENCH" != kitti ]; then
+  echo "=== tescalib_simulate speed"
+  bash "$ROOT/scripts/bench_simulate.sh"
+  URBAN=$(simulate urban 1 100)
+  # Issue 4: window 20 (the paper's protocol), 3 deg / 0.3 m and the wide basin 10 deg / 1 m.
+  for method in tescalib pcl_gicp; do
+    run "sim_urban_${method}_3deg" --sequences "$URBAN" --mode lidar_stereo --method $method \
+      --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
+  done
+  run "sim_urban_tescalib_10deg" --sequences "$URBAN" --mode lidar_stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
+fi
+[ "$BENCH" = sim ] && { echo "[bench] JSON files in $OUT"; exit 0; }
+if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data benchmarks"; exit 0; fi
 for method in tescalib pcl_gicp; do
   run "kitti_0930_${method}_3deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
     --method $method --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20

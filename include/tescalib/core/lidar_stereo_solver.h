@@ -50,8 +50,8 @@ struct LidarStereoSettings {
   // windows (README, "Uncertainty"); real data may need larger values.
   int cov_cells_x = 8;
   int cov_cells_y = 3;
-  std::array<double, 3> model_sigma_rot_deg = {0.02, 0.015, 0.015};
-  std::array<double, 3> model_sigma_trans_m = {0.004, 0.002, 0.007};
+  std::array<double, 3> model_sigma_rot_deg = {0.016, 0.011, 0.016};
+  std::array<double, 3> model_sigma_trans_m = {0.003, 0.0015, 0.0065};
   double max_correction_rot_deg = 25.0;  ///< a larger correction from the start is divergence
   double max_correction_trans_m = 2.5;
   int threads = 2;
