@@ -41,6 +41,8 @@ struct LidarStereoSettings {
   int ceres_iterations = 8;
   double converge_rot_deg = 2e-4;  ///< stop re-associating below this update
   double converge_trans_m = 2e-5;
+  double fine_settle_rot_deg = 1e-3;  ///< the fine stage has settled below this update
+  double fine_settle_trans_m = 3e-4;
   int min_inliers = 300;
   double max_sigma_rot_deg = 0.1;  ///< an axis looser than this (1 sigma) is unconstrained
   double max_sigma_trans_m = 0.01;
