@@ -321,6 +321,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
           res.covariance = floor;
           break;
         }
+      const Matrix6d statistical = res.covariance;
       // Model error that more data does not average away (calibrated on generated drives, see
       // the README): added per axis.
       for (int i = 0; i < 3; ++i) {
@@ -329,7 +330,9 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       }
       all_observable = true;
       for (int i = 0; i < 6; ++i) {
-        const double sigma = std::sqrt(res.covariance(i, i));
+        // What the window constrains: the statistical part (the model error is the same
+        // whatever the scene).
+        const double sigma = std::sqrt(statistical(i, i));
         const double limit = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
         res.observable[i] = sigma < limit;
         all_observable = all_observable && res.observable[i];
