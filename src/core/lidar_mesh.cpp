@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Eigenvalues>
+
 namespace tescalib {
 
 LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
@@ -69,26 +71,41 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
     }
   }
   if (s.smooth_cols > 0) {
-    std::vector<std::vector<int>> faces_of_cell(static_cast<size_t>(rings) * cols);
-    for (size_t f = 0; f < face_cell.size(); ++f) faces_of_cell[face_cell[f]].push_back(int(f));
+    // Normals from a plane fit (PCA) to the points of the face's neighbourhood in the range
+    // image (rings -1..+2, +-smooth_cols azimuth bins) that lie near the face's plane. A single
+    // face's normal is set by a 3-10 cm edge along the ring, where 2 cm of range noise tilts it
+    // by ~5 deg; averaging neighbouring faces barely helps (they share vertices).
     const float cos_max = static_cast<float>(std::cos(s.smooth_max_angle_deg * M_PI / 180.0));
-    std::vector<Eigen::Vector3f> smoothed(mesh.faces.size());
+    std::vector<Eigen::Vector3f> fitted(mesh.faces.size());
     for (size_t f = 0; f < mesh.faces.size(); ++f) {
+      const MeshFace& face = mesh.faces[f];
       const int r0 = face_cell[f] / cols, c0 = face_cell[f] % cols;
-      const Eigen::Vector3f& n0 = mesh.faces[f].normal;
-      Eigen::Vector3f sum = Eigen::Vector3f::Zero();
-      for (int r = std::max(0, r0 - 1); r <= std::min(rings - 1, r0 + 1); ++r)
-        for (int dc = -s.smooth_cols; dc <= s.smooth_cols; ++dc)
-          for (int g : faces_of_cell[static_cast<size_t>(r) * cols + (c0 + dc + cols) % cols]) {
-            const MeshFace& o = mesh.faces[g];
-            // Same surface: normals agree and the centroid lies on this face's plane.
-            if (o.normal.dot(n0) > cos_max &&
-                std::fabs(n0.dot(o.centroid - mesh.faces[f].centroid)) < 0.02f * o.range + 0.05f)
-              sum += o.normal;
-          }
-      smoothed[f] = sum.normalized();
+      const float tol = 0.02f * face.range + 0.05f;
+      Eigen::Vector3f mean = Eigen::Vector3f::Zero();
+      Eigen::Matrix3f second = Eigen::Matrix3f::Zero();
+      int n = 0;
+      for (int r = std::max(0, r0 - 1); r <= std::min(rings - 1, r0 + 2); ++r)
+        for (int dc = -s.smooth_cols; dc <= s.smooth_cols + 1; ++dc) {
+          const int i = at(r, c0 + dc);
+          if (i < 0) continue;
+          const Eigen::Vector3f p = vec(i);
+          if (std::fabs(face.normal.dot(p - face.centroid)) > tol) continue;
+          mean += p;
+          second += p * p.transpose();
+          ++n;
+        }
+      fitted[f] = face.normal;
+      if (n < 6) continue;
+      mean /= static_cast<float>(n);
+      const Eigen::Matrix3f cov = second / static_cast<float>(n) - mean * mean.transpose();
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> eig(cov);
+      // Planar: the smallest spread well below the other two (not a line of one ring's points).
+      if (!(eig.eigenvalues()(0) < 0.1f * eig.eigenvalues()(1))) continue;
+      Eigen::Vector3f nf = eig.eigenvectors().col(0);
+      if (nf.dot(face.normal) < 0) nf = -nf;
+      if (nf.dot(face.normal) > cos_max) fitted[f] = nf.normalized();
     }
-    for (size_t f = 0; f < mesh.faces.size(); ++f) mesh.faces[f].normal = smoothed[f];
+    for (size_t f = 0; f < mesh.faces.size(); ++f) mesh.faces[f].normal = fitted[f];
   }
   return mesh;
 }
