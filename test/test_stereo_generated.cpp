@@ -1,6 +1,6 @@
 // Stereo cloud and LiDAR-stereo solver on generated drives with exact ground truth: the disparity
 // refinement removes SGBM's bias on the slanted road, and the solver recovers known perturbations
-// of T_cam_lidar, and says when a highway window does not constrain every axis.
+// of T_cam_lidar; the photometric solver recovers T_right_left and the exposure difference.
 #include <algorithm>
 #include <cmath>
 #include <iostream>
@@ -13,6 +13,7 @@
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/keyframe.h"
 #include "tescalib/core/lidar_stereo_solver.h"
+#include "tescalib/core/photometric_solver.h"
 #include "tescalib/core/simulator.h"
 
 using namespace tescalib;
@@ -93,5 +94,38 @@ TEST(LidarStereoGenerated, RecoversKnownPerturbationsOnAnUrbanDrive) {
     EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.05);
     EXPECT_LT(e.tail<3>().norm(), 0.01);
     for (int i = 0; i < 6; ++i) EXPECT_TRUE(r.observable[i]) << "axis " << i;
+  }
+}
+
+TEST(PhotometricGenerated, RecoversThePairAndTheExposureDifference) {
+  // The generator renders right = 0.9 x left + 8 (before noise): the brightness estimate must say
+  // so, and T_right_left must come back from 1 deg / 10 cm.
+  SimOptions o;
+  o.frames = 21;
+  o.seed = 4;
+  const Simulator sim(o);
+  std::vector<Keyframe> kfs;
+  for (int i = 0; i < o.frames; i += 5)
+    kfs.push_back(
+        makeKeyframe(sim.renderFrame(i), sim.rig(), sim.rig().T_cam_lidar, sim.rig().T_right_left));
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : kfs) window.push_back(&kf);
+  std::mt19937_64 rng(8);
+  const Eigen::Isometry3d init =
+      perturb(sim.rig().T_right_left, randomPerturbation(1.0 / kDegPerRad, 0.1, rng));
+  const PhotometricResult r = solvePhotometric(window, sim.rig(), sim.rig().T_cam_lidar, init);
+  const Vector6d e = poseError(r.T_right_left, sim.rig().T_right_left);
+  std::cout << "[ stereo   ] from 1 deg / 10 cm: error " << e.head<3>().norm() * kDegPerRad
+            << " deg, " << e.tail<3>().norm() * 1000 << " mm\n";
+  EXPECT_TRUE(r.converged) << r.message;
+  EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.01);
+  EXPECT_LT(e.tail<3>().norm(), 0.002);
+  ASSERT_EQ(r.brightness.size(), kfs.size());
+  const double gain = o.right_gain / o.left_gain, offset = o.right_offset - gain * o.left_offset;
+  for (const Eigen::Vector2d& ab : r.brightness) {
+    std::cout << "[ stereo   ] brightness: gain " << std::exp(ab.x()) << " (true " << gain
+              << "), offset " << ab.y() << " (true " << offset << ")\n";
+    EXPECT_NEAR(std::exp(ab.x()), gain, 0.02);
+    EXPECT_NEAR(ab.y(), offset, 2.0);
   }
 }
