@@ -1,6 +1,8 @@
 // The online state machine without ROS: bad input gives a clear message and a safe state, time
 // going backwards resets the window, and an estimate is only replaced by a trustworthy one.
 #include <cmath>
+#include <iostream>
+#include <map>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -9,6 +11,7 @@
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/kitti_reader.h"
 #include "tescalib/core/online_calibrator.h"
+#include "tescalib/core/simulator.h"
 #include "test_util.h"
 
 using namespace tescalib;
@@ -132,4 +135,39 @@ TEST(OnlineCalibratorReal, PublishesOnlyTrustworthyEstimates) {
   const auto after = cal.estimate();
   ASSERT_TRUE(after.has_value());
   EXPECT_LT(poseError(after->T_cam_lidar, first->T_cam_lidar).norm(), 1e-12);
+}
+
+TEST(OnlineCalibratorGenerated, HighwayKeyframesDoNotPushOutTownKeyframes) {
+  // Four keyframes of a generated town, then four of a generated highway (the same rig), window
+  // of four. By information, the highway keyframes, which add little along the road, must not
+  // replace all town keyframes; first-in-first-out would.
+  SimOptions town, highway;
+  town.frames = highway.frames = 16;
+  town.seed = highway.seed = 6;
+  highway.scenario = Scenario::kHighway;
+  const Simulator town_sim(town), highway_sim(highway);
+  std::vector<Frame> frames;
+  for (int i = 0; i < 16; i += 5) frames.push_back(town_sim.renderFrame(i));
+  for (int i = 0; i < 16; i += 5) frames.push_back(highway_sim.renderFrame(i));
+  for (size_t k = 0; k < frames.size(); ++k) frames[k].stamp = 10.0 + 0.5 * k;
+  const double first_highway_stamp = frames[4].stamp;
+  std::map<std::string, int> town_left;
+  for (const std::string selection : {"information", "fifo"}) {
+    OnlineSettings settings;
+    settings.estimate_stereo = false;
+    settings.window_size = 4;
+    settings.keyframe_selection = selection;
+    OnlineCalibrator cal(town_sim.rig(), settings);
+    std::string msg;
+    for (const Frame& f : frames) {
+      ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+      if (cal.readyToSolve()) cal.solve(&msg);
+    }
+    for (double stamp : cal.windowStamps()) town_left[selection] += stamp < first_highway_stamp;
+    ASSERT_EQ(cal.windowStamps().size(), 4u);
+  }
+  std::cout << "[ select   ] town keyframes left in the window: by information "
+            << town_left["information"] << ", first in first out " << town_left["fifo"] << "\n";
+  EXPECT_EQ(town_left["fifo"], 0);
+  EXPECT_GE(town_left["information"], 2);
 }

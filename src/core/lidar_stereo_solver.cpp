@@ -282,6 +282,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     int n_clusters = 0;
     for (const auto& a0 : as) n_clusters = std::max(n_clusters, a0.cluster + 1);
     scores.assign(n_clusters, Vector6d::Zero());
+    res.keyframe_information.assign(window.size(), Matrix6d::Zero());
     for (const auto& a0 : as) {
       Eigen::Matrix<double, 1, 6> J;
       const Eigen::Vector3d m = T.linear() * a0.n_l, q = T.linear() * a0.p_l;
@@ -291,6 +292,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       J.tail<3>() = m.transpose() * a0.inv_sigma;
       const double w = std::fabs(r) <= s.fine_huber ? 1.0 : s.fine_huber / std::fabs(r);
       H += w * J.transpose() * J;
+      res.keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
+          w * J.transpose() * J;
       scores[a0.cluster] += w * r * J.transpose();
       cost += w * r * r;
       abs_res.push_back(std::fabs(r));

@@ -3,6 +3,8 @@
 #include <chrono>
 #include <cmath>
 
+#include <Eigen/Eigenvalues>
+
 #include "tescalib/core/error.h"
 
 namespace tescalib {
@@ -38,6 +40,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
       *msg = "time went backwards by " + std::to_string(last_stamp_ - frame.stamp) +
              " s (looping bag?): window cleared";
       window_.clear();
+      keyframe_information_.clear();
       last_stamp_ = frame.stamp;
       last_keyframe_stamp_ = -1e300;
       new_keyframes_ = 0;
@@ -64,9 +67,54 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   }
   std::lock_guard<std::mutex> lock(mutex_);
   window_.push_back(std::move(kf));
-  while (static_cast<int>(window_.size()) > settings_.window_size) window_.pop_front();
+  while (static_cast<int>(window_.size()) > settings_.window_size) {
+    const size_t drop = keyframeToDrop();
+    keyframe_information_.erase(window_[drop]->stamp);
+    window_.erase(window_.begin() + static_cast<long>(drop));
+  }
   ++new_keyframes_;
   return FrameResult::kKeyframe;
+}
+
+size_t OnlineCalibrator::keyframeToDrop() const {
+  if (settings_.keyframe_selection != "information") return 0;
+  // Candidates: every keyframe but the newest that a solve has measured; the newest stays until
+  // a solve has seen what it adds.
+  std::vector<size_t> measured;
+  Matrix6d total = Matrix6d::Zero();
+  for (size_t i = 0; i + 1 < window_.size(); ++i) {
+    const auto it = keyframe_information_.find(window_[i]->stamp);
+    if (it == keyframe_information_.end()) continue;
+    measured.push_back(i);
+    total += it->second;
+  }
+  if (measured.size() < 2) return 0;
+  // Information in units of the trust limits (0.1 deg, 1 cm), so that rotation and translation
+  // compare; the weakest direction is the smallest eigenvalue of what remains after a drop.
+  Vector6d scale;
+  scale << Vector6d::Constant(0.1 / kDegPerRad).head<3>(), Vector6d::Constant(0.01).tail<3>();
+  const Matrix6d S = scale.asDiagonal();
+  auto weakest = [&](const Matrix6d& H) {
+    return Eigen::SelfAdjointEigenSolver<Matrix6d>(S * H * S).eigenvalues()(0);
+  };
+  double best = -1;
+  std::vector<double> remaining(measured.size());
+  for (size_t c = 0; c < measured.size(); ++c) {
+    remaining[c] = weakest(total - keyframe_information_.at(window_[measured[c]]->stamp));
+    best = std::max(best, remaining[c]);
+  }
+  // The oldest keyframe whose loss keeps at least 95 % of the best achievable weakest-direction
+  // information: recency wins among equals.
+  for (size_t c = 0; c < measured.size(); ++c)
+    if (remaining[c] >= 0.95 * best) return measured[c];
+  return 0;
+}
+
+std::vector<double> OnlineCalibrator::windowStamps() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<double> stamps;
+  for (const auto& k : window_) stamps.push_back(k->stamp);
+  return stamps;
 }
 
 bool OnlineCalibrator::readyToSolve() const {
@@ -101,10 +149,12 @@ bool OnlineCalibrator::solve(std::string* msg) {
   }
   const auto t0 = std::chrono::steady_clock::now();
   OnlineEstimate e;
+  std::vector<Matrix6d> keyframe_info;
   std::vector<Keyframe*> win;
   for (auto& k : snapshot) win.push_back(k.get());
   if (settings_.estimate_stereo) {
     const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, settings_.co);
+    keyframe_info = r.lidar.keyframe_information;
     e.T_cam_lidar = r.lidar.T_cam_lidar;
     e.T_right_left = r.stereo.T_right_left;
     e.cov_lidar = r.lidar.covariance;
@@ -121,6 +171,7 @@ bool OnlineCalibrator::solve(std::string* msg) {
     ls.disparity_sigma = settings_.keyframe.stereo.disparity_sigma;
     if (current && settings_.warm_start_fine_only) ls.run_coarse = false;
     const LidarStereoResult r = solveLidarStereo(cwin, T_cl, ls);
+    keyframe_info = r.keyframe_information;
     e.T_cam_lidar = r.T_cam_lidar;
     e.T_right_left = T_rl;
     e.cov_lidar = r.covariance;
@@ -131,6 +182,14 @@ bool OnlineCalibrator::solve(std::string* msg) {
     e.cost_lidar = r.final_cost;
     e.iterations_lidar = r.iterations;
     *msg = r.message;
+  }
+  if (keyframe_info.size() == snapshot.size()) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (size_t i = 0; i < snapshot.size(); ++i) {
+      // Only keyframes still in the window (a reset may have cleared it meanwhile).
+      for (const auto& k : window_)
+        if (k->stamp == snapshot[i]->stamp) keyframe_information_[k->stamp] = keyframe_info[i];
+    }
   }
   e.keyframes_used = static_cast<int>(snapshot.size());
   e.stamp = snapshot.back()->stamp;
@@ -156,6 +215,7 @@ bool OnlineCalibrator::solve(std::string* msg) {
 void OnlineCalibrator::reset() {
   std::lock_guard<std::mutex> lock(mutex_);
   window_.clear();
+  keyframe_information_.clear();
   estimate_.reset();
   last_stamp_ = -1e300;
   last_keyframe_stamp_ = -1e300;

@@ -23,6 +23,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "window/min_keyframes", &p->online.min_keyframes);
   get(pnh, "window/max_trace_growth", &p->online.max_trace_growth);
   get(pnh, "window/warm_start_fine_only", &p->online.warm_start_fine_only);
+  get(pnh, "window/keyframe_selection", &p->online.keyframe_selection);
   get(pnh, "co_calibration/estimate_stereo", &p->online.estimate_stereo);
   get(pnh, "co_calibration/max_rounds", &p->online.co.max_rounds);
   get(pnh, "stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
@@ -56,6 +57,9 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.min_keyframes < 1 || o.min_keyframes > o.window_size)
     e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes << "); ";
   if (o.max_trace_growth < 1) e << "window/max_trace_growth must be >= 1; ";
+  if (o.keyframe_selection != "information" && o.keyframe_selection != "fifo")
+    e << "window/keyframe_selection must be information or fifo (got '" << o.keyframe_selection
+      << "'); ";
   if (o.max_sync_skew <= 0) e << "sync/max_skew must be > 0; ";
   if (p.sync_queue < 1) e << "sync/queue_size must be >= 1; ";
   if (o.keyframe.stereo.num_disparities < 16 || o.keyframe.stereo.num_disparities % 16)

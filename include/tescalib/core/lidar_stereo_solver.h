@@ -68,6 +68,8 @@ struct LidarStereoResult {
   int coarse_inliers = 0;  ///< associations in the last coarse solve
   int fine_inliers = 0;    ///< associations in the last fine solve
   Matrix6d information = Matrix6d::Zero();  ///< J^T W J of the final fine problem
+  /// Each keyframe's share of `information` (window order): what it constrains.
+  std::vector<Matrix6d> keyframe_information;
   double stereo_scale = 1.0;    ///< estimated stereo scale (1 unless estimate_stereo_scale)
   double residual_scale = 1.0;  ///< robust std of the normalised residuals (1 if the model fits)
   /// Published covariance over [phi; tau] (rad, m): cluster-robust sandwich (see the solver).

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <deque>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -31,6 +32,11 @@ struct OnlineSettings {
   /// The coarse stage exists to bring a start degrees / decimetres off into the fine stage's
   /// basin; from a converged estimate it only costs time (70-80 % of a 10-keyframe solve).
   bool warm_start_fine_only = true;
+  /// Which keyframe leaves a full window: "information" drops the one whose loss costs least in
+  /// the window's weakest direction (from the last solve's per-keyframe LiDAR-stereo information),
+  /// so that keyframes adding nothing there (a highway after a town) do not push out the ones that
+  /// constrain it (paper: reject bad driving scenarios); "fifo" drops the oldest.
+  std::string keyframe_selection = "information";
   KeyframeSettings keyframe;
   CoCalibrationSettings co;
 };
@@ -75,6 +81,8 @@ class OnlineCalibrator {
   const StereoRig& rig() const { return rig_; }
   Eigen::Isometry3d currentTcamLidar() const;  ///< estimate, or the initial guess
   Eigen::Isometry3d currentTrightLeft() const;
+  /// Stamps of the keyframes in the window, oldest first.
+  std::vector<double> windowStamps() const;
 
  private:
   StereoRig rig_;  ///< intrinsics + initial extrinsics
@@ -85,6 +93,10 @@ class OnlineCalibrator {
   double last_stamp_ = -1e300;                    ///< GUARDED_BY(mutex_)
   double last_keyframe_stamp_ = -1e300;           ///< GUARDED_BY(mutex_)
   int new_keyframes_ = 0;                         ///< GUARDED_BY(mutex_) since the last solve
+  /// Per-keyframe LiDAR-stereo information from the last solve that used it, by stamp.
+  std::map<double, Matrix6d> keyframe_information_;  ///< GUARDED_BY(mutex_)
+  /// Index in window_ of the keyframe to drop when the window is over-full.
+  size_t keyframeToDrop() const;  ///< REQUIRES(mutex_)
 };
 
 }  // namespace tescalib
