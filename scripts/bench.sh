@@ -33,6 +33,20 @@ if [ "$BENCH" != kitti ]; then
   done
   run "sim_urban_tescalib_10deg" --sequences "$URBAN" --mode lidar_stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
+  # Issue 5: left-right from 1 deg / 0.1 m, with the LiDAR at the truth and 1 deg / 0.1 m off.
+  run "sim_urban_stereo_1deg" --sequences "$URBAN" --mode stereo --trials "$SIM_TRIALS" \
+    --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
+  run "sim_urban_stereo_1deg_lidar_off" --sequences "$URBAN" --mode stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
+    --lidar-trans-m 0.1 --seed 5 --window 20
+  # Issue 6: NEES over independent windows of 10 keyframes (15 urban drives; 4 held out).
+  NEES_SEQS=$URBAN
+  for s in 11 12 13 14 15 16 21 22 23 24 31 32 33 34; do NEES_SEQS=$NEES_SEQS,$(simulate urban $s 100); done
+  run "sim_urban_nees" --sequences "$NEES_SEQS" --mode lidar_stereo --trials 60 \
+    --init-rot-deg 3 --init-trans-m 0.3 --seed 21 --window 10 --windows disjoint
+  HW=$(simulate highway 1 100)
+  run "sim_highway_nees" --sequences "$HW" --mode lidar_stereo --trials 12 \
+    --init-rot-deg 3 --init-trans-m 0.3 --seed 13 --window 10 --windows disjoint
 fi
 [ "$BENCH" = sim ] && { echo "[bench] JSON files in $OUT"; exit 0; }
 if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data benchmarks"; exit 0; fi

@@ -221,6 +221,13 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     res.observable[i] = std::sqrt(res.covariance(i, i)) < lim;
     all = all && res.observable[i];
   }
+  // Ceres' covariance assumes independent pixels; neighbouring key points share interpolation,
+  // LiDAR-depth and exposure errors. A per-axis model error, calibrated like the LiDAR one (mean
+  // NEES over independent generated windows), is added; the flags above use the statistical part.
+  for (int i = 0; i < 3; ++i) {
+    res.covariance(i, i) += std::pow(s.model_sigma_rot_deg[i] / kDegPerRad, 2);
+    res.covariance(3 + i, 3 + i) += std::pow(s.model_sigma_trans_m[i], 2);
+  }
   const Vector6d corr = poseError(T, T_init);
   if (corr.head<3>().norm() * kDegPerRad > s.max_correction_rot_deg ||
       corr.tail<3>().norm() > s.max_correction_trans_m)
