@@ -138,6 +138,10 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     LidarStereoSettings ls = s.lidar;
     ls.disparity_sigma = s.stereo_cloud.disparity_sigma;
     ls.estimate_stereo_scale = true;
+    // The inner solve only needs to settle well below the outer tolerance (its defaults, 2e-4 deg
+    // and 0.02 mm, are below what re-association noise allows with the scale free).
+    ls.converge_rot_deg = std::max(ls.converge_rot_deg, s.inner_settle_fraction * s.stable_rot_deg);
+    ls.converge_trans_m = std::max(ls.converge_trans_m, s.inner_settle_fraction * s.stable_trans_m);
     if (warm) ls.run_coarse = false;
     const auto t_l = Clock::now();
     res.lidar = solveLidarStereo(cwin, T_cl, ls);

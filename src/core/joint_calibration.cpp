@@ -24,26 +24,48 @@ double secondsSince(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-/// LiDAR fine residual whose stereo scale is the left-right baseline length over the length the
-/// clouds were computed with: r = n^T (T p_l - |t_rl| / b_used F(d)) / sigma.
+/// LiDAR fine residual, paper eq. point_point_normal_obj, r = n^T (T p_l - F(d')) / sigma, with
+/// the stereo point F linearised in T_right_left (see the header): its baseline is |t_rl| (exact:
+/// F scales with it), and its disparity d' = d + f dx corrects to first order for the rotation
+/// phi between the right camera of the estimate and the one the cloud was rectified with:
+/// a right camera rotated by phi sees the point at x_r + dx,
+///   dx = phi_y (1 + x_r^2) - phi_z y - phi_x x_r y   (x_r, y: normalised right coordinates),
+/// so SGBM measured d - f dx. (The rectification rotations themselves are tenths of a degree:
+/// phi is taken in the rectified right frame; phi's lever on the baseline direction is left to
+/// re-rectification.)
 struct JointLidarResidual {
-  JointLidarResidual(const Eigen::Vector3d& q, const Eigen::Vector3d& m, const Eigen::Vector3d& t,
-                     const Eigen::Vector3d& p_s, double inv_sigma, const Eigen::Vector3d& t_rl,
-                     double b_used)
-      : q_(q), m_(m), t_(t), p_s_(p_s), inv_sigma_(inv_sigma), t_rl_(t_rl), b_used_(b_used) {}
+  Eigen::Vector3d q, m, t;  ///< R_cl p_l, R_cl n_l, t_cl (reference)
+  double u, v, d;           ///< rectified pixel and measured disparity
+  double fx, fy, cx, cy, b_used;
+  Eigen::Matrix3d R_rect;
+  Eigen::Vector3d t_rl;  ///< reference left-right translation
+  Eigen::Vector3d phi0;  ///< rotation of the reference right camera from the clouds' one
+  double inv_sigma;
+
   template <typename T>
   bool operator()(const T* const d_cl, const T* const d_rl, T* residual) const {
     T b2 = T(0);
-    for (int i = 0; i < 3; ++i) b2 += (T(t_rl_[i]) + d_rl[3 + i]) * (T(t_rl_[i]) + d_rl[3 + i]);
-    const T scale = ceres::sqrt(b2) / T(b_used_);
-    T n[3];
-    residual[0] = pointPlaneDistance(d_cl, &scale, q_, m_, t_, p_s_, n) * T(inv_sigma_);
+    for (int i = 0; i < 3; ++i) b2 += (T(t_rl[i]) + d_rl[3 + i]) * (T(t_rl[i]) + d_rl[3 + i]);
+    const T phi[3] = {d_rl[0] + T(phi0.x()), d_rl[1] + T(phi0.y()), d_rl[2] + T(phi0.z())};
+    const double xr = (u - d - cx) / fx, y = (v - cy) / fy;
+    const T dx = phi[1] * (1.0 + xr * xr) - phi[2] * y - phi[0] * xr * y;
+    const T disp = T(d) + T(fx) * dx;
+    if (disp < T(0.5)) return false;
+    const T Z = T(fx) * ceres::sqrt(b2) / disp;
+    const T pr[3] = {T((u - cx) / fx) * Z, T((v - cy) / fy) * Z, Z};
+    Eigen::Matrix<T, 3, 1> p;
+    for (int i = 0; i < 3; ++i)
+      p[i] = T(R_rect(0, i)) * pr[0] + T(R_rect(1, i)) * pr[1] + T(R_rect(2, i)) * pr[2];
+    const T qq[3] = {T(q.x()), T(q.y()), T(q.z())};
+    const T mm[3] = {T(m.x()), T(m.y()), T(m.z())};
+    T c[3], n[3];
+    ceres::AngleAxisRotatePoint(d_cl, qq, c);
+    ceres::AngleAxisRotatePoint(d_cl, mm, n);
+    T dist = T(0);
+    for (int i = 0; i < 3; ++i) dist += n[i] * (c[i] + T(t[i]) + d_cl[3 + i] - p[i]);
+    residual[0] = dist * T(inv_sigma);
     return true;
   }
-  Eigen::Vector3d q_, m_, t_, p_s_;
-  double inv_sigma_;
-  Eigen::Vector3d t_rl_;
-  double b_used_;
 };
 
 /// Photometric residual (as PhotometricResidual) whose pattern points are the intersections of
@@ -136,6 +158,7 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   CoCalibrationResult res = coCalibrate(window, rig, T_cam_lidar_init, T_right_left_init, init);
   res.stable = res.converged = false;
   res.rounds = 0;
+  res.message.clear();
   if (window.empty() || res.stereo.keypoints < ps.min_keypoints ||
       res.lidar.fine_inliers < ls.min_inliers) {
     res.message = "initial round failed: " + res.stereo.message + " / " + res.lidar.message;
@@ -174,6 +197,8 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
                                         &res.seconds_stereo_cloud) > 0;
     const double b_used = window.front()->T_right_left_used.translation().norm();
     const double scale = T_rl.translation().norm() / b_used;
+    const Eigen::Vector3d phi0 =
+        logSO3(T_rl.linear() * window.front()->T_right_left_used.linear().transpose());
 
     double d_cl[6] = {0, 0, 0, 0, 0, 0}, d_rl[6] = {0, 0, 0, 0, 0, 0};
     ceres::Problem::Options po;
@@ -205,10 +230,16 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
             dFdd * dFdd * s.stereo_cloud.disparity_sigma * s.stereo_cloud.disparity_sigma;
         const double inv_sigma = 1.0 / std::sqrt(var);
         if (std::fabs(m.dot(c - scale * p_s)) * inv_sigma > ls.fine_gate_sigma) continue;
-        problem.AddResidualBlock(
-            new ceres::AutoDiffCostFunction<JointLidarResidual, 1, 6, 6>(new JointLidarResidual(
-                q, m, T_cl.translation(), p_s, inv_sigma, T_rl.translation(), b_used)),
-            &lidar_loss, d_cl, d_rl);
+        auto* lr = new JointLidarResidual;
+        lr->q = q, lr->m = m, lr->t = T_cl.translation();
+        lr->u = u, lr->v = v, lr->d = d;
+        lr->fx = st.fx, lr->fy = st.fy, lr->cx = st.cx, lr->cy = st.cy, lr->b_used = b_used;
+        lr->R_rect = st.R_rect_left;
+        lr->t_rl = T_rl.translation();
+        lr->phi0 = phi0;
+        lr->inv_sigma = inv_sigma;
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<JointLidarResidual, 1, 6, 6>(lr),
+                                 &lidar_loss, d_cl, d_rl);
         ++n_lidar;
       }
     }
@@ -244,7 +275,9 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
         r->t_cl = T_cl.translation();
         r->R_rl = T_rl.linear();
         r->t_rl = T_rl.translation();
-        r->sqrt_w = std::sqrt(c2 / (c2 + kp.grad2)) / sigma_ph;
+        // The 8 pattern pixels of a key point share its depth and most of its information: they
+        // count as one observation against the LiDAR residuals (each is one face).
+        r->sqrt_w = std::sqrt(c2 / (c2 + kp.grad2) / kPatternSize) / sigma_ph;
         r->fx = rig.right.fx, r->fy = rig.right.fy, r->cx = rig.right.cx, r->cy = rig.right.cy;
         problem.AddResidualBlock(
             new ceres::AutoDiffCostFunction<JointPhotometricResidual, kPatternSize, 6, 2, 6>(r),

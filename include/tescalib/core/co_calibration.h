@@ -22,6 +22,9 @@ struct CoCalibrationSettings {
   /// contraction of the last two rounds (step * rho / (1 - rho), rho = |step_k| / |step_k-1|).
   double stable_rot_deg = 0.01;
   double stable_trans_m = 0.003;
+  /// The LiDAR-stereo fine stage counts as settled once its update is below this fraction of the
+  /// stability tolerance.
+  double inner_settle_fraction = 0.1;
   /// Rounds after the first are warm-started: LiDAR-stereo fine stage only, photometric on the
   /// finest `warm_pyramid_levels` levels with `warm_iterations` Ceres iterations per level.
   bool warm_start = true;
