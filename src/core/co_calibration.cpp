@@ -1,24 +1,99 @@
 #include "tescalib/core/co_calibration.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
+#include <limits>
 
 namespace tescalib {
 
 namespace {
-bool moved(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, const CoCalibrationSettings& s) {
-  const Vector6d d = poseError(a, b);
-  return d.head<3>().norm() * kDegPerRad > s.stable_rot_deg ||
-         d.tail<3>().norm() > s.stable_trans_m;
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
 }
+
+using Vector12d = Eigen::Matrix<double, 12, 1>;
+
+/// Both extrinsics as one 12-vector relative to a reference pair, each component divided by its
+/// stability tolerance (so that 1 is "just stable").
+Vector12d normalisedDifference(const Eigen::Isometry3d& cl, const Eigen::Isometry3d& rl,
+                               const Eigen::Isometry3d& cl_ref, const Eigen::Isometry3d& rl_ref,
+                               const CoCalibrationSettings& s) {
+  Vector12d x;
+  x << poseError(cl, cl_ref), poseError(rl, rl_ref);
+  for (int i = 0; i < 12; ++i)
+    x[i] /= (i % 6 < 3) ? s.stable_rot_deg / kDegPerRad : s.stable_trans_m;
+  return x;
+}
+
+/// Largest component of the normalised difference in max-norm per (extrinsic, rot/trans) block.
+double stepSize(const Vector12d& x) {
+  double m = 0;
+  for (int b = 0; b < 4; ++b) m = std::max(m, x.segment<3>(3 * b).norm());
+  return m;
+}
+
+Eigen::Isometry3d applyNormalised(const Eigen::Isometry3d& T, const Vector6d& x_norm,
+                                  const CoCalibrationSettings& s) {
+  Vector6d d = x_norm;
+  d.head<3>() *= s.stable_rot_deg / kDegPerRad;
+  d.tail<3>() *= s.stable_trans_m;
+  return perturb(T, d);
+}
+
 }  // namespace
+
+bool needsRerectification(const Eigen::Isometry3d& used, const Eigen::Isometry3d& now,
+                          double tol_deg) {
+  const double rot = logSO3(now.linear() * used.linear().transpose()).norm();
+  const Eigen::Vector3d a = used.translation().normalized(), b = now.translation().normalized();
+  const double dir = std::atan2(a.cross(b).norm(), a.dot(b));
+  return std::max(rot, dir) * kDegPerRad > tol_deg;
+}
+
+int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
+                  const Eigen::Isometry3d& T_right_left, const StereoSettings& settings,
+                  double tol_deg, double* seconds) {
+  if (window.empty()) return 0;
+  const auto t0 = Clock::now();
+  // The LiDAR-stereo solver estimates one scale for the window: every cloud must have been
+  // computed with the same baseline length.
+  const double b0 = window.front()->T_right_left_used.translation().norm();
+  bool same_length = true;
+  for (const Keyframe* kf : window)
+    same_length =
+        same_length && std::fabs(kf->T_right_left_used.translation().norm() - b0) <= 1e-9 * b0;
+  int n = 0;
+  for (Keyframe* kf : window) {
+    if (same_length && !kf->stereo.points.empty() &&
+        !needsRerectification(kf->T_right_left_used, T_right_left, tol_deg))
+      continue;
+    recomputeStereo(kf, rig, T_right_left, settings);
+    ++n;
+  }
+  if (n > 0 && n < static_cast<int>(window.size())) {
+    // Some were recomputed with T_right_left's length: make the others match it too.
+    for (Keyframe* kf : window)
+      if (kf->T_right_left_used.translation().norm() != T_right_left.translation().norm()) {
+        recomputeStereo(kf, rig, T_right_left, settings);
+        ++n;
+      }
+  }
+  if (seconds) *seconds += secondsSince(t0);
+  return n;
+}
 
 CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const StereoRig& rig,
                                 const Eigen::Isometry3d& T_cam_lidar_init,
                                 const Eigen::Isometry3d& T_right_left_init,
                                 const CoCalibrationSettings& s) {
-  const auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = Clock::now();
+  const bool debug = std::getenv("TESCALIB_DEBUG") != nullptr;
   CoCalibrationResult res;
   res.lidar.T_cam_lidar = T_cam_lidar_init;
   res.stereo.T_right_left = T_right_left_init;
@@ -28,39 +103,104 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   }
   std::vector<const Keyframe*> cwin(window.begin(), window.end());
   Eigen::Isometry3d T_cl = T_cam_lidar_init, T_rl = T_right_left_init;
+  // Estimates after each round since the last extrapolation (for Aitken's step).
+  std::deque<std::pair<Eigen::Isometry3d, Eigen::Isometry3d>> history;
+  double prev_step = std::numeric_limits<double>::infinity();
+  bool photometric_done = false;
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
-    res.stereo = solvePhotometric(cwin, rig, T_cl, T_rl, s.stereo);
-    Eigen::Isometry3d T_rl_new = res.stereo.T_right_left;
-    const auto t_cloud = std::chrono::steady_clock::now();
-    for (Keyframe* kf : window) recomputeStereo(kf, rig, T_rl_new, s.stereo_cloud);
-    res.seconds_stereo_cloud +=
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t_cloud).count();
+    const bool warm = s.warm_start && res.rounds > 1;
+    Eigen::Isometry3d T_rl_new = T_rl;
+    // 1. Left-right from the LiDAR depth.
+    {
+      PhotometricSettings ps = s.stereo;
+      ps.fix_baseline_length = s.photometric_fixed_length;
+      if (warm && photometric_done) {
+        ps.pyramid_levels = std::min(ps.pyramid_levels, s.warm_pyramid_levels);
+        ps.iterations_per_level = s.warm_iterations;
+      }
+      const auto t_ph = Clock::now();
+      res.stereo = solvePhotometric(cwin, rig, T_cl, T_rl, ps);
+      res.seconds_photometric += secondsSince(t_ph);
+      photometric_done = true;
+      // The photometric baseline length is only as good as the LiDAR depth it used: keep the
+      // current length (set by the LiDAR-given stereo scale after round 1) and take the rotation
+      // and the baseline direction.
+      T_rl_new = res.stereo.T_right_left;
+      if (res.rounds > 1)
+        T_rl_new.translation() = T_rl_new.translation().normalized() * T_rl.translation().norm();
+    }
+    // 2. Stereo clouds, only where the rectification changed enough to matter.
+    res.rectifications += rectifyWindow(window, rig, T_rl_new, s.stereo_cloud, s.rerectify_deg,
+                                        &res.seconds_stereo_cloud) > 0;
+    const double b_used = window.front()->T_right_left_used.translation().norm();
+    // 3. LiDAR-stereo with the stereo scale: the LiDAR is metric, so the scale corrects the
+    // baseline length (rectification does not depend on it, the clouds simply scale).
     LidarStereoSettings ls = s.lidar;
     ls.disparity_sigma = s.stereo_cloud.disparity_sigma;
-    // The LiDAR is metric; the photometric baseline is only as good as the LiDAR depth it used.
-    // So the LiDAR-stereo solve also estimates the stereo cloud's scale, which corrects the
-    // baseline length (rectification does not depend on it, the clouds simply scale).
     ls.estimate_stereo_scale = true;
+    // The inner solve only needs to settle well below the outer tolerance (its defaults, 2e-4 deg
+    // and 0.02 mm, are below what re-association noise allows with the scale free).
+    ls.converge_rot_deg = std::max(ls.converge_rot_deg, s.inner_settle_fraction * s.stable_rot_deg);
+    ls.converge_trans_m = std::max(ls.converge_trans_m, s.inner_settle_fraction * s.stable_trans_m);
+    if (warm) ls.run_coarse = false;
+    const auto t_l = Clock::now();
     res.lidar = solveLidarStereo(cwin, T_cl, ls);
-    T_rl_new.translation() *= res.lidar.stereo_scale;
+    res.seconds_lidar += secondsSince(t_l);
+    T_rl_new.translation() = T_rl_new.translation().normalized() * res.lidar.stereo_scale * b_used;
     res.stereo.T_right_left = T_rl_new;
     const Eigen::Isometry3d T_cl_new = res.lidar.T_cam_lidar;
-    const bool any_moved = moved(T_cl_new, T_cl, s) || moved(T_rl_new, T_rl, s);
-    if (std::getenv("TESCALIB_DEBUG")) {
+
+    // Stability: this round's step, and the remaining distance predicted from its contraction.
+    const double step = stepSize(normalisedDifference(T_cl_new, T_rl_new, T_cl, T_rl, s));
+    const double rho = step / prev_step;
+    const bool stable = res.rounds > 1 && photometric_done && step < 1.0 &&
+                        (rho < 1.0 ? step * rho / (1.0 - rho) < 1.0 : prev_step < 1.0);
+    if (debug) {
       const Eigen::Vector3d r = logSO3(T_rl_new.linear()) * kDegPerRad;
       std::fprintf(stderr,
                    "co round %d: scale %.4f T_rl rot [%.4f %.4f %.4f] deg t [%.4f %.4f %.4f]; "
-                   "lidar %s %s; T_cl t [%.4f %.4f %.4f]\n",
+                   "lidar %s %s; T_cl t [%.4f %.4f %.4f]; step %.2f rho %.2f%s; s: photo %.2f "
+                   "cloud %.2f lidar %.2f\n",
                    res.rounds, res.lidar.stereo_scale, r.x(), r.y(), r.z(),
                    T_rl_new.translation().x(), T_rl_new.translation().y(),
                    T_rl_new.translation().z(), res.lidar.converged ? "conv" : "not conv",
                    res.lidar.message.c_str(), T_cl_new.translation().x(),
-                   T_cl_new.translation().y(), T_cl_new.translation().z());
+                   T_cl_new.translation().y(), T_cl_new.translation().z(), step, rho,
+                   stable ? " stable" : "", res.seconds_photometric, res.seconds_stereo_cloud,
+                   res.seconds_lidar);
     }
     T_cl = T_cl_new, T_rl = T_rl_new;
-    if (!any_moved && res.rounds > 1) {
+    prev_step = step;
+    if (stable) {
       res.stable = true;
       break;
+    }
+    // Aitken's delta-squared on the stacked estimates: the alternation is a contraction whose
+    // dominant rate rho shows in successive steps; the fixed point is x2 + rho / (1 - rho) d2.
+    if (res.rounds > 1) history.emplace_back(T_cl, T_rl);  // round 1 includes the coarse stage
+    if (s.extrapolate && history.size() == 3) {
+      const auto& [cl0, rl0] = history[0];
+      const auto& [cl1, rl1] = history[1];
+      const Vector12d x0 = normalisedDifference(cl0, rl0, T_cl, T_rl, s);
+      const Vector12d x1 = normalisedDifference(cl1, rl1, T_cl, T_rl, s);
+      const Vector12d d1 = x1 - x0, d2 = -x1;
+      const double r = d2.dot(d1) / std::max(1e-12, d1.squaredNorm());
+      const double cosine = d2.dot(d1) / std::max(1e-12, d1.norm() * d2.norm());
+      history.pop_front();
+      // Only a consistent contraction of solves that converged, and never a jump larger than
+      // the last three steps together (a wrong rate estimate must not throw the estimate away).
+      if (r > 0 && r < s.max_contraction && cosine > 0.8 && res.lidar.converged &&
+          res.stereo.converged) {
+        const Vector12d jump = r / (1.0 - r) * d2;
+        T_cl = applyNormalised(T_cl, jump.head<6>(), s);
+        T_rl = applyNormalised(T_rl, jump.tail<6>(), s);
+        ++res.extrapolations;
+        history.clear();
+        prev_step = std::numeric_limits<double>::infinity();  // the next step is judged afresh
+        if (debug)
+          std::fprintf(stderr, "co extrapolation: rho %.2f, cosine %.2f, jump %.2f\n", r, cosine,
+                       stepSize(jump));
+      }
     }
   }
   res.rounds = std::min(res.rounds, s.max_rounds);
@@ -71,7 +211,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     res.message = "left-right: " + res.stereo.message;
   else if (!res.lidar.converged)
     res.message = "LiDAR-stereo: " + res.lidar.message;
-  res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  res.seconds = secondsSince(t0);
   return res;
 }
 

@@ -14,10 +14,19 @@
 namespace tescalib {
 namespace {
 
-struct KeyPoint {
-  double u = 0, v = 0;  ///< full-resolution left pixel
-  int face = -1;        ///< LiDAR face under it
-  double grad2 = 0;     ///< squared gradient magnitude
+/// Stiff prior |t_ref + tau| = length (units: 0.1 mm).
+struct BaselineLengthPrior {
+  BaselineLengthPrior(const Eigen::Vector3d& t_ref, double length)
+      : t_ref_(t_ref), length_(length) {}
+  template <typename T>
+  bool operator()(const T* const delta, T* residual) const {
+    T n2 = T(0);
+    for (int i = 0; i < 3; ++i) n2 += (T(t_ref_[i]) + delta[3 + i]) * (T(t_ref_[i]) + delta[3 + i]);
+    residual[0] = (ceres::sqrt(n2) - T(length_)) * T(1e4);
+    return true;
+  }
+  Eigen::Vector3d t_ref_;
+  double length_;
 };
 
 /// One pyramid level of one keyframe: images as doubles for Ceres' interpolator.
@@ -45,6 +54,8 @@ double bilinear(const cv::Mat& img, double u, double v) {
   return (1 - fv) * ((1 - fu) * img.at<double>(v0, u0) + fu * img.at<double>(v0, u0 + 1)) +
          fv * ((1 - fu) * img.at<double>(v0 + 1, u0) + fu * img.at<double>(v0 + 1, u0 + 1));
 }
+
+}  // namespace
 
 std::vector<KeyPoint> selectKeyPoints(const Keyframe& kf, const MeshDepth& md,
                                       const PhotometricSettings& s) {
@@ -76,8 +87,6 @@ std::vector<KeyPoint> selectKeyPoints(const Keyframe& kf, const MeshDepth& md,
   }
   return out;
 }
-
-}  // namespace
 
 PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, const StereoRig& rig,
                                    const Eigen::Isometry3d& T_cam_lidar,
@@ -176,6 +185,11 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
         ++used;
       }
     }
+    if (s.fix_baseline_length && used > 0)
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<BaselineLengthPrior, 1, 6>(
+              new BaselineLengthPrior(T.translation(), T_init.translation().norm())),
+          nullptr, delta);
     res.inliers = used;
     res.occluded = occluded;
     if (used < s.min_keypoints) {

@@ -19,6 +19,7 @@
 #include "tescalib/core/error.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/gicp_baseline.h"
+#include "tescalib/core/joint_calibration.h"
 #include "tescalib/core/keyframe.h"
 #include "tescalib/core/kitti_reader.h"
 #include "tescalib/core/lidar_stereo_solver.h"
@@ -34,6 +35,7 @@ struct Args {
   std::string mode = "lidar_stereo";
   std::string method = "tescalib";
   int trials = 10;
+  int first_trial = 0;  ///< runs trials first_trial .. first_trial + trials - 1
   double init_rot_deg = 3.0, init_trans_m = 0.3;
   double init_stereo_rot_deg = 1.0, init_stereo_trans_m = 0.1;
   double lidar_rot_deg = 0.0, lidar_trans_m = 0.0;  ///< stereo mode: LiDAR extrinsic error
@@ -53,11 +55,13 @@ void usage() {
          "T]\n"
          "         [--init-stereo-rot-deg R] [--init-stereo-trans-m T] [--seed S] [--window W]\n"
          "         [--json FILE] [--stages coarse,fine] [--lidar-rot-deg R --lidar-trans-m T]\n"
-         "         [--windows first|disjoint] [--cov-cells XxY] [--cov-model-scale K]\n"
+         "         [--windows first|disjoint] [--cov-cells XxY] [--cov-model-scale K] "
+         "[--first-trial K]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
-         "(both: LiDAR from the --init sizes, stereo from the --init-stereo sizes).\n"
+         "(both: LiDAR from the --init sizes, stereo from the --init-stereo sizes), joint (as co,\n"
+         "one Ceres problem over both extrinsics).\n"
          "Sequences are KITTI-odometry-layout folders sharing one calibration (real, or written "
          "by\n"
          "tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds the first W.\n"
@@ -98,6 +102,8 @@ bool parse(int argc, char** argv, Args* a) {
         a->method = v;
       else if (k == "--trials")
         a->trials = std::stoi(v);
+      else if (k == "--first-trial")
+        a->first_trial = std::stoi(v);
       else if (k == "--init-rot-deg")
         a->init_rot_deg = std::stod(v);
       else if (k == "--init-trans-m")
@@ -144,9 +150,9 @@ bool parse(int argc, char** argv, Args* a) {
     std::cerr << "tescalib_eval: --sequences is required\n";
     return false;
   }
-  if (a->mode != "lidar_stereo" && a->mode != "stereo" && a->mode != "co") {
+  if (a->mode != "lidar_stereo" && a->mode != "stereo" && a->mode != "co" && a->mode != "joint") {
     std::cerr << "tescalib_eval: mode '" << a->mode
-              << "' is not available in this build (available: lidar_stereo, stereo, co)\n";
+              << "' is not available in this build (available: lidar_stereo, stereo, co, joint)\n";
     return false;
   }
   if (a->method != "tescalib" && a->method != "pcl_gicp") {
@@ -306,12 +312,12 @@ int main(int argc, char** argv) {
   std::vector<Trial> trials;
   std::cout << " trial  conv  init(deg,m)    err rot [x y z] deg          err trans [x y z] cm"
                "        sigma(deg,cm)   iters  prep(s) solve(s)\n";
-  for (int t = 0; t < args.trials; ++t) {
+  for (int t = args.first_trial; t < args.first_trial + args.trials; ++t) {
     Trial tr;
     tr.seed = args.seed * 1000003ULL + t;
     std::mt19937_64 rng(tr.seed);
     const bool stereo_mode = args.mode == "stereo";
-    const bool co_mode = args.mode == "co";
+    const bool co_mode = args.mode == "co" || args.mode == "joint";
     const Vector6d main_delta =
         randomPerturbation(args.init_rot_deg / kDegPerRad, args.init_trans_m, rng);
     Eigen::Isometry3d T_init = rig.T_cam_lidar;
@@ -356,8 +362,15 @@ int main(int argc, char** argv) {
       cs.lidar.cov_cells_y = solver_settings.cov_cells_y;
       cs.lidar.model_sigma_rot_deg = solver_settings.model_sigma_rot_deg;
       cs.lidar.model_sigma_trans_m = solver_settings.model_sigma_trans_m;
-      const CoCalibrationResult r =
-          coCalibrate(mwin, rig, T_init, perturb(rig.T_right_left, tr.stereo.init), cs);
+      const Eigen::Isometry3d T_rl_init = perturb(rig.T_right_left, tr.stereo.init);
+      CoCalibrationResult r;
+      if (args.mode == "joint") {
+        JointCalibrationSettings jset;
+        jset.co = cs;
+        r = jointCalibrate(mwin, rig, T_init, T_rl_init, jset);
+      } else {
+        r = coCalibrate(mwin, rig, T_init, T_rl_init, cs);
+      }
       tr.converged = r.converged;
       tr.iterations = r.rounds;
       tr.lidar.cov = r.lidar.covariance;
@@ -430,7 +443,7 @@ int main(int argc, char** argv) {
 
   // ------------------------------------------------------------------ summary
   const bool stereo_mode = args.mode == "stereo";
-  const bool co_mode = args.mode == "co";
+  const bool co_mode = args.mode == "co" || args.mode == "joint";
   // The extrinsics the mode estimates; a trial succeeds when all of them do.
   std::vector<std::pair<std::string, const ExtrinsicOutcome Trial::*>> estimated;
   if (!stereo_mode) estimated.emplace_back("lidar", &Trial::lidar);

@@ -1,6 +1,6 @@
 // Co-calibration (paper, "Co-calibration"): alternate the left-right photometric solver and the
-// LiDAR-stereo solver, re-rectifying and recomputing the stereo clouds with every new left-right
-// estimate, until both estimates are stable.
+// LiDAR-stereo solver, re-rectifying and recomputing the stereo clouds when the left-right
+// estimate changed enough to matter, until both estimates are stable.
 #pragma once
 
 #include <string>
@@ -16,22 +16,58 @@ struct CoCalibrationSettings {
   LidarStereoSettings lidar;
   PhotometricSettings stereo;
   StereoSettings stereo_cloud;
-  int max_rounds = 6;
-  /// Stable: in one round neither extrinsic moved by more than this.
-  double stable_rot_deg = 0.005;
-  double stable_trans_m = 0.001;
+  int max_rounds = 15;
+  /// Stability criterion (both must hold for both extrinsics): the last round moved the estimate
+  /// by less than this, and so does the remaining distance to the fixed point predicted from the
+  /// contraction of the last two rounds (step * rho / (1 - rho), rho = |step_k| / |step_k-1|).
+  double stable_rot_deg = 0.01;
+  double stable_trans_m = 0.003;
+  /// The LiDAR-stereo fine stage counts as settled once its update is below this fraction of the
+  /// stability tolerance.
+  double inner_settle_fraction = 0.1;
+  /// Rounds after the first are warm-started: LiDAR-stereo fine stage only, photometric on the
+  /// finest `warm_pyramid_levels` levels with `warm_iterations` Ceres iterations per level.
+  bool warm_start = true;
+  int warm_pyramid_levels = 1;
+  int warm_iterations = 10;
+  /// Stereo clouds are recomputed only when T_right_left's rotation or baseline direction moved
+  /// by more than this since they were computed (the baseline length is the stereo scale's job).
+  /// 0.005 deg is about 0.06 px of rectification error at KITTI's focal length.
+  double rerectify_deg = 0.005;
+  /// Extrapolates the fixed-point iteration (Aitken's delta-squared on the stacked 12-vector of
+  /// both extrinsics) once three successive estimates contract consistently.
+  bool extrapolate = true;
+  double max_contraction = 0.75;  ///< no extrapolation beyond this rate (jump <= 3 steps)
+  /// The photometric solver keeps the baseline length it is given (rotation and direction free):
+  /// the length comes from the LiDAR-given stereo scale. Off: round 1 takes the photometric length.
+  bool photometric_fixed_length = true;
 };
 
 struct CoCalibrationResult {
   LidarStereoResult lidar;   ///< last LiDAR-stereo solve (T_cam_lidar, covariance, ...)
   PhotometricResult stereo;  ///< last left-right solve (T_right_left, covariance, ...)
   int rounds = 0;
+  int rectifications = 0;           ///< times the window's stereo clouds were recomputed
+  int extrapolations = 0;           ///< Aitken steps taken
   bool stable = false;              ///< the stability criterion was met within max_rounds
   bool converged = false;           ///< stable and both solvers converged
   double seconds_stereo_cloud = 0;  ///< time spent recomputing stereo clouds
+  double seconds_photometric = 0, seconds_lidar = 0;
   double seconds = 0;
   std::string message;
 };
+
+/// True when stereo clouds computed with `used` should be recomputed for `now`: the rotation or
+/// the baseline direction differ by more than `tol_deg` (the baseline length does not matter).
+bool needsRerectification(const Eigen::Isometry3d& used, const Eigen::Isometry3d& now,
+                          double tol_deg);
+
+/// Recomputes the window's stereo clouds with `T_right_left` where they need it (a different
+/// rectification, or a baseline length differing from the others'); returns how many it
+/// recomputed and adds the time to `*seconds`.
+int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
+                  const Eigen::Isometry3d& T_right_left, const StereoSettings& settings,
+                  double tol_deg, double* seconds);
 
 /// Runs the alternation over `window` (stereo clouds are recomputed in place). The stereo solver
 /// goes first: it tolerates a bad LiDAR extrinsic (paper, "Sensitivity Analysis").

@@ -10,6 +10,7 @@
 
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/keyframe.h"
+#include "tescalib/core/mesh_depth.h"
 
 namespace tescalib {
 
@@ -33,7 +34,22 @@ struct PhotometricSettings {
   double max_correction_rot_deg = 10.0;
   double max_correction_trans_m = 1.0;
   int threads = 2;
+  /// Keep |t_right_left| at the initial guess' length (a stiff prior; rotation and baseline
+  /// direction stay free). Co-calibration sets it: there the LiDAR-given stereo scale decides the
+  /// length, and a free length can absorb a large LiDAR depth error into a wrong local minimum.
+  bool fix_baseline_length = false;
 };
+
+/// A key point of the photometric objective: the strongest gradient of its cell with LiDAR depth.
+struct KeyPoint {
+  double u = 0, v = 0;  ///< full-resolution left pixel
+  int face = -1;        ///< LiDAR face under it
+  double grad2 = 0;     ///< squared gradient magnitude
+};
+
+/// Key points of one keyframe (one per cell, the mesh depth `md` rendered in the left camera).
+std::vector<KeyPoint> selectKeyPoints(const Keyframe& kf, const MeshDepth& md,
+                                      const PhotometricSettings& settings);
 
 struct PhotometricResult {
   Eigen::Isometry3d T_right_left = Eigen::Isometry3d::Identity();

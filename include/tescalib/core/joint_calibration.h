@@ -1,0 +1,46 @@
+// Joint calibration (the paper's first future-work item): the LiDAR-stereo fine residuals and the
+// left-right photometric residuals in one Ceres problem over both extrinsics.
+//
+// Coupling in both directions:
+// - photometric -> LiDAR: a key point's 3D point is where its left ray meets its LiDAR face, and
+//   the face moves with T_cam_lidar, so the photometric residuals depend on both extrinsics;
+// - LiDAR-stereo -> left-right: a stereo point is F(d) = R_rect^T K_rect^-1 (u, v, 1) f b / d.
+//   It is linearised in T_right_left around the rectification the cloud was computed with: the
+//   baseline length enters exactly (F scales with |t_right_left|), the right camera's rotation
+//   through a first-order correction of the measured disparity (a rotated right camera shifts
+//   the matched pixel), so a change of T_right_left moves the stereo points inside the solve.
+//   What the linearisation leaves out (second order, the baseline direction, SGBM itself) is
+//   handled by re-rectifying between outer iterations when T_right_left's rotation or direction
+//   moved by more than `co.rerectify_deg`. Re-rectifying alone (no rotation term) was measured
+//   first: the outer loop then contracted by only ~0.7 per iteration, because the yaw of the
+//   right camera (a constant disparity offset) and the LiDAR's forward offset pull on each other
+//   through the clouds, which a solve that holds the clouds fixed cannot see.
+#pragma once
+
+#include <vector>
+
+#include "tescalib/core/co_calibration.h"
+
+namespace tescalib {
+
+struct JointCalibrationSettings {
+  CoCalibrationSettings co;  ///< solvers' settings, clouds, tolerances (stable_*, rerectify_deg)
+  int max_outer = 15;        ///< outer iterations (re-associate, re-rectify, one joint solve)
+  int ceres_iterations = 10;
+  /// Photometric residual sigma (grey levels) that weighs it against the LiDAR residuals (which
+  /// are already in noise units); <= 0: the robust spread of the initial left-right solve's.
+  double photometric_sigma = -1;
+};
+
+/// Initialises with one co-calibration round (photometric coarse-to-fine, LiDAR coarse + fine:
+/// the joint problem's projective associations need a start within their basin), then runs the
+/// joint outer iterations. Returns the co-calibration result type: `lidar.T_cam_lidar`,
+/// `lidar.covariance`, `stereo.T_right_left`, `stereo.covariance` (both marginal covariances of
+/// the joint problem; the LiDAR one plus the LiDAR solver's model-error term), `rounds` = outer
+/// iterations, `stable` = the last update was below the tolerance.
+CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const StereoRig& rig,
+                                   const Eigen::Isometry3d& T_cam_lidar_init,
+                                   const Eigen::Isometry3d& T_right_left_init,
+                                   const JointCalibrationSettings& settings = {});
+
+}  // namespace tescalib

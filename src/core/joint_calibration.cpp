@@ -1,0 +1,373 @@
+#include "tescalib/core/joint_calibration.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <opencv2/imgproc.hpp>
+
+#include "tescalib/core/mesh_depth.h"
+#include "tescalib/core/residuals/photometric_residual.h"
+#include "tescalib/core/residuals/point_plane_distance.h"
+
+namespace tescalib {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// LiDAR fine residual, paper eq. point_point_normal_obj, r = n^T (T p_l - F(d')) / sigma, with
+/// the stereo point F linearised in T_right_left (see the header): its baseline is |t_rl| (exact:
+/// F scales with it), and its disparity d' = d + f dx corrects to first order for the rotation
+/// phi between the right camera of the estimate and the one the cloud was rectified with:
+/// a right camera rotated by phi sees the point at x_r + dx,
+///   dx = phi_y (1 + x_r^2) - phi_z y - phi_x x_r y   (x_r, y: normalised right coordinates),
+/// so SGBM measured d - f dx. (The rectification rotations themselves are tenths of a degree:
+/// phi is taken in the rectified right frame; phi's lever on the baseline direction is left to
+/// re-rectification.)
+struct JointLidarResidual {
+  Eigen::Vector3d q, m, t;  ///< R_cl p_l, R_cl n_l, t_cl (reference)
+  double u, v, d;           ///< rectified pixel and measured disparity
+  double fx, fy, cx, cy, b_used;
+  Eigen::Matrix3d R_rect;
+  Eigen::Vector3d t_rl;  ///< reference left-right translation
+  Eigen::Vector3d phi0;  ///< rotation of the reference right camera from the clouds' one
+  double inv_sigma;
+
+  template <typename T>
+  bool operator()(const T* const d_cl, const T* const d_rl, T* residual) const {
+    T b2 = T(0);
+    for (int i = 0; i < 3; ++i) b2 += (T(t_rl[i]) + d_rl[3 + i]) * (T(t_rl[i]) + d_rl[3 + i]);
+    const T phi[3] = {d_rl[0] + T(phi0.x()), d_rl[1] + T(phi0.y()), d_rl[2] + T(phi0.z())};
+    const double xr = (u - d - cx) / fx, y = (v - cy) / fy;
+    const T dx = phi[1] * (1.0 + xr * xr) - phi[2] * y - phi[0] * xr * y;
+    const T disp = T(d) + T(fx) * dx;
+    if (disp < T(0.5)) return false;
+    const T Z = T(fx) * ceres::sqrt(b2) / disp;
+    const T pr[3] = {T((u - cx) / fx) * Z, T((v - cy) / fy) * Z, Z};
+    Eigen::Matrix<T, 3, 1> p;
+    for (int i = 0; i < 3; ++i)
+      p[i] = T(R_rect(0, i)) * pr[0] + T(R_rect(1, i)) * pr[1] + T(R_rect(2, i)) * pr[2];
+    const T qq[3] = {T(q.x()), T(q.y()), T(q.z())};
+    const T mm[3] = {T(m.x()), T(m.y()), T(m.z())};
+    T c[3], n[3];
+    ceres::AngleAxisRotatePoint(d_cl, qq, c);
+    ceres::AngleAxisRotatePoint(d_cl, mm, n);
+    T dist = T(0);
+    for (int i = 0; i < 3; ++i) dist += n[i] * (c[i] + T(t[i]) + d_cl[3 + i] - p[i]);
+    residual[0] = dist * T(inv_sigma);
+    return true;
+  }
+};
+
+/// Photometric residual (as PhotometricResidual) whose pattern points are the intersections of
+/// the left rays with the key point's LiDAR face under T_cam_lidar = perturb(T_cl_ref, d_cl).
+struct JointPhotometricResidual {
+  const ImageInterpolator* right;
+  std::array<Eigen::Vector3d, kPatternSize> rays;  ///< left rays (z = 1)
+  Eigen::Vector3d q_f, m_f, t_cl;                  ///< R_cl p_face, R_cl n_face, t_cl (reference)
+  Eigen::Matrix3d R_rl;
+  Eigen::Vector3d t_rl;
+  std::array<double, kPatternSize> left;
+  double sqrt_w, fx, fy, cx, cy;
+
+  template <typename T>
+  bool operator()(const T* const d_rl, const T* const ab, const T* const d_cl, T* residual) const {
+    const T qf[3] = {T(q_f.x()), T(q_f.y()), T(q_f.z())};
+    const T mf[3] = {T(m_f.x()), T(m_f.y()), T(m_f.z())};
+    T m[3], c[3];
+    ceres::AngleAxisRotatePoint(d_cl, mf, m);
+    ceres::AngleAxisRotatePoint(d_cl, qf, c);
+    T mc = T(0);
+    for (int i = 0; i < 3; ++i) mc += m[i] * (c[i] + T(t_cl[i]) + d_cl[3 + i]);
+    const T gain = ceres::exp(ab[0]);
+    for (int k = 0; k < kPatternSize; ++k) {
+      const Eigen::Vector3d& r = rays[k];
+      const T mr = m[0] * r.x() + m[1] * r.y() + m[2] * r.z();
+      if (ceres::abs(mr) < T(1e-9)) return false;
+      const T lambda = mc / mr;
+      if (lambda < T(0.5)) return false;
+      T x[3], y[3];
+      for (int i = 0; i < 3; ++i)
+        x[i] = lambda * (R_rl(i, 0) * r.x() + R_rl(i, 1) * r.y() + R_rl(i, 2) * r.z());
+      ceres::AngleAxisRotatePoint(d_rl, x, y);
+      for (int i = 0; i < 3; ++i) y[i] += T(t_rl[i]) + d_rl[3 + i];
+      if (y[2] < T(0.1)) return false;
+      const T u = T(fx) * y[0] / y[2] + T(cx);
+      const T v = T(fy) * y[1] / y[2] + T(cy);
+      T value;
+      right->Evaluate(v, u, &value);
+      residual[k] = T(sqrt_w) * (value - ab[1] - gain * T(left[k]));
+    }
+    return true;
+  }
+};
+
+double lidarVarianceAlong(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_dir, double range,
+                          const LidarStereoSettings& s) {
+  const double c = n.dot(beam_dir);
+  const double lateral = range * s.lidar_beam_sigma_deg * M_PI / 180.0;
+  return s.lidar_range_sigma * s.lidar_range_sigma * c * c + lateral * lateral * (1.0 - c * c);
+}
+
+double bilinear(const cv::Mat& img, double u, double v) {
+  const int u0 = int(std::floor(u)), v0 = int(std::floor(v));
+  if (u0 < 0 || v0 < 0 || u0 + 1 >= img.cols || v0 + 1 >= img.rows) return std::nan("");
+  const double fu = u - u0, fv = v - v0;
+  return (1 - fv) * ((1 - fu) * img.at<double>(v0, u0) + fu * img.at<double>(v0, u0 + 1)) +
+         fv * ((1 - fu) * img.at<double>(v0 + 1, u0) + fu * img.at<double>(v0 + 1, u0 + 1));
+}
+
+struct Images {
+  cv::Mat left;  ///< CV_64F
+  std::vector<double> right_data;
+  std::unique_ptr<ceres::Grid2D<double, 1>> grid;
+  std::unique_ptr<ImageInterpolator> interp;
+};
+
+double normalisedStep(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b,
+                      const CoCalibrationSettings& s) {
+  const Vector6d d = poseError(a, b);
+  return std::max(d.head<3>().norm() * kDegPerRad / s.stable_rot_deg,
+                  d.tail<3>().norm() / s.stable_trans_m);
+}
+
+}  // namespace
+
+CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const StereoRig& rig,
+                                   const Eigen::Isometry3d& T_cam_lidar_init,
+                                   const Eigen::Isometry3d& T_right_left_init,
+                                   const JointCalibrationSettings& js) {
+  const auto t0 = Clock::now();
+  const bool debug = std::getenv("TESCALIB_DEBUG") != nullptr;
+  const CoCalibrationSettings& s = js.co;
+  const LidarStereoSettings& ls = s.lidar;
+  const PhotometricSettings& ps = s.stereo;
+  // ------------------------------------------------------------ initialisation: one round
+  CoCalibrationSettings init = s;
+  init.max_rounds = 1;
+  init.extrapolate = false;
+  CoCalibrationResult res = coCalibrate(window, rig, T_cam_lidar_init, T_right_left_init, init);
+  res.stable = res.converged = false;
+  res.rounds = 0;
+  res.message.clear();
+  if (window.empty() || res.stereo.keypoints < ps.min_keypoints ||
+      res.lidar.fine_inliers < ls.min_inliers) {
+    res.message = "initial round failed: " + res.stereo.message + " / " + res.lidar.message;
+    res.seconds = secondsSince(t0);
+    return res;
+  }
+  Eigen::Isometry3d T_cl = res.lidar.T_cam_lidar, T_rl = res.stereo.T_right_left;
+  const double sigma_ph = js.photometric_sigma > 0
+                              ? js.photometric_sigma
+                              : std::sqrt(std::max(1.0, res.stereo.final_cost));
+
+  // Key points (chosen once, with the initial round's LiDAR extrinsic) and images.
+  std::vector<const Keyframe*> cwin(window.begin(), window.end());
+  std::vector<std::vector<KeyPoint>> kps(window.size());
+  std::vector<Images> img(window.size());
+  for (size_t k = 0; k < window.size(); ++k) {
+    kps[k] = selectKeyPoints(*window[k], renderMeshDepth(window[k]->mesh, T_cl, rig.left), ps);
+    window[k]->left_gray.convertTo(img[k].left, CV_64F);
+    cv::Mat r;
+    window[k]->right_gray.convertTo(r, CV_64F);
+    img[k].right_data.assign(reinterpret_cast<const double*>(r.data),
+                             reinterpret_cast<const double*>(r.data) + r.total());
+    img[k].grid =
+        std::make_unique<ceres::Grid2D<double, 1>>(img[k].right_data.data(), 0, r.rows, 0, r.cols);
+    img[k].interp = std::make_unique<ImageInterpolator>(*img[k].grid);
+  }
+  std::vector<std::array<double, 2>> ab(window.size());
+  for (size_t k = 0; k < window.size(); ++k)
+    ab[k] = {res.stereo.brightness[k].x(), res.stereo.brightness[k].y()};
+  const double c2 = ps.gradient_weight_c * ps.gradient_weight_c;
+
+  // ------------------------------------------------------------ outer iterations
+  for (res.rounds = 1; res.rounds <= js.max_outer; ++res.rounds) {
+    // Re-rectify when the left-right rotation or direction moved enough to matter.
+    res.rectifications += rectifyWindow(window, rig, T_rl, s.stereo_cloud, s.rerectify_deg,
+                                        &res.seconds_stereo_cloud) > 0;
+    const double b_used = window.front()->T_right_left_used.translation().norm();
+    const double scale = T_rl.translation().norm() / b_used;
+    const Eigen::Vector3d phi0 =
+        logSO3(T_rl.linear() * window.front()->T_right_left_used.linear().transpose());
+
+    double d_cl[6] = {0, 0, 0, 0, 0, 0}, d_rl[6] = {0, 0, 0, 0, 0, 0};
+    ceres::Problem::Options po;
+    po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(po);
+    ceres::HuberLoss lidar_loss(ls.fine_huber), photo_loss(ps.huber / sigma_ph);
+
+    // LiDAR-stereo fine residuals: projective association at the current estimate.
+    int n_lidar = 0;
+    const Eigen::Matrix3d R = T_cl.linear();
+    for (size_t k = 0; k < window.size(); ++k) {
+      const StereoCloud& st = window[k]->stereo;
+      const auto& faces = window[k]->mesh.faces;
+      const double step = std::max(1.0, double(faces.size()) / ls.fine_faces_per_keyframe);
+      for (double x = 0; x < faces.size(); x += step) {
+        const MeshFace& f = faces[size_t(x)];
+        const Eigen::Vector3d q = R * f.centroid.cast<double>();
+        const Eigen::Vector3d c = q + T_cl.translation();
+        const Eigen::Vector3d pr = st.R_rect_left * c;
+        if (pr.z() < 1.0 || pr.z() > ls.max_depth) continue;
+        const double u = st.fx * pr.x() / pr.z() + st.cx, v = st.fy * pr.y() / pr.z() + st.cy;
+        double d;
+        if (!st.disparityAt(u, v, &d)) continue;
+        const Eigen::Vector3d p_s = st.pointAt(u, v, d);
+        const Eigen::Vector3d m = R * f.normal.cast<double>();
+        const double dFdd = scale * std::fabs(m.dot(p_s)) / d;
+        const double var =
+            lidarVarianceAlong(m, c.normalized(), f.range, ls) +
+            dFdd * dFdd * s.stereo_cloud.disparity_sigma * s.stereo_cloud.disparity_sigma;
+        const double inv_sigma = 1.0 / std::sqrt(var);
+        if (std::fabs(m.dot(c - scale * p_s)) * inv_sigma > ls.fine_gate_sigma) continue;
+        auto* lr = new JointLidarResidual;
+        lr->q = q, lr->m = m, lr->t = T_cl.translation();
+        lr->u = u, lr->v = v, lr->d = d;
+        lr->fx = st.fx, lr->fy = st.fy, lr->cx = st.cx, lr->cy = st.cy, lr->b_used = b_used;
+        lr->R_rect = st.R_rect_left;
+        lr->t_rl = T_rl.translation();
+        lr->phi0 = phi0;
+        lr->inv_sigma = inv_sigma;
+        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<JointLidarResidual, 1, 6, 6>(lr),
+                                 &lidar_loss, d_cl, d_rl);
+        ++n_lidar;
+      }
+    }
+    // Photometric residuals at full resolution, visible in the right image.
+    int n_photo = 0;
+    for (size_t k = 0; k < window.size(); ++k) {
+      const MeshDepth right_md = renderMeshDepth(window[k]->mesh, T_rl * T_cl, rig.right);
+      for (const KeyPoint& kp : kps[k]) {
+        const MeshFace& f = window[k]->mesh.faces[kp.face];
+        Eigen::Vector3d X;
+        if (!intersectFace(f, T_cl, rig.left, kp.u, kp.v, &X)) continue;
+        const Eigen::Vector3d Y = T_rl * X;
+        const double ur = rig.right.fx * Y.x() / Y.z() + rig.right.cx;
+        const double vr = rig.right.fy * Y.y() / Y.z() + rig.right.cy;
+        const int iu = int(std::lround(ur)), iv = int(std::lround(vr));
+        if (iu < 0 || iv < 0 || iu >= rig.right.width || iv >= rig.right.height) continue;
+        if (Y.z() > right_md.depth.at<float>(iv, iu) * (1.0 + ps.occlusion_tolerance)) continue;
+        auto* r = new JointPhotometricResidual;
+        r->right = img[k].interp.get();
+        bool ok = true;
+        for (int p = 0; p < kPatternSize && ok; ++p) {
+          const double pu = kp.u + kPattern[p][0], pv = kp.v + kPattern[p][1];
+          r->rays[p] = {(pu - rig.left.cx) / rig.left.fx, (pv - rig.left.cy) / rig.left.fy, 1.0};
+          r->left[p] = bilinear(img[k].left, pu, pv);
+          ok = std::isfinite(r->left[p]);
+        }
+        if (!ok) {
+          delete r;
+          continue;
+        }
+        r->q_f = R * f.centroid.cast<double>();
+        r->m_f = R * f.normal.cast<double>();
+        r->t_cl = T_cl.translation();
+        r->R_rl = T_rl.linear();
+        r->t_rl = T_rl.translation();
+        // The 8 pattern pixels of a key point share its depth and most of its information: they
+        // count as one observation against the LiDAR residuals (each is one face).
+        r->sqrt_w = std::sqrt(c2 / (c2 + kp.grad2) / kPatternSize) / sigma_ph;
+        r->fx = rig.right.fx, r->fy = rig.right.fy, r->cx = rig.right.cx, r->cy = rig.right.cy;
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<JointPhotometricResidual, kPatternSize, 6, 2, 6>(r),
+            &photo_loss, d_rl, ab[k].data(), d_cl);
+        ++n_photo;
+      }
+    }
+    res.lidar.fine_inliers = n_lidar;
+    res.stereo.inliers = n_photo;
+    if (n_lidar < ls.min_inliers || n_photo < ps.min_keypoints) {
+      res.message = "too few residuals (LiDAR " + std::to_string(n_lidar) + ", photometric " +
+                    std::to_string(n_photo) + ")";
+      break;
+    }
+    ceres::Solver::Options opt;
+    opt.linear_solver_type = ceres::DENSE_SCHUR;
+    opt.max_num_iterations = js.ceres_iterations;
+    opt.num_threads = ls.threads;
+    opt.logging_type = ceres::SILENT;
+    ceres::Solver::Summary summary;
+    ceres::Solve(opt, &problem, &summary);
+    Vector6d dc, dr;
+    for (int i = 0; i < 6; ++i) dc[i] = d_cl[i], dr[i] = d_rl[i];
+    const Eigen::Isometry3d T_cl_new = perturb(T_cl, dc), T_rl_new = perturb(T_rl, dr);
+    const double step =
+        std::max(normalisedStep(T_cl_new, T_cl, s), normalisedStep(T_rl_new, T_rl, s));
+    T_cl = T_cl_new, T_rl = T_rl_new;
+    res.stable = step < 1.0;
+    if (debug)
+      std::fprintf(stderr,
+                   "joint outer %d: %d LiDAR, %d photometric residuals, step %.2f, T_cl t [%.4f "
+                   "%.4f %.4f], baseline %.4f, %s\n",
+                   res.rounds, n_lidar, n_photo, step, T_cl.translation().x(),
+                   T_cl.translation().y(), T_cl.translation().z(), T_rl.translation().norm(),
+                   summary.BriefReport().c_str());
+    if (res.stable || res.rounds == js.max_outer) {
+      // Marginal covariances of both extrinsics in the joint problem (at the last linearisation;
+      // the residuals are in noise units: LiDAR by its noise model, photometric by sigma_ph).
+      ceres::Covariance::Options co;
+      co.algorithm_type = ceres::DENSE_SVD;
+      co.null_space_rank = -1;
+      ceres::Covariance cov(co);
+      std::vector<std::pair<const double*, const double*>> blocks{{d_cl, d_cl}, {d_rl, d_rl}};
+      if (cov.Compute(blocks, &problem)) {
+        double C[36];
+        cov.GetCovarianceBlock(d_cl, d_cl, C);
+        for (int i = 0; i < 36; ++i) res.lidar.covariance(i / 6, i % 6) = C[i];
+        cov.GetCovarianceBlock(d_rl, d_rl, C);
+        for (int i = 0; i < 36; ++i) res.stereo.covariance(i / 6, i % 6) = C[i];
+        for (int i = 0; i < 3; ++i) {
+          res.lidar.covariance(i, i) += std::pow(ls.model_sigma_rot_deg[i] / kDegPerRad, 2);
+          res.lidar.covariance(3 + i, 3 + i) += std::pow(ls.model_sigma_trans_m[i], 2);
+        }
+      }
+      break;
+    }
+  }
+  res.rounds = std::min(res.rounds, js.max_outer);
+  res.lidar.T_cam_lidar = T_cl;
+  res.lidar.stereo_scale =
+      T_rl.translation().norm() / window.front()->T_right_left_used.translation().norm();
+  res.stereo.T_right_left = T_rl;
+  for (size_t k = 0; k < window.size(); ++k) res.stereo.brightness[k] = {ab[k][0], ab[k][1]};
+  bool all = true;
+  for (int i = 0; i < 6; ++i) {
+    res.lidar.observable[i] = std::sqrt(res.lidar.covariance(i, i)) <
+                              (i < 3 ? ls.max_sigma_rot_deg / kDegPerRad : ls.max_sigma_trans_m);
+    res.stereo.observable[i] = std::sqrt(res.stereo.covariance(i, i)) <
+                               (i < 3 ? ps.max_sigma_rot_deg / kDegPerRad : ps.max_sigma_trans_m);
+    all = all && res.lidar.observable[i] && res.stereo.observable[i];
+  }
+  const Vector6d corr_l = poseError(T_cl, T_cam_lidar_init);
+  const Vector6d corr_s = poseError(T_rl, T_right_left_init);
+  const bool diverged = corr_l.head<3>().norm() * kDegPerRad > ls.max_correction_rot_deg ||
+                        corr_l.tail<3>().norm() > ls.max_correction_trans_m ||
+                        corr_s.head<3>().norm() * kDegPerRad > ps.max_correction_rot_deg ||
+                        corr_s.tail<3>().norm() > ps.max_correction_trans_m;
+  res.lidar.converged = res.stereo.converged = false;
+  if (!res.message.empty()) {
+  } else if (!res.stable)
+    res.message =
+        "joint estimate still moving after " + std::to_string(js.max_outer) + " outer iterations";
+  else if (diverged)
+    res.message = "diverged: the correction from the initial guess is implausibly large";
+  else if (!all)
+    res.message = "the window does not constrain every axis";
+  else
+    res.converged = res.lidar.converged = res.stereo.converged = true;
+  res.seconds = secondsSince(t0);
+  return res;
+}
+
+}  // namespace tescalib
