@@ -7,7 +7,7 @@
 #     error against the generator's ground truth and the node's timings.
 #  3. Only when ../shared/data/kitti_odometry_mini exists: the same on real KITTI frames
 #     (2011_09_30, sequences 04-07), looped for 20 s, errors against KITTI's calibration.
-# LiDAR-stereo only: co-calibration (estimate_stereo:=true) does not converge on these drives
+# LiDAR-stereo only: online co-calibration (estimate_stereo:=true) takes 10-35 s per window here
 # within the demo (README, "Online"). RVIZ=1 opens rviz on part 2 and keeps it open.
 # Settings: DEMO_FRAMES (100), DEMO_SEED (1), DEMO_SCENARIO (urban), DEMO_NOISE (default),
 # DEMO_KITTI (1: run part 3 when the data exists; 0: skip it).
