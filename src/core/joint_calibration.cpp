@@ -111,13 +111,6 @@ struct JointPhotometricResidual {
   }
 };
 
-double lidarVarianceAlong(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_dir, double range,
-                          const LidarStereoSettings& s) {
-  const double c = n.dot(beam_dir);
-  const double lateral = range * s.lidar_beam_sigma_deg * M_PI / 180.0;
-  return s.lidar_range_sigma * s.lidar_range_sigma * c * c + lateral * lateral * (1.0 - c * c);
-}
-
 double bilinear(const cv::Mat& img, double u, double v) {
   const int u0 = int(std::floor(u)), v0 = int(std::floor(v));
   if (u0 < 0 || v0 < 0 || u0 + 1 >= img.cols || v0 + 1 >= img.rows) return std::nan("");

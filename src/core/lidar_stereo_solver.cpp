@@ -45,15 +45,6 @@ std::vector<size_t> strided(size_t n, int k) {
   return idx;
 }
 
-/// Variance of a LiDAR point along unit normal n (camera frame), eq. lidar_noise projected:
-/// range noise along the beam, beam-direction noise (times the range) across it.
-double lidarVarianceAlong(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_dir, double range,
-                          const LidarStereoSettings& s) {
-  const double c = n.dot(beam_dir);
-  const double lateral = range * s.lidar_beam_sigma_deg * M_PI / 180.0;
-  return s.lidar_range_sigma * s.lidar_range_sigma * c * c + lateral * lateral * (1.0 - c * c);
-}
-
 struct Association {
   Eigen::Vector3d q, m;      ///< R_ref p_m and R_ref n_m (camera orientation, before t)
   Eigen::Vector3d p_l, n_l;  ///< face centroid and normal in the LiDAR frame
@@ -113,6 +104,15 @@ bool smallUpdate(const Vector6d& d, const LidarStereoSettings& s) {
 }
 
 }  // namespace
+
+// Variance of a LiDAR point along unit normal n (camera frame), eq. lidar_noise projected:
+// range noise along the beam, beam-direction noise (times the range) across it.
+double lidarVarianceAlong(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_dir, double range,
+                          const LidarStereoSettings& s) {
+  const double c = n.dot(beam_dir);
+  const double lateral = range * s.lidar_beam_sigma_deg * M_PI / 180.0;
+  return s.lidar_range_sigma * s.lidar_range_sigma * c * c + lateral * lateral * (1.0 - c * c);
+}
 
 LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                                    const Eigen::Isometry3d& T_init, const LidarStereoSettings& s) {

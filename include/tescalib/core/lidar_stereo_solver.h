@@ -81,6 +81,11 @@ struct LidarStereoResult {
   std::string message;  ///< why it did not converge, when it did not
 };
 
+/// Variance (m^2) of a LiDAR point along the unit normal n (camera frame): eq. lidar_noise
+/// projected, range noise along the beam direction, beam-direction noise times the range across it.
+double lidarVarianceAlong(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_dir, double range,
+                          const LidarStereoSettings& settings);
+
 /// Solves T_cam_lidar over the window from `T_init`. Never throws on bad data: an empty window or
 /// a scene without structure gives converged = false and a message.
 LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
