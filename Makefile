@@ -25,6 +25,9 @@ $(BUILD)/Makefile: CMakeLists.txt package.xml
 
 build: deps $(BUILD)/Makefile
 	@$(MAKE) --no-print-directory -C $(BUILD) -j$(JOBS) 2>&1 | grep -v -E '^\[ *[0-9]+%\] Built target' ; exit $${PIPESTATUS[0]}
+	@# Python message modules too (demo_report.py, the rostest): setup.bash only puts
+	@# lib/python3/dist-packages on PYTHONPATH when it exists at the time it is sourced.
+	@$(MAKE) --no-print-directory -C $(BUILD) tescalib_generate_messages > /dev/null
 	@ln -sfn $(DEVEL) $(BUILD)/devel
 	@echo "[build] done: source build/devel/setup.bash, then rosrun tescalib NAME"
 

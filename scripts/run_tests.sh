@@ -9,6 +9,9 @@ export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
 source "$BUILD/devel/setup.bash"
 rm -rf "$BUILD/test_results"
 make --no-print-directory -C "$BUILD" -j"${JOBS:-2}" tests || { echo "[test] building the tests failed"; exit 1; }
+# Again: the tests' build may have created folders (Python messages) setup.bash adds only if present.
+# shellcheck disable=SC1091
+source "$BUILD/devel/setup.bash"
 start=$(date +%s)
 make --no-print-directory -C "$BUILD" -j1 run_tests 2>&1 | tee "$BUILD/run_tests.log" | grep -E '^\[ *(RUN|  +OK|  FAILED|  SKIPPED|  PASSED) |^\[ROSTEST\]|SKIP|Skipped|FAILURE|ERROR' || true
 /usr/bin/python3 "$ROOT/scripts/test_summary.py" "$BUILD/test_results"
