@@ -18,6 +18,10 @@ deps:
 
 $(BUILD)/Makefile: CMakeLists.txt package.xml
 	@mkdir -p $(BUILD)
+	@# catkin bakes PYTHONPATH into build/catkin_generated/setup_cached.sh at configure time and
+	@# skips folders that do not exist yet: without this, rostests of a fresh clone cannot import
+	@# the generated tescalib.msg.
+	@mkdir -p $(DEVEL)/lib/python3/dist-packages
 	cd $(BUILD) && cmake $(ROOT) -DCMAKE_BUILD_TYPE=Release \
 	  -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 \
 	  -DCATKIN_DEVEL_PREFIX=$(DEVEL) -DCATKIN_ENABLE_TESTING=ON > $(BUILD)/cmake.log \
