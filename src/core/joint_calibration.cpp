@@ -12,6 +12,7 @@
 #include <ceres/rotation.h>
 #include <opencv2/imgproc.hpp>
 
+#include "tescalib/core/image_sampling.h"
 #include "tescalib/core/mesh_depth.h"
 #include "tescalib/core/residuals/photometric_residual.h"
 #include "tescalib/core/residuals/point_plane_distance.h"
@@ -110,14 +111,6 @@ struct JointPhotometricResidual {
     return true;
   }
 };
-
-double bilinear(const cv::Mat& img, double u, double v) {
-  const int u0 = int(std::floor(u)), v0 = int(std::floor(v));
-  if (u0 < 0 || v0 < 0 || u0 + 1 >= img.cols || v0 + 1 >= img.rows) return std::nan("");
-  const double fu = u - u0, fv = v - v0;
-  return (1 - fv) * ((1 - fu) * img.at<double>(v0, u0) + fu * img.at<double>(v0, u0 + 1)) +
-         fv * ((1 - fu) * img.at<double>(v0 + 1, u0) + fu * img.at<double>(v0 + 1, u0 + 1));
-}
 
 struct Images {
   cv::Mat left;  ///< CV_64F

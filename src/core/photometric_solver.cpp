@@ -8,6 +8,7 @@
 #include <ceres/ceres.h>
 #include <opencv2/imgproc.hpp>
 
+#include "tescalib/core/image_sampling.h"
 #include "tescalib/core/mesh_depth.h"
 #include "tescalib/core/residuals/photometric_residual.h"
 
@@ -45,14 +46,6 @@ CameraIntrinsics scaled(const CameraIntrinsics& c, int level, int w, int h) {
   o.cx = (c.cx + 0.5) * s - 0.5, o.cy = (c.cy + 0.5) * s - 0.5;
   o.width = w, o.height = h;
   return o;
-}
-
-double bilinear(const cv::Mat& img, double u, double v) {
-  const int u0 = int(std::floor(u)), v0 = int(std::floor(v));
-  if (u0 < 0 || v0 < 0 || u0 + 1 >= img.cols || v0 + 1 >= img.rows) return std::nan("");
-  const double fu = u - u0, fv = v - v0;
-  return (1 - fv) * ((1 - fu) * img.at<double>(v0, u0) + fu * img.at<double>(v0, u0 + 1)) +
-         fv * ((1 - fu) * img.at<double>(v0 + 1, u0) + fu * img.at<double>(v0 + 1, u0 + 1));
 }
 
 }  // namespace
