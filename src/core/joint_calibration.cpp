@@ -237,12 +237,9 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
         const MeshFace& f = window[k]->mesh.faces[kp.face];
         Eigen::Vector3d X;
         if (!intersectFace(f, T_cl, rig.left, kp.u, kp.v, &X)) continue;
-        const Eigen::Vector3d Y = T_rl * X;
-        const double ur = rig.right.fx * Y.x() / Y.z() + rig.right.cx;
-        const double vr = rig.right.fy * Y.y() / Y.z() + rig.right.cy;
-        const int iu = int(std::lround(ur)), iv = int(std::lround(vr));
-        if (iu < 0 || iv < 0 || iu >= rig.right.width || iv >= rig.right.height) continue;
-        if (Y.z() > right_md.depth.at<float>(iv, iu) * (1.0 + ps.occlusion_tolerance)) continue;
+        if (visibility(T_rl * X, rig.right, right_md, ps.occlusion_tolerance) !=
+            Visibility::kVisible)
+          continue;
         auto* r = new JointPhotometricResidual;
         r->right = img[k].interp.get();
         bool ok = true;

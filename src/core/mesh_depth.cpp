@@ -63,4 +63,14 @@ bool intersectFace(const MeshFace& f, const Eigen::Isometry3d& T, const CameraIn
   return true;
 }
 
+Visibility visibility(const Eigen::Vector3d& Y, const CameraIntrinsics& cam, const MeshDepth& md,
+                      double tolerance) {
+  if (!(Y.z() > 0)) return Visibility::kOutside;
+  const int iu = int(std::lround(cam.fx * Y.x() / Y.z() + cam.cx));
+  const int iv = int(std::lround(cam.fy * Y.y() / Y.z() + cam.cy));
+  if (iu < 0 || iv < 0 || iu >= cam.width || iv >= cam.height) return Visibility::kOutside;
+  return Y.z() > md.depth.at<float>(iv, iu) * (1.0 + tolerance) ? Visibility::kOccluded
+                                                                 : Visibility::kVisible;
+}
+
 }  // namespace tescalib

@@ -147,15 +147,9 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
         const MeshFace& f = window[k]->mesh.faces[kp.face];
         Eigen::Vector3d X;
         if (!intersectFace(f, T_cam_lidar, rig.left, kp.u, kp.v, &X)) continue;
-        const Eigen::Vector3d Y = T * X;
-        const double ur = rig.right.fx * Y.x() / Y.z() + rig.right.cx;
-        const double vr = rig.right.fy * Y.y() / Y.z() + rig.right.cy;
-        const int iu = int(std::lround(ur)), iv = int(std::lround(vr));
-        if (iu < 0 || iv < 0 || iu >= rig.right.width || iv >= rig.right.height) continue;
-        if (Y.z() > right_md.depth.at<float>(iv, iu) * (1.0 + s.occlusion_tolerance)) {
-          ++occluded;
-          continue;
-        }
+        const Visibility vis = visibility(T * X, rig.right, right_md, s.occlusion_tolerance);
+        occluded += vis == Visibility::kOccluded;
+        if (vis != Visibility::kVisible) continue;
         const double ul = (kp.u + 0.5) * scale - 0.5, vl = (kp.v + 0.5) * scale - 0.5;
         std::array<Eigen::Vector3d, kPatternSize> q;
         std::array<double, kPatternSize> left_value;

@@ -25,4 +25,11 @@ MeshDepth renderMeshDepth(const LidarMesh& mesh, const Eigen::Isometry3d& T_cam_
 bool intersectFace(const MeshFace& f, const Eigen::Isometry3d& T_cam_lidar,
                    const CameraIntrinsics& cam, double u, double v, Eigen::Vector3d* X);
 
+enum class Visibility { kOutside, kOccluded, kVisible };
+
+/// Whether the point `Y` (camera frame of `cam`) is seen by that camera: inside the image and not
+/// behind the z-buffer `md` of the mesh rendered into it by more than `tolerance` (relative depth).
+Visibility visibility(const Eigen::Vector3d& Y, const CameraIntrinsics& cam, const MeshDepth& md,
+                      double tolerance);
+
 }  // namespace tescalib
