@@ -39,6 +39,9 @@ if [ "$BENCH" != kitti ]; then
   run "sim_urban_stereo_1deg_lidar_off" --sequences "$URBAN" --mode stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
     --lidar-trans-m 0.1 --seed 5 --window 20
+  run "sim_urban_stereo_1deg_lidar_off_smooth8" --sequences "$URBAN" --mode stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
+    --lidar-trans-m 0.1 --seed 5 --window 20 --smooth-keypoints 8
   # Issue 6: NEES over independent windows of 10 keyframes (15 urban drives; 4 held out).
   NEES_SEQS=$URBAN
   for s in 11 12 13 14 15 16 21 22 23 24 31 32 33 34; do NEES_SEQS=$NEES_SEQS,$(simulate urban $s 100); done

@@ -13,6 +13,7 @@
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/keyframe.h"
 #include "tescalib/core/lidar_stereo_solver.h"
+#include "tescalib/core/mesh_depth.h"
 #include "tescalib/core/photometric_solver.h"
 #include "tescalib/core/simulator.h"
 
@@ -128,4 +129,31 @@ TEST(PhotometricGenerated, RecoversThePairAndTheExposureDifference) {
     EXPECT_NEAR(std::exp(ab.x()), gain, 0.02);
     EXPECT_NEAR(ab.y(), offset, 2.0);
   }
+}
+
+TEST(PhotometricGenerated, FullResolutionKeyPointsLieOnSmoothLidarDepth) {
+  // With a wrong LiDAR extrinsic a key point at a depth edge takes the depth of the wrong surface:
+  // the full-resolution key points are chosen where the mesh depth is smooth around them.
+  // (The benefit with a wrong LiDAR extrinsic is a benchmark figure: `make bench`, README.)
+  SimOptions o;
+  o.frames = 1;
+  o.seed = 4;
+  const Simulator sim(o);
+  const Keyframe kf =
+      makeKeyframe(sim.renderFrame(0), sim.rig(), sim.rig().T_cam_lidar, sim.rig().T_right_left);
+  PhotometricSettings s;
+  s.smooth_depth_radius_px = 8;
+  const MeshDepth md = renderMeshDepth(kf.mesh, sim.rig().T_cam_lidar, sim.rig().left);
+  const std::vector<KeyPoint> kps = selectKeyPoints(kf, md, s);
+  ASSERT_GT(kps.size(), 100u);
+  const int r = s.smooth_depth_radius_px;
+  for (const KeyPoint& kp : kps) {
+    const cv::Rect box(int(kp.u) - r, int(kp.v) - r, 2 * r + 1, 2 * r + 1);
+    double lo, hi;
+    cv::minMaxLoc(md.depth(box), &lo, &hi);
+    ASSERT_LE(hi - lo, s.smooth_depth_tolerance * md.depth.at<float>(int(kp.v), int(kp.u)) + 1e-4);
+  }
+  PhotometricSettings all = s;
+  all.smooth_depth_radius_px = 0;
+  EXPECT_GT(selectKeyPoints(kf, md, all).size(), kps.size());
 }

@@ -55,6 +55,14 @@ std::vector<KeyPoint> selectKeyPoints(const Keyframe& kf, const MeshDepth& md,
   cv::Mat gx, gy;
   cv::Scharr(kf.left_gray, gx, CV_32F, 1, 0, 1.0 / 32);
   cv::Scharr(kf.left_gray, gy, CV_32F, 0, 1, 1.0 / 32);
+  // Local depth range (+inf where a face is missing nearby, so such pixels are rejected too).
+  cv::Mat zmin, zmax;
+  const int r = s.smooth_depth_radius_px;
+  if (r > 0) {
+    const cv::Mat box = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * r + 1, 2 * r + 1));
+    cv::erode(md.depth, zmin, box);
+    cv::dilate(md.depth, zmax, box);
+  }
   std::vector<KeyPoint> out;
   const int c = s.cell_size, border = 8;
   for (int v0 = border; v0 + c <= kf.left_gray.rows - border; v0 += c) {
@@ -67,6 +75,9 @@ std::vector<KeyPoint> selectKeyPoints(const Keyframe& kf, const MeshDepth& md,
           const int f = md.face_id.at<int>(v, u);
           const float z = md.depth.at<float>(v, u);
           if (f < 0 || z < s.min_depth || z > s.max_depth || g2 <= best.grad2) continue;
+          const bool smooth =
+              r == 0 || zmax.at<float>(v, u) - zmin.at<float>(v, u) <= s.smooth_depth_tolerance * z;
+          if (!smooth) continue;
           best = {double(u), double(v), f, g2};
         }
       if (best.face >= 0 && best.grad2 > s.min_gradient * s.min_gradient) out.push_back(best);
@@ -93,10 +104,16 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     return res;
   }
   // Key points with LiDAR depth (left z-buffer of the mesh), chosen once at full resolution.
-  std::vector<std::vector<KeyPoint>> kps(window.size());
+  // With smooth_depth_radius_px > 0 the coarse levels still use every key point (depth edges
+  // widen the basin) and the full-resolution level only those on smooth LiDAR depth.
+  PhotometricSettings all_settings = s;
+  all_settings.smooth_depth_radius_px = 0;
+  std::vector<std::vector<KeyPoint>> kps(window.size()), kps_all(window.size());
   for (size_t k = 0; k < window.size(); ++k) {
     const MeshDepth md = renderMeshDepth(window[k]->mesh, T_cam_lidar, rig.left);
     kps[k] = selectKeyPoints(*window[k], md, s);
+    kps_all[k] = s.smooth_depth_radius_px > 0 ? selectKeyPoints(*window[k], md, all_settings)
+                                              : kps[k];
     res.keypoints += static_cast<int>(kps[k].size());
   }
   if (res.keypoints < s.min_keypoints) {
@@ -143,7 +160,7 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
       const Level& lv = pyr[k][L];
       // Visibility in the right camera under the current estimate.
       const MeshDepth right_md = renderMeshDepth(window[k]->mesh, T * T_cam_lidar, rig.right);
-      for (const KeyPoint& kp : kps[k]) {
+      for (const KeyPoint& kp : L > 0 ? kps_all[k] : kps[k]) {
         const MeshFace& f = window[k]->mesh.faces[kp.face];
         Eigen::Vector3d X;
         if (!intersectFace(f, T_cam_lidar, rig.left, kp.u, kp.v, &X)) continue;

@@ -44,6 +44,7 @@ struct Args {
   std::string json;
   std::string stages = "coarse,fine";
   int cov_cells_x = -1, cov_cells_y = -1;  ///< -1: the solver default
+  int smooth_keypoints_px = -1;  ///< photometric smooth_depth_radius_px; -1: the solver default
   double cov_model_scale = -1;             ///< scales the solver's model-error sigmas (0: none)
   std::string windows = "first";  ///< first: the first W keyframes; disjoint: every W in turn
 };
@@ -57,6 +58,7 @@ void usage() {
          "         [--json FILE] [--stages coarse,fine] [--lidar-rot-deg R --lidar-trans-m T]\n"
          "         [--windows first|disjoint] [--cov-cells XxY] [--cov-model-scale K] "
          "[--first-trial K]\n"
+         "         [--smooth-keypoints PX]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
@@ -69,7 +71,9 @@ void usage() {
          "random\n"
          "direction and succeeds when the error is below 0.2 deg and 3 cm.\n"
          "--windows disjoint splits all keyframes into consecutive windows of W and trial t uses\n"
-         "window t mod (number of windows): independent windows, so mean NEES means something.\n";
+         "window t mod (number of windows): independent windows, so mean NEES means something.\n"
+         "--smooth-keypoints PX: full-resolution photometric key points only where the LiDAR depth\n"
+         "is smooth within PX pixels (PhotometricSettings::smooth_depth_radius_px; 0: off).\n";
 }
 
 std::vector<std::string> split(const std::string& s, char sep) {
@@ -133,6 +137,8 @@ bool parse(int argc, char** argv, Args* a) {
         a->cov_cells_y = std::stoi(v.substr(x + 1));
       } else if (k == "--cov-model-scale")
         a->cov_model_scale = std::stod(v);
+      else if (k == "--smooth-keypoints")
+        a->smooth_keypoints_px = std::stoi(v);
       else {
         std::cerr << "tescalib_eval: unknown option " << k << "\n";
         return false;
@@ -362,6 +368,8 @@ int main(int argc, char** argv) {
       cs.lidar.cov_cells_y = solver_settings.cov_cells_y;
       cs.lidar.model_sigma_rot_deg = solver_settings.model_sigma_rot_deg;
       cs.lidar.model_sigma_trans_m = solver_settings.model_sigma_trans_m;
+      if (args.smooth_keypoints_px >= 0)
+        cs.stereo.smooth_depth_radius_px = args.smooth_keypoints_px;
       const Eigen::Isometry3d T_rl_init = perturb(rig.T_right_left, tr.stereo.init);
       CoCalibrationResult r;
       if (args.mode == "joint") {
@@ -381,6 +389,7 @@ int main(int argc, char** argv) {
       tr.brightness = r.stereo.brightness;
     } else if (stereo_mode) {
       PhotometricSettings ps;
+      if (args.smooth_keypoints_px >= 0) ps.smooth_depth_radius_px = args.smooth_keypoints_px;
       const PhotometricResult r =
           solvePhotometric(window, rig, T_init, perturb(rig.T_right_left, tr.stereo.init), ps);
       tr.converged = r.converged;
