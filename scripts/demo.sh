@@ -2,9 +2,10 @@
 # make demo: the online pipeline, headless, on a generated drive with exact ground truth.
 #  1. tescalib_simulate writes a short urban drive (cached in build/demo, keyed by its arguments),
 #     kitti_to_bag turns it into a kitti2bag-style bag.
-#  2. roslaunch tescalib kitti.launch plays it at 1x with the initial LiDAR extrinsic deliberately
-#     2 deg / 0.2 m off; scripts/demo_report.py prints the estimates, sigma, observability, the
-#     error against the generator's ground truth and the node's timings.
+#  2. roslaunch tescalib demo.launch (kitti.launch with the demo's defaults) plays it at 1x with
+#     the initial LiDAR extrinsic deliberately 2 deg / 0.2 m off; scripts/demo_report.py prints
+#     the estimates, sigma, observability, the error against the generator's ground truth and the
+#     node's timings.
 #  3. Only when ../shared/data/kitti_odometry_mini exists: the same on real KITTI frames
 #     (2011_09_30, sequences 04-07), looped for 20 s, errors against KITTI's calibration.
 # LiDAR-stereo only: online co-calibration (estimate_stereo:=true) takes 10-35 s per window here
@@ -62,10 +63,10 @@ fi
 
 # --- 2. online, headless, 1x ---------------------------------------------------------------------
 echo
-echo "[demo] roslaunch tescalib kitti.launch bag:=$BAG perturb_rot_deg:=$ROT perturb_trans_m:=$TRANS estimate_stereo:=false rviz:=$RVIZ_ARG"
+echo "[demo] roslaunch tescalib demo.launch bag:=$BAG perturb_rot_deg:=$ROT perturb_trans_m:=$TRANS estimate_stereo:=false rviz:=$RVIZ_ARG"
 echo "[demo] LiDAR-stereo only (the default): online co-calibration takes 10-35 s per window on"
 echo "       2 cores, so T_right_left stays at the camera_info baseline"
-roslaunch tescalib kitti.launch bag:="$BAG" perturb_rot_deg:=$ROT perturb_trans_m:=$TRANS \
+roslaunch tescalib demo.launch bag:="$BAG" perturb_rot_deg:=$ROT perturb_trans_m:=$TRANS \
   estimate_stereo:=false rviz:=$RVIZ_ARG > "$OUT/roslaunch_sim.log" 2>&1 &
 LAUNCH=$!
 wait_master
