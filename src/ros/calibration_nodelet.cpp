@@ -153,7 +153,8 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
     NODELET_WARN("tescalib: initial LiDAR extrinsic deliberately perturbed by %.2f deg / %.3f m",
                  params_.initial_perturb_rot_deg, params_.initial_perturb_trans_m);
   }
-  calibrator_ = std::make_unique<OnlineCalibrator>(rig, params_.online);
+  calibrator_owner_ = std::make_unique<OnlineCalibrator>(rig, params_.online);
+  calibrator_.store(calibrator_owner_.get(), std::memory_order_release);
   NODELET_INFO("tescalib: rig %dx%d fx %.1f baseline %.3f m, LiDAR frame '%s'", rig.left.width,
                rig.left.height, rig.left.fx, rig.baseline(), lidar_frame_.c_str());
   return true;
@@ -168,7 +169,7 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     first_set_wall_ = received;
     first_set_stamp_ = left->header.stamp.toSec();
   }
-  if (!calibrator_ && !initCalibrator(*cloud, *left_info, *right_info)) return;
+  if (!calibrator() && !initCalibrator(*cloud, *left_info, *right_info)) return;
   const double stamp = left->header.stamp.toSec();
   publishTf(left->header.stamp);  // every set, so tf lookups at any image stamp interpolate
   // Cheap keyframe pre-selection here; time going backwards is passed on (the window resets).
@@ -225,10 +226,10 @@ void CalibrationNodelet::preprocessLoop() {
     }
     std::string msg;
     const ros::WallTime t0 = ros::WallTime::now();
-    const FrameResult r = calibrator_->addFrame(pf.frame, pf.lidar_stamp, &msg);
+    const FrameResult r = calibrator()->addFrame(pf.frame, pf.lidar_stamp, &msg);
     if (r == FrameResult::kKeyframe) {
       const double build_s = (ros::WallTime::now() - t0).toSec();
-      const size_t fill = calibrator_->windowFill();
+      const size_t fill = calibrator()->windowFill();
       {
         std::lock_guard<std::mutex> lock(mutex_);
         build_time_.add(build_s);
@@ -263,7 +264,7 @@ void CalibrationNodelet::solveLoop() {
     }
     if (!running_) return;
     // A request that finds the window not ready yet is consumed: the next keyframe renews it.
-    if (!solve_requested_.exchange(false) || !calibrator_ || !calibrator_->readyToSolve()) continue;
+    if (!solve_requested_.exchange(false) || !calibrator() || !calibrator()->readyToSolve()) continue;
     std::vector<ros::WallTime> arrivals;
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -272,12 +273,12 @@ void CalibrationNodelet::solveLoop() {
     std::string msg;
     solving_ = true;
     const auto t0 = ros::WallTime::now();
-    const bool updated = calibrator_->solve(&msg);
+    const bool updated = calibrator()->solve(&msg);
     const auto t1 = ros::WallTime::now();
     solving_ = false;
     last_solve_seconds_ = (t1 - t0).toSec();
     double latency = 0;  // of the oldest keyframe this solve answered
-    const auto e = calibrator_->estimate();
+    const auto e = calibrator()->estimate();
     {
       std::lock_guard<std::mutex> lock(mutex_);
       last_solve_message_ = updated ? "updated" : msg;
@@ -327,8 +328,8 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
 }
 
 void CalibrationNodelet::publishTf(const ros::Time& stamp) {
-  if (!calibrator_) return;
-  const auto e = calibrator_->estimate();
+  if (!calibrator()) return;
+  const auto e = calibrator()->estimate();
   if (!e) return;  // nothing is published before the first converged estimate
   geometry_msgs::TransformStamped a, b;
   a.header.stamp = b.header.stamp = stamp;
@@ -355,7 +356,7 @@ void CalibrationNodelet::watchdog(const ros::WallTimerEvent&) {
 }
 
 bool CalibrationNodelet::onReset(Reset::Request&, Reset::Response& res) {
-  if (calibrator_) calibrator_->reset();
+  if (calibrator()) calibrator()->reset();
   last_enqueued_stamp_ = -1e300;
   res.success = true;
   res.message = "window cleared, back to the initial extrinsics";
@@ -365,7 +366,7 @@ bool CalibrationNodelet::onReset(Reset::Request&, Reset::Response& res) {
 
 bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
   const std::string base = req.path.empty() ? params_.save_path : req.path;
-  const auto e = calibrator_ ? calibrator_->estimate() : std::nullopt;
+  const auto e = calibrator() ? calibrator()->estimate() : std::nullopt;
   if (!e) {
     res.success = false;
     res.message = "no converged estimate yet";
@@ -385,7 +386,7 @@ bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
   };
   block("T_cam_lidar", params_.left_frame, lidar_frame_, e->T_cam_lidar, e->cov_lidar);
   block("T_right_left", params_.right_frame, params_.left_frame, e->T_right_left, e->cov_stereo);
-  const StereoRig& rig = calibrator_->rig();
+  const StereoRig& rig = calibrator()->rig();
   Eigen::Matrix<double, 3, 4> P2, P3;
   P2 << rig.left.K(), Eigen::Vector3d::Zero();
   P3 << rig.right.K(), rig.right.K() * e->T_right_left.translation();
@@ -417,21 +418,21 @@ bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
 }
 
 void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-  const auto e = calibrator_ ? calibrator_->estimate() : std::nullopt;
+  const auto e = calibrator() ? calibrator()->estimate() : std::nullopt;
   std::string problem, solve_msg;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     problem = last_problem_;
     solve_msg = last_solve_message_;
   }
-  if (!calibrator_)
+  if (!calibrator())
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN,
                  "waiting for synchronized data");
   else if (!e)
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "no converged estimate yet");
   else
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::OK, "calibrated");
-  stat.add("window fill", calibrator_ ? calibrator_->windowFill() : 0);
+  stat.add("window fill", calibrator() ? calibrator()->windowFill() : 0);
   stat.add("window size", params_.online.window_size);
   stat.add("keyframes", keyframes_.load());
   stat.add("synchronized sets", sync_sets_.load());

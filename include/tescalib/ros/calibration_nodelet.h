@@ -81,7 +81,11 @@ class CalibrationNodelet : public nodelet::Nodelet {
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
 
   NodeParams params_;
-  std::unique_ptr<OnlineCalibrator> calibrator_;  ///< created on the first synchronized set
+  /// Created once, on the first synchronized set (sync thread), then read by the worker threads,
+  /// the diagnostics timer and the services: owned here, published through an atomic pointer.
+  std::unique_ptr<OnlineCalibrator> calibrator_owner_;
+  std::atomic<OnlineCalibrator*> calibrator_{nullptr};
+  OnlineCalibrator* calibrator() const { return calibrator_.load(std::memory_order_acquire); }
   std::string lidar_frame_;
 
   message_filters::Subscriber<Cloud> cloud_sub_;
