@@ -12,6 +12,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/image_encodings.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include "tescalib/core/geometry.h"
@@ -196,4 +197,43 @@ TEST(Conversions, CameraInfoRoundTrip) {
   EXPECT_EQ(back.width, 1241);
   sensor_msgs::CameraInfo missing;
   EXPECT_FALSE(ros_conv::fromCameraInfo(missing, &back, &err));
+}
+
+TEST(Conversions, KeyframeCloudAndMeshForRviz) {
+  StereoCloud cloud;
+  cloud.points.resize(3);
+  for (int i = 0; i < 3; ++i) {
+    cloud.points[i].p = Eigen::Vector3f(0.1f * i, -0.2f, 10.0f + i);
+    cloud.points[i].disparity = 38.0f - i;
+  }
+  std_msgs::Header h;
+  h.frame_id = "tescalib_left";
+  const sensor_msgs::PointCloud2 msg = ros_conv::toPointCloud2(cloud, h);
+  ASSERT_EQ(msg.width * msg.height, 3u);
+  EXPECT_EQ(msg.header.frame_id, "tescalib_left");
+  sensor_msgs::PointCloud2ConstIterator<float> z(msg, "z"), d(msg, "disparity");
+  for (int i = 0; i < 3; ++i, ++z, ++d) {
+    EXPECT_FLOAT_EQ(*z, 10.0f + i);
+    EXPECT_FLOAT_EQ(*d, 38.0f - i);
+  }
+
+  LidarMesh mesh;
+  for (int i = 0; i < 10; ++i) {
+    MeshFace f;
+    f.a = Eigen::Vector3f(5.0f + i, 0, 0), f.b = f.a + Eigen::Vector3f(0, 0.1f, 0);
+    f.c = f.a + Eigen::Vector3f(0, 0, 0.1f);
+    f.range = 5.0f + 10.0f * i;
+    mesh.faces.push_back(f);
+  }
+  const visualization_msgs::Marker all = ros_conv::toMeshMarker(mesh, h, 100, 40.0);
+  EXPECT_EQ(all.type, visualization_msgs::Marker::TRIANGLE_LIST);
+  ASSERT_EQ(all.points.size(), 30u);
+  ASSERT_EQ(all.colors.size(), 30u);
+  EXPECT_FLOAT_EQ(all.points[4].y, 0.1f);              // face 1, vertex b
+  EXPECT_GT(all.colors[0].r, all.colors[0].b);         // 5 m: near, red
+  EXPECT_GT(all.colors[27].b, all.colors[27].r);       // 95 m: beyond max_range, blue
+  const visualization_msgs::Marker some = ros_conv::toMeshMarker(mesh, h, 4, 40.0);
+  EXPECT_LE(some.points.size(), 12u);                  // at most 4 faces
+  EXPECT_EQ(some.points.size() % 3, 0u);
+  EXPECT_GE(some.points.size(), 9u);
 }

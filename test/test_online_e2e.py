@@ -19,9 +19,10 @@ import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import Image, PointCloud2
 from tescalib.msg import ExtrinsicEstimate
 from tf2_msgs.msg import TFMessage
+from visualization_msgs.msg import Marker
 
 sys.path.insert(0, os.path.join(rospkg.RosPack().get_path('tescalib'), 'scripts'))
 import extrinsics as ex  # noqa: E402
@@ -48,6 +49,9 @@ class OnlineEndToEnd(unittest.TestCase):
         rospy.Subscriber('/tescalib_overlay/left/overlay', Image, cls.on_overlay, queue_size=2)
         rospy.Subscriber('/kitti/camera_color_left/image_raw', Image, cls.on_raw, queue_size=20)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diag)
+        cls.keyframe = {}
+        rospy.Subscriber('/tescalib/keyframe/stereo_cloud', PointCloud2, cls.on_keyframe, 'cloud')
+        rospy.Subscriber('/tescalib/keyframe/lidar_mesh', Marker, cls.on_keyframe, 'mesh')
 
         cls.tmp = tempfile.mkdtemp(prefix='tescalib_e2e_')
         drive, cls.bag = os.path.join(cls.tmp, 'urban'), os.path.join(cls.tmp, 'urban.bag')
@@ -114,6 +118,11 @@ class OnlineEndToEnd(unittest.TestCase):
     def on_raw(cls, msg):
         with cls.lock:
             cls.raw[msg.header.stamp.to_nsec()] = msg
+
+    @classmethod
+    def on_keyframe(cls, msg, name):
+        with cls.lock:
+            cls.keyframe[name] = msg
 
     @classmethod
     def on_diag(cls, msg):
@@ -200,6 +209,22 @@ class OnlineEndToEnd(unittest.TestCase):
         self.assertEqual(d['rejected frames'], '0')
         self.assertGreaterEqual(int(d['keyframes']), 6)  # 8 at 0.5 s spacing over 4 s
         self.assertGreaterEqual(int(d['solves']), 1)
+
+    def test_6_keyframe_cloud_and_mesh_for_rviz(self):
+        with self.lock:
+            cloud, mesh = self.keyframe.get('cloud'), self.keyframe.get('mesh')
+        self.assertIsNotNone(cloud, 'no /tescalib/keyframe/stereo_cloud')
+        self.assertIsNotNone(mesh, 'no /tescalib/keyframe/lidar_mesh')
+        rospy.loginfo('e2e: keyframe stereo cloud %d points, mesh %d triangles',
+                      cloud.width * cloud.height, len(mesh.points) // 3)
+        self.assertEqual(cloud.header.frame_id, 'tescalib_left')
+        self.assertGreater(cloud.width * cloud.height, 1000)
+        self.assertEqual([f.name for f in cloud.fields], ['x', 'y', 'z', 'disparity'])
+        self.assertEqual(mesh.header.frame_id, 'velo_link')
+        self.assertEqual(mesh.type, Marker.TRIANGLE_LIST)
+        self.assertGreater(len(mesh.points), 3000)
+        self.assertEqual(len(mesh.points) % 3, 0)
+        self.assertEqual(len(mesh.colors), len(mesh.points))
 
 
 if __name__ == '__main__':

@@ -12,7 +12,8 @@ namespace tescalib {
 OnlineCalibrator::OnlineCalibrator(const StereoRig& rig, const OnlineSettings& settings)
     : rig_(rig), settings_(settings) {}
 
-FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, std::string* msg) {
+FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, std::string* msg,
+                                       std::shared_ptr<const Keyframe>* built) {
   if (frame.scan.empty()) {
     *msg = "empty LiDAR scan";
     return FrameResult::kRejected;
@@ -65,6 +66,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
            " mesh faces in the cameras' view (no ring structure?)";
     return FrameResult::kRejected;
   }
+  if (built) *built = kf;
   std::lock_guard<std::mutex> lock(mutex_);
   window_.push_back(std::move(kf));
   while (static_cast<int>(window_.size()) > settings_.window_size) {

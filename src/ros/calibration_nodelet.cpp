@@ -72,6 +72,8 @@ void CalibrationNodelet::onInit() {
       pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("lidar_to_left_pose", 1, true);
   stereo_pose_pub_ =
       pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("left_to_right_pose", 1, true);
+  keyframe_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("keyframe/stereo_cloud", 1, true);
+  keyframe_mesh_pub_ = pnh.advertise<visualization_msgs::Marker>("keyframe/lidar_mesh", 1, true);
   reset_srv_ = pnh.advertiseService("reset", &CalibrationNodelet::onReset, this);
   save_srv_ = pnh.advertiseService("save", &CalibrationNodelet::onSave, this);
 
@@ -226,9 +228,11 @@ void CalibrationNodelet::preprocessLoop() {
     }
     std::string msg;
     const ros::WallTime t0 = ros::WallTime::now();
-    const FrameResult r = calibrator()->addFrame(pf.frame, pf.lidar_stamp, &msg);
+    std::shared_ptr<const Keyframe> kf;
+    const FrameResult r = calibrator()->addFrame(pf.frame, pf.lidar_stamp, &msg, &kf);
     if (r == FrameResult::kKeyframe) {
       const double build_s = (ros::WallTime::now() - t0).toSec();
+      if (kf) publishKeyframe(*kf);
       const size_t fill = calibrator()->windowFill();
       {
         std::lock_guard<std::mutex> lock(mutex_);
@@ -325,6 +329,19 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
     if (!last_tf_stamp_.isZero()) tf_stamp = last_tf_stamp_ + ros::Duration(0, 1000);
   }
   publishTf(tf_stamp);
+}
+
+void CalibrationNodelet::publishKeyframe(const Keyframe& kf) {
+  std_msgs::Header h;
+  h.stamp.fromSec(kf.stamp);
+  if (keyframe_cloud_pub_.getNumSubscribers() > 0) {
+    h.frame_id = params_.left_frame;  // shown once the first estimate puts that frame on tf
+    keyframe_cloud_pub_.publish(ros_conv::toPointCloud2(kf.stereo, h));
+  }
+  if (keyframe_mesh_pub_.getNumSubscribers() > 0) {
+    h.frame_id = lidar_frame_;
+    keyframe_mesh_pub_.publish(ros_conv::toMeshMarker(kf.mesh, h));
+  }
 }
 
 void CalibrationNodelet::publishTf(const ros::Time& stamp) {

@@ -1,5 +1,6 @@
 #include "tescalib/ros/conversions.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -38,6 +39,63 @@ sensor_msgs::PointCloud2 toPointCloud2(const LidarScan& scan, const std_msgs::He
     ++x, ++y, ++z, ++i, ++r;
   }
   return msg;
+}
+
+sensor_msgs::PointCloud2 toPointCloud2(const StereoCloud& cloud, const std_msgs::Header& header) {
+  sensor_msgs::PointCloud2 msg;
+  msg.header = header;
+  msg.height = 1;
+  sensor_msgs::PointCloud2Modifier mod(msg);
+  mod.setPointCloud2Fields(4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
+                           sensor_msgs::PointField::FLOAT32, "z", 1,
+                           sensor_msgs::PointField::FLOAT32, "disparity", 1,
+                           sensor_msgs::PointField::FLOAT32);
+  mod.resize(cloud.points.size());
+  msg.is_dense = true;
+  msg.is_bigendian = false;
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z"),
+      d(msg, "disparity");
+  for (const StereoPoint& p : cloud.points) {
+    *x = p.p.x();
+    *y = p.p.y();
+    *z = p.p.z();
+    *d = p.disparity;
+    ++x, ++y, ++z, ++d;
+  }
+  return msg;
+}
+
+visualization_msgs::Marker toMeshMarker(const LidarMesh& mesh, const std_msgs::Header& header,
+                                        size_t max_faces, double max_range) {
+  visualization_msgs::Marker m;
+  m.header = header;
+  m.ns = "lidar_mesh";
+  m.id = 0;
+  m.type = visualization_msgs::Marker::TRIANGLE_LIST;
+  m.action = visualization_msgs::Marker::ADD;
+  m.pose.orientation.w = 1.0;
+  m.scale.x = m.scale.y = m.scale.z = 1.0;
+  m.color.a = 1.0;
+  const size_t n = mesh.faces.size();
+  const size_t step = max_faces > 0 && n > max_faces ? (n + max_faces - 1) / max_faces : 1;
+  m.points.reserve(3 * (n / step + 1));
+  m.colors.reserve(3 * (n / step + 1));
+  for (size_t i = 0; i < n; i += step) {
+    const MeshFace& f = mesh.faces[i];
+    std_msgs::ColorRGBA c;
+    const double t = std::min(1.0, std::max(0.0, f.range / max_range));
+    c.r = static_cast<float>(1.0 - t);
+    c.g = static_cast<float>(1.0 - std::fabs(2.0 * t - 1.0));
+    c.b = static_cast<float>(t);
+    c.a = 0.8f;
+    for (const Eigen::Vector3f* v : {&f.a, &f.b, &f.c}) {
+      geometry_msgs::Point p;
+      p.x = v->x(), p.y = v->y(), p.z = v->z();
+      m.points.push_back(p);
+      m.colors.push_back(c);
+    }
+  }
+  return m;
 }
 
 namespace {

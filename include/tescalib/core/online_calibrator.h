@@ -66,7 +66,9 @@ class OnlineCalibrator {
 
   /// Keyframe selection and preprocessing (mesh, stereo cloud). Thread-safe. `message` explains
   /// a rejection or a reset. `lidar_stamp` is the scan's stamp (checked against the frame's).
-  FrameResult addFrame(const Frame& frame, double lidar_stamp, std::string* message);
+  /// `built` (optional) receives the keyframe on kKeyframe (read-only: the window shares it).
+  FrameResult addFrame(const Frame& frame, double lidar_stamp, std::string* message,
+                       std::shared_ptr<const Keyframe>* built = nullptr);
 
   /// Runs co-calibration on a snapshot of the window. Returns true when the published estimate
   /// changed. Thread-safe; the window keeps filling while it runs.

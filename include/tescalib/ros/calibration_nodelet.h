@@ -94,6 +94,10 @@ class CalibrationNodelet : public nodelet::Nodelet {
   std::unique_ptr<message_filters::Synchronizer<ApproxPolicy>> approx_sync_;
   std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
   ros::Publisher lidar_pub_, stereo_pub_, lidar_pose_pub_, stereo_pose_pub_;
+  /// Each new keyframe's stereo cloud (left camera frame) and LiDAR mesh, for rviz: computed for
+  /// the calibration anyway, published only while someone subscribes.
+  ros::Publisher keyframe_cloud_pub_, keyframe_mesh_pub_;
+  void publishKeyframe(const Keyframe& kf);
   ros::ServiceServer reset_srv_, save_srv_;
   ros::WallTimer watchdog_timer_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_pub_;

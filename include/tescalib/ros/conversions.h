@@ -10,9 +10,12 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <std_msgs/Header.h>
 #include <tescalib/ExtrinsicEstimate.h>
+#include <visualization_msgs/Marker.h>
 #include <opencv2/core.hpp>
 
 #include "tescalib/core/geometry.h"
+#include "tescalib/core/lidar_mesh.h"
+#include "tescalib/core/stereo_cloud.h"
 #include "tescalib/core/types.h"
 
 namespace tescalib {
@@ -65,6 +68,15 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
 /// covariance [x y z rx ry rz]; ours is [phi; tau]: the blocks are swapped.
 geometry_msgs::PoseWithCovarianceStamped toPoseMsg(const std_msgs::Header& header,
                                                    const Eigen::Isometry3d& T, const Matrix6d& cov);
+
+/// A keyframe's stereo cloud (left camera frame) as PointCloud2 with fields x y z and disparity
+/// (float32), for rviz.
+sensor_msgs::PointCloud2 toPointCloud2(const StereoCloud& cloud, const std_msgs::Header& header);
+
+/// A LiDAR mesh (LiDAR frame) as a TRIANGLE_LIST marker coloured by range (near red, far blue up
+/// to `max_range`); at most `max_faces` faces (evenly decimated) keep the message small.
+visualization_msgs::Marker toMeshMarker(const LidarMesh& mesh, const std_msgs::Header& header,
+                                        size_t max_faces = 20000, double max_range = 40.0);
 
 }  // namespace ros_conv
 }  // namespace tescalib
