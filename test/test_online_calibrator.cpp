@@ -171,3 +171,49 @@ TEST(OnlineCalibratorGenerated, HighwayKeyframesDoNotPushOutTownKeyframes) {
   EXPECT_EQ(town_left["fifo"], 0);
   EXPECT_GE(town_left["information"], 2);
 }
+
+TEST(OnlineCalibratorGenerated, CoCalibrationContinuesWarmAfterTheFirstEstimate) {
+  // Co-calibration online: the first solve runs the full alternation from a LiDAR extrinsic
+  // 1 deg / 5 cm off; the next update (one keyframe more) runs one warm round from the published
+  // estimate (photometric on the finest level, LiDAR-stereo fine stage) and is published because
+  // both solves converged. Accuracy as the end-to-end test asks: 0.2 deg / 3 cm.
+  SimOptions o;
+  o.frames = 31;
+  o.seed = 4;
+  const Simulator sim(o);
+  StereoRig rig = sim.rig();
+  std::mt19937_64 rng(5);
+  rig.T_cam_lidar = perturb(rig.T_cam_lidar, randomPerturbation(1.0 / kDegPerRad, 0.05, rng));
+  OnlineSettings settings;
+  settings.estimate_stereo = true;
+  settings.window_size = 6;
+  settings.min_keyframes = 5;
+  OnlineCalibrator cal(rig, settings);
+  std::string msg;
+  auto check = [&](const char* what) {
+    const auto e = cal.estimate();
+    ASSERT_TRUE(e.has_value());
+    const Vector6d el = poseError(e->T_cam_lidar, sim.rig().T_cam_lidar);
+    const Vector6d es = poseError(e->T_right_left, sim.rig().T_right_left);
+    std::cout << "[ online   ] " << what << ": LiDAR " << el.head<3>().norm() * kDegPerRad
+              << " deg / " << el.tail<3>().norm() * 100 << " cm, stereo "
+              << es.head<3>().norm() * kDegPerRad << " deg / " << es.tail<3>().norm() * 1000
+              << " mm, " << e->co_rounds << " rounds, " << e->solve_seconds << " s\n";
+    EXPECT_LT(el.head<3>().norm() * kDegPerRad, 0.2);
+    EXPECT_LT(el.tail<3>().norm(), 0.03);
+    EXPECT_LT(es.head<3>().norm() * kDegPerRad, 0.02);
+    EXPECT_LT(es.tail<3>().norm(), 0.005);
+  };
+  for (int i = 0; i < 25; i += 5) {
+    Frame f = sim.renderFrame(i);
+    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  }
+  ASSERT_TRUE(cal.solve(&msg)) << msg;
+  check("full co-calibration, 5 keyframes");
+  EXPECT_GT(cal.estimate()->co_rounds, 1);
+  Frame f = sim.renderFrame(25);
+  ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  ASSERT_TRUE(cal.solve(&msg)) << msg;
+  check("warm update, 6 keyframes");
+  EXPECT_EQ(cal.estimate()->co_rounds, settings.warm_co_rounds);
+}

@@ -108,13 +108,13 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   double prev_step = std::numeric_limits<double>::infinity();
   bool photometric_done = false;
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
-    const bool warm = s.warm_start && res.rounds > 1;
+    const bool warm = s.warm_start && (res.rounds > 1 || s.warm_first_round);
     Eigen::Isometry3d T_rl_new = T_rl;
     // 1. Left-right from the LiDAR depth.
     {
       PhotometricSettings ps = s.stereo;
       ps.fix_baseline_length = s.photometric_fixed_length;
-      if (warm && photometric_done) {
+      if (warm && (photometric_done || s.warm_first_round)) {
         ps.pyramid_levels = std::min(ps.pyramid_levels, s.warm_pyramid_levels);
         ps.iterations_per_level = s.warm_iterations;
       }

@@ -155,7 +155,22 @@ bool OnlineCalibrator::solve(std::string* msg) {
   std::vector<Keyframe*> win;
   for (auto& k : snapshot) win.push_back(k.get());
   if (settings_.estimate_stereo) {
-    const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, settings_.co);
+    CoCalibrationSettings cs = settings_.co;
+    const bool warm = current && settings_.warm_start_fine_only;
+    if (warm) {
+      cs.warm_first_round = true;
+      cs.max_rounds = std::min(cs.max_rounds, settings_.warm_co_rounds);
+    }
+    const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, cs);
+    if (r.rectifications > 0) {
+      // Keep the re-rectified clouds: swap the recomputed keyframes into the window (the window's
+      // keyframes are shared and never modified in place).
+      std::lock_guard<std::mutex> lock(mutex_);
+      for (const auto& k : snapshot)
+        for (auto& w : window_)
+          if (w->stamp == k->stamp && !w->T_right_left_used.isApprox(k->T_right_left_used))
+            w = k;
+    }
     keyframe_info = r.lidar.keyframe_information;
     e.T_cam_lidar = r.lidar.T_cam_lidar;
     e.T_right_left = r.stereo.T_right_left;
@@ -163,10 +178,11 @@ bool OnlineCalibrator::solve(std::string* msg) {
     e.cov_stereo = r.stereo.covariance;
     std::copy(r.lidar.observable, r.lidar.observable + 6, e.observable_lidar);
     std::copy(r.stereo.observable, r.stereo.observable + 6, e.observable_stereo);
-    e.converged = r.converged;
+    e.converged = warm ? r.lidar.converged && r.stereo.converged : r.converged;
     e.cost_lidar = r.lidar.final_cost, e.cost_stereo = r.stereo.final_cost;
     e.iterations_lidar = r.lidar.iterations, e.iterations_stereo = r.stereo.iterations;
-    *msg = r.message;
+    e.co_rounds = r.rounds;
+    *msg = warm && e.converged ? "" : r.message;
   } else {
     std::vector<const Keyframe*> cwin(win.begin(), win.end());
     LidarStereoSettings ls = settings_.co.lidar;

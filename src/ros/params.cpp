@@ -26,6 +26,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "window/keyframe_selection", &p->online.keyframe_selection);
   get(pnh, "co_calibration/estimate_stereo", &p->online.estimate_stereo);
   get(pnh, "co_calibration/max_rounds", &p->online.co.max_rounds);
+  get(pnh, "co_calibration/warm_co_rounds", &p->online.warm_co_rounds);
   get(pnh, "stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
   get(pnh, "stereo/block_size", &p->online.keyframe.stereo.block_size);
   get(pnh, "stereo/max_depth", &p->online.keyframe.stereo.max_depth);
@@ -76,6 +77,7 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
     e << "stereo/refine_window_radius must be between 1 and 15 px (got "
       << o.keyframe.stereo.refinement.window_radius << "); ";
   if (o.co.max_rounds < 1) e << "co_calibration/max_rounds must be >= 1; ";
+  if (o.warm_co_rounds < 1) e << "co_calibration/warm_co_rounds must be >= 1; ";
   if (o.co.stereo.pyramid_levels < 1 || o.co.stereo.pyramid_levels > 5)
     e << "photometric/pyramid_levels must be in [1, 5]; ";
   if (!p.initial_T_cam_lidar.empty() && p.initial_T_cam_lidar.size() != 7)

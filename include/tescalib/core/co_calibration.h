@@ -30,6 +30,9 @@ struct CoCalibrationSettings {
   bool warm_start = true;
   int warm_pyramid_levels = 1;
   int warm_iterations = 10;
+  /// Round 1 warm too (no coarse stages): for a start that is already an estimate of this
+  /// window's neighbour, as the online calibrator's updates are.
+  bool warm_first_round = false;
   /// Stereo clouds are recomputed only when T_right_left's rotation or baseline direction moved
   /// by more than this since they were computed (the baseline length is the stereo scale's job).
   /// 0.005 deg is about 0.06 px of rectification error at KITTI's focal length.

@@ -32,6 +32,12 @@ struct OnlineSettings {
   /// The coarse stage exists to bring a start degrees / decimetres off into the fine stage's
   /// basin; from a converged estimate it only costs time (70-80 % of a 10-keyframe solve).
   bool warm_start_fine_only = true;
+  /// Co-calibration: once an estimate is published, an update runs this many warm rounds
+  /// (photometric on the finest level, LiDAR-stereo fine stage) from it instead of the full
+  /// alternation: the alternation continues across updates, so such an update is published when
+  /// both solves converged (and the trace rule holds), without the stability criterion of a
+  /// full run. Re-rectified stereo clouds are kept in the window.
+  int warm_co_rounds = 1;
   /// Which keyframe leaves a full window: "information" drops the one whose loss costs least in
   /// the window's weakest direction (from the last solve's per-keyframe LiDAR-stereo information),
   /// so that keyframes adding nothing there (a highway after a town) do not push out the ones that
@@ -53,6 +59,7 @@ struct OnlineEstimate {
   int keyframes_used = 0;
   double cost_lidar = 0, cost_stereo = 0;
   int iterations_lidar = 0, iterations_stereo = 0;
+  int co_rounds = 0;  ///< co-calibration rounds of the solve (0: LiDAR-stereo only)
   double stamp = 0;  ///< stamp of the newest keyframe of the window it came from
   double solve_seconds = 0;
 };
