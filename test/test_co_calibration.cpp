@@ -58,6 +58,15 @@ TEST(CoCalibration, RerectificationOnlyWhenTheRotationOrDirectionChanges) {
   EXPECT_TRUE(needsRerectification(a, perturb(a, d), 0.005));
   d[5] = 0.54 * std::tan(0.002 / kDegPerRad);
   EXPECT_FALSE(needsRerectification(a, perturb(a, d), 0.005));
+  // A separate, looser direction tolerance (online warm updates): 0.01 deg of direction passes,
+  // 0.01 deg of rotation does not.
+  d[5] = 0.54 * std::tan(0.01 / kDegPerRad);
+  EXPECT_FALSE(needsRerectification(a, perturb(a, d), 0.005, 0.05));
+  d[5] = 0.54 * std::tan(0.06 / kDegPerRad);
+  EXPECT_TRUE(needsRerectification(a, perturb(a, d), 0.005, 0.05));
+  d.setZero();
+  d[1] = 0.01 / kDegPerRad;
+  EXPECT_TRUE(needsRerectification(a, perturb(a, d), 0.005, 0.05));
 }
 
 TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {

@@ -78,8 +78,8 @@ TEST(OnlineCalibrator, KeyframeSpacingAndTimeGoingBackwards) {
   EXPECT_EQ(cal.addFrame(syntheticFrame(rig, 10.2), 10.2, &msg), FrameResult::kTooClose);
   EXPECT_EQ(cal.addFrame(syntheticFrame(rig, 10.5), 10.5, &msg), FrameResult::kKeyframe) << msg;
   EXPECT_EQ(cal.windowFill(), 2u);
-  EXPECT_FALSE(cal.solve(&msg));  // needs 3 keyframes
-  EXPECT_NE(msg.find("needs 3"), std::string::npos) << msg;
+  EXPECT_FALSE(cal.solve(&msg));  // co-calibration (the default) needs 5 keyframes
+  EXPECT_NE(msg.find("needs 5"), std::string::npos) << msg;
   // A looping bag: time jumps back, the window is cleared.
   EXPECT_EQ(cal.addFrame(syntheticFrame(rig, 2.0), 2.0, &msg), FrameResult::kReset);
   EXPECT_NE(msg.find("time went backwards"), std::string::npos) << msg;

@@ -49,41 +49,43 @@ Eigen::Isometry3d applyNormalised(const Eigen::Isometry3d& T, const Vector6d& x_
 }  // namespace
 
 bool needsRerectification(const Eigen::Isometry3d& used, const Eigen::Isometry3d& now,
-                          double tol_deg) {
+                          double tol_deg, double tol_direction_deg) {
   const double rot = logSO3(now.linear() * used.linear().transpose()).norm();
   const Eigen::Vector3d a = used.translation().normalized(), b = now.translation().normalized();
   const double dir = std::atan2(a.cross(b).norm(), a.dot(b));
-  return std::max(rot, dir) * kDegPerRad > tol_deg;
+  return rot * kDegPerRad > tol_deg ||
+         dir * kDegPerRad > (tol_direction_deg < 0 ? tol_deg : tol_direction_deg);
 }
+
+namespace {
+void rescaleStereo(Keyframe* kf, double baseline) {
+  const double used = kf->T_right_left_used.translation().norm();
+  const float k = static_cast<float>(baseline / used);
+  for (StereoPoint& p : kf->stereo.points) p.p *= k;
+  kf->stereo.baseline *= k;
+  kf->T_right_left_used.translation() *= baseline / used;
+}
+}  // namespace
 
 int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
                   const Eigen::Isometry3d& T_right_left, const StereoSettings& settings,
-                  double tol_deg, double* seconds) {
+                  double tol_deg, double* seconds, double tol_direction_deg) {
   if (window.empty()) return 0;
   const auto t0 = Clock::now();
-  // The LiDAR-stereo solver estimates one scale for the window: every cloud must have been
-  // computed with the same baseline length.
-  const double b0 = window.front()->T_right_left_used.translation().norm();
-  bool same_length = true;
-  for (const Keyframe* kf : window)
-    same_length =
-        same_length && std::fabs(kf->T_right_left_used.translation().norm() - b0) <= 1e-9 * b0;
   int n = 0;
   for (Keyframe* kf : window) {
-    if (same_length && !kf->stereo.points.empty() &&
-        !needsRerectification(kf->T_right_left_used, T_right_left, tol_deg))
+    if (!kf->stereo.points.empty() &&
+        !needsRerectification(kf->T_right_left_used, T_right_left, tol_deg, tol_direction_deg))
       continue;
     recomputeStereo(kf, rig, T_right_left, settings);
     ++n;
   }
-  if (n > 0 && n < static_cast<int>(window.size())) {
-    // Some were recomputed with T_right_left's length: make the others match it too.
-    for (Keyframe* kf : window)
-      if (kf->T_right_left_used.translation().norm() != T_right_left.translation().norm()) {
-        recomputeStereo(kf, rig, T_right_left, settings);
-        ++n;
-      }
-  }
+  // The LiDAR-stereo solver estimates one scale for the window: every cloud must share one
+  // baseline length. A rectified cloud is linear in the baseline (Z = f b / d): rescale it.
+  const double b = T_right_left.translation().norm();
+  for (Keyframe* kf : window)
+    if (std::fabs(kf->T_right_left_used.translation().norm() - b) > 1e-12 * b)
+      rescaleStereo(kf, b);
   if (seconds) *seconds += secondsSince(t0);
   return n;
 }
@@ -131,7 +133,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     }
     // 2. Stereo clouds, only where the rectification changed enough to matter.
     res.rectifications += rectifyWindow(window, rig, T_rl_new, s.stereo_cloud, s.rerectify_deg,
-                                        &res.seconds_stereo_cloud) > 0;
+                                        &res.seconds_stereo_cloud, s.rerectify_direction_deg) > 0;
     const double b_used = window.front()->T_right_left_used.translation().norm();
     // 3. LiDAR-stereo with the stereo scale: the LiDAR is metric, so the scale corrects the
     // baseline length (rectification does not depend on it, the clouds simply scale).

@@ -121,7 +121,7 @@ std::vector<double> OnlineCalibrator::windowStamps() const {
 
 bool OnlineCalibrator::readyToSolve() const {
   std::lock_guard<std::mutex> lock(mutex_);
-  return static_cast<int>(window_.size()) >= settings_.min_keyframes && new_keyframes_ > 0;
+  return static_cast<int>(window_.size()) >= settings_.minKeyframes() && new_keyframes_ > 0;
 }
 
 size_t OnlineCalibrator::windowFill() const {
@@ -135,9 +135,9 @@ bool OnlineCalibrator::solve(std::string* msg) {
   std::optional<OnlineEstimate> current;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (static_cast<int>(window_.size()) < settings_.min_keyframes) {
+    if (static_cast<int>(window_.size()) < settings_.minKeyframes()) {
       *msg = "window has " + std::to_string(window_.size()) + " keyframes, needs " +
-             std::to_string(settings_.min_keyframes);
+             std::to_string(settings_.minKeyframes());
       return false;
     }
     // Co-calibration recomputes the stereo clouds in place: it gets deep copies. The LiDAR-stereo
@@ -160,6 +160,7 @@ bool OnlineCalibrator::solve(std::string* msg) {
     if (warm) {
       cs.warm_first_round = true;
       cs.max_rounds = std::min(cs.max_rounds, settings_.warm_co_rounds);
+      cs.rerectify_direction_deg = settings_.warm_rerectify_direction_deg;
     }
     const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, cs);
     if (r.rectifications > 0) {
@@ -182,7 +183,14 @@ bool OnlineCalibrator::solve(std::string* msg) {
     e.cost_lidar = r.lidar.final_cost, e.cost_stereo = r.stereo.final_cost;
     e.iterations_lidar = r.lidar.iterations, e.iterations_stereo = r.stereo.iterations;
     e.co_rounds = r.rounds;
-    *msg = warm && e.converged ? "" : r.message;
+    if (!warm)
+      *msg = r.message;
+    else if (!r.stereo.converged)
+      *msg = "left-right: " + r.stereo.message;
+    else if (!r.lidar.converged)
+      *msg = "LiDAR-stereo: " + r.lidar.message;
+    else
+      msg->clear();
   } else {
     std::vector<const Keyframe*> cwin(win.begin(), win.end());
     LidarStereoSettings ls = settings_.co.lidar;

@@ -237,7 +237,7 @@ void CalibrationNodelet::preprocessLoop() {
       {
         std::lock_guard<std::mutex> lock(mutex_);
         build_time_.add(build_s);
-        if (static_cast<int>(fill) >= params_.online.min_keyframes)
+        if (static_cast<int>(fill) >= params_.online.minKeyframes())
           unsolved_arrivals_.push_back(pf.received);
       }
       NODELET_DEBUG("tescalib: keyframe %d built in %.3f s (window %zu)", keyframes_.load() + 1,

@@ -21,6 +21,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "window/keyframe_min_dt", &p->online.keyframe_min_dt);
   get(pnh, "window/size", &p->online.window_size);
   get(pnh, "window/min_keyframes", &p->online.min_keyframes);
+  get(pnh, "window/min_keyframes_co", &p->online.min_keyframes_co);
   get(pnh, "window/max_trace_growth", &p->online.max_trace_growth);
   get(pnh, "window/warm_start_fine_only", &p->online.warm_start_fine_only);
   get(pnh, "window/keyframe_selection", &p->online.keyframe_selection);
@@ -57,6 +58,9 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.window_size < 1) e << "window/size must be >= 1 (got " << o.window_size << "); ";
   if (o.min_keyframes < 1 || o.min_keyframes > o.window_size)
     e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes << "); ";
+  if (o.min_keyframes_co < 1 || o.min_keyframes_co > o.window_size)
+    e << "window/min_keyframes_co must be in [1, window/size] (got " << o.min_keyframes_co
+      << "); ";
   if (o.max_trace_growth < 1) e << "window/max_trace_growth must be >= 1; ";
   if (o.keyframe_selection != "information" && o.keyframe_selection != "fifo")
     e << "window/keyframe_selection must be information or fifo (got '" << o.keyframe_selection

@@ -37,6 +37,10 @@ struct CoCalibrationSettings {
   /// by more than this since they were computed (the baseline length is the stereo scale's job).
   /// 0.005 deg is about 0.06 px of rectification error at KITTI's focal length.
   double rerectify_deg = 0.005;
+  /// The same for the baseline direction alone; negative: `rerectify_deg`. A direction error
+  /// delta misplaces a match by about disparity x delta (0.07 px at 80 px for 0.05 deg), a
+  /// rotation error by f x delta (0.06 px for 0.005 deg): the online updates use 0.05 deg.
+  double rerectify_direction_deg = -1.0;
   /// Extrapolates the fixed-point iteration (Aitken's delta-squared on the stacked 12-vector of
   /// both extrinsics) once three successive estimates contract consistently.
   bool extrapolate = true;
@@ -60,17 +64,18 @@ struct CoCalibrationResult {
   std::string message;
 };
 
-/// True when stereo clouds computed with `used` should be recomputed for `now`: the rotation or
-/// the baseline direction differ by more than `tol_deg` (the baseline length does not matter).
+/// True when stereo clouds computed with `used` should be recomputed for `now`: the rotation
+/// differs by more than `tol_deg` or the baseline direction by more than `tol_direction_deg`
+/// (negative: `tol_deg`); the baseline length does not matter.
 bool needsRerectification(const Eigen::Isometry3d& used, const Eigen::Isometry3d& now,
-                          double tol_deg);
+                          double tol_deg, double tol_direction_deg = -1.0);
 
-/// Recomputes the window's stereo clouds with `T_right_left` where they need it (a different
-/// rectification, or a baseline length differing from the others'); returns how many it
-/// recomputed and adds the time to `*seconds`.
+/// Recomputes the window's stereo clouds with `T_right_left` where the rectification differs
+/// enough (needsRerectification) and rescales the others to its baseline length (a rectified
+/// cloud is linear in it); returns how many it recomputed and adds the time to `*seconds`.
 int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
                   const Eigen::Isometry3d& T_right_left, const StereoSettings& settings,
-                  double tol_deg, double* seconds);
+                  double tol_deg, double* seconds, double tol_direction_deg = -1.0);
 
 /// Runs the alternation over `window` (stereo clouds are recomputed in place). The stereo solver
 /// goes first: it tolerates a bad LiDAR extrinsic (paper, "Sensitivity Analysis").

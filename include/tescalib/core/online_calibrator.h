@@ -4,6 +4,7 @@
 // it frames and publishes what it returns; tests drive it directly.
 #pragma once
 
+#include <algorithm>
 #include <deque>
 #include <map>
 #include <memory>
@@ -22,6 +23,12 @@ struct OnlineSettings {
   double keyframe_min_dt = 0.5;  ///< s between keyframes
   int window_size = 10;          ///< keyframes in the sliding window (paper's co-calibration: 10)
   int min_keyframes = 3;         ///< solve only with at least this many
+  /// With co-calibration at least this many: on 3 keyframes the first alternation often ran all
+  /// its rounds without settling (7 s on the demo drive), delaying the first estimate.
+  int min_keyframes_co = 5;
+  int minKeyframes() const {
+    return estimate_stereo ? std::max(min_keyframes, min_keyframes_co) : min_keyframes;
+  }
   bool estimate_stereo = true;   ///< co-calibration; false: LiDAR-stereo only, stereo fixed
   double max_sync_skew = 0.05;   ///< s; LiDAR and image stamps further apart are rejected
   double max_time_jump_back = 0.0;  ///< s; a stamp earlier than the last by more resets the window
@@ -38,6 +45,9 @@ struct OnlineSettings {
   /// both solves converged (and the trace rule holds), without the stability criterion of a
   /// full run. Re-rectified stereo clouds are kept in the window.
   int warm_co_rounds = 1;
+  /// Baseline-direction tolerance for re-rectifying the window in those warm updates
+  /// (CoCalibrationSettings::rerectify_direction_deg; the rotation keeps `co.rerectify_deg`).
+  double warm_rerectify_direction_deg = 0.05;
   /// Which keyframe leaves a full window: "information" drops the one whose loss costs least in
   /// the window's weakest direction (from the last solve's per-keyframe LiDAR-stereo information),
   /// so that keyframes adding nothing there (a highway after a town) do not push out the ones that
