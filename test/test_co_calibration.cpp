@@ -102,4 +102,15 @@ TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
     EXPECT_LT(std::fabs(es[i]) * kDegPerRad, 0.03) << "stereo rotation axis " << i;
     EXPECT_LT(std::fabs(es[3 + i]), 0.005) << "stereo translation axis " << i;
   }
+  // The covariances carry the co-calibration model error on top of each solve's own, and the
+  // error stays within 3 sigma of them on every axis.
+  const CoCalibrationSettings s;
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_GE(r.lidar.covariance(3 + i, 3 + i), std::pow(s.model_sigma_lidar_trans_m[i], 2));
+    EXPECT_GE(r.stereo.covariance(i, i), std::pow(s.model_sigma_stereo_rot_deg[i] / kDegPerRad, 2));
+  }
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_LT(std::fabs(el[i]), 3 * std::sqrt(r.lidar.covariance(i, i))) << "LiDAR axis " << i;
+    EXPECT_LT(std::fabs(es[i]), 3 * std::sqrt(r.stereo.covariance(i, i))) << "stereo axis " << i;
+  }
 }

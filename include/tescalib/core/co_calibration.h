@@ -3,6 +3,7 @@
 // estimate changed enough to matter, until both estimates are stable.
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -48,6 +49,14 @@ struct CoCalibrationSettings {
   /// The photometric solver keeps the baseline length it is given (rotation and direction free):
   /// the length comes from the LiDAR-given stereo scale. Off: round 1 takes the photometric length.
   bool photometric_fixed_length = true;
+  /// Per-axis model error added to the final covariances (camera axes, 1 sigma): each solve's
+  /// covariance is conditional on the other extrinsic being exact, and in the alternation the
+  /// stereo baseline length and yaw follow the LiDAR depth. Calibrated like the solvers' own terms
+  /// (README, "Co-calibration"); the observability flags stay with the solvers' statistical part.
+  std::array<double, 3> model_sigma_lidar_rot_deg = {0.0019, 0.0127, 0.0188};
+  std::array<double, 3> model_sigma_lidar_trans_m = {0.0059, 0.0032, 0.0083};
+  std::array<double, 3> model_sigma_stereo_rot_deg = {0.0011, 0.0027, 0.0};
+  std::array<double, 3> model_sigma_stereo_trans_m = {0.00103, 0.00029, 0.00045};
 };
 
 struct CoCalibrationResult {
