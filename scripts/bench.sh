@@ -47,6 +47,17 @@ if [ "$BENCH" != kitti ]; then
   for s in 11 12 13 14 15 16 21 22 23 24 31 32 33 34; do NEES_SEQS=$NEES_SEQS,$(simulate urban $s 100); done
   run "sim_urban_nees" --sequences "$NEES_SEQS" --mode lidar_stereo --trials 60 \
     --init-rot-deg 3 --init-trans-m 0.3 --seed 21 --window 10 --windows disjoint
+  # Issue 6, co-calibration: the 6 windows of three drives from 30 starts, and the co covariance
+  # on 8 held-out windows (its model error is fitted on s1, s11-s16, s21-s24; README).
+  CO_SEQS=$URBAN,$(simulate urban 11 100),$(simulate urban 12 100)
+  run "sim_urban_co_3deg" --sequences "$CO_SEQS" --mode co --trials "$SIM_TRIALS" \
+    --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
+    --seed 1 --window 10 --windows disjoint
+  CO_HELD_OUT=$(simulate urban 31 100)
+  for s in 32 33 34; do CO_HELD_OUT=$CO_HELD_OUT,$(simulate urban $s 100); done
+  run "sim_urban_co_nees_held_out" --sequences "$CO_HELD_OUT" --mode co --trials 16 \
+    --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
+    --seed 41 --window 10 --windows disjoint
   HW=$(simulate highway 1 100)
   run "sim_highway_nees" --sequences "$HW" --mode lidar_stereo --trials 12 \
     --init-rot-deg 3 --init-trans-m 0.3 --seed 13 --window 10 --windows disjoint
@@ -71,6 +82,8 @@ run "kitti_0930_stereo_1deg_lidar_off" --sequences "$K/04,$K/05,$K/06,$K/07" --m
   --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 --lidar-trans-m 0.1 \
   --seed 5 --window 20
 run "kitti_0930_co_3deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode co --trials 10 \
+  --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
+run "kitti_1003_co_3deg" --sequences "$K/00,$K/02" --mode co --trials 10 \
   --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
 run "kitti_0930_co_1deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode co --trials 10 \
   --init-rot-deg 1 --init-trans-m 0.1 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
