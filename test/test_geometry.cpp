@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "tescalib/core/geometry.h"
+#include "tescalib/core/overlay.h"
 
 using namespace tescalib;
 
@@ -25,4 +26,18 @@ TEST(Geometry, PerturbationHasExactSizeAndErrorRecoversIt) {
     const Vector6d e = poseError(perturb(T, d), T);
     EXPECT_LT((e - d).norm(), 1e-9);
   }
+}
+
+TEST(Overlay, StatusTextOnADarkBand) {
+  cv::Mat img(120, 400, CV_8UC3, cv::Scalar(200, 200, 200));
+  drawStatusText({"LiDAR->left: converged", "left->right: converged"}, &img);
+  // Two lines: a band of 2 x 18 + 6 = 42 rows, darkened, with white text in it.
+  cv::Mat band = img(cv::Rect(0, 0, 400, 42)), below = img(cv::Rect(0, 42, 400, 78));
+  double lo, hi;
+  cv::minMaxLoc(band.reshape(1), &lo, &hi);
+  EXPECT_LT(lo, 80.0);    // darkened: 200 x 0.35 = 70
+  EXPECT_GT(hi, 240.0);   // text
+  cv::minMaxLoc(below.reshape(1), &lo, &hi);
+  EXPECT_EQ(lo, 200.0);   // untouched
+  EXPECT_EQ(hi, 200.0);
 }

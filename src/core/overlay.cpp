@@ -27,4 +27,16 @@ int drawLidarOverlay(const LidarScan& scan, const Eigen::Isometry3d& T, const Ca
   return drawn;
 }
 
+void drawStatusText(const std::vector<std::string>& lines, cv::Mat* image) {
+  if (lines.empty() || image->empty()) return;
+  const int font = cv::FONT_HERSHEY_SIMPLEX, line_h = 18;
+  const double scale = 0.5;
+  const int h = std::min(image->rows, line_h * static_cast<int>(lines.size()) + 6);
+  cv::Mat band = (*image)(cv::Rect(0, 0, image->cols, h));
+  band *= 0.35;
+  for (size_t i = 0; i < lines.size(); ++i)
+    cv::putText(*image, lines[i], cv::Point(6, line_h * static_cast<int>(i + 1)), font, scale,
+                cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+}
+
 }  // namespace tescalib

@@ -1,11 +1,37 @@
 #include "tescalib/ros/overlay_nodelet.h"
 
+#include <algorithm>
+#include <cstdio>
+#include <string>
+#include <vector>
+
 #include <pluginlib/class_list_macros.hpp>
 
 #include "tescalib/core/overlay.h"
 #include "tescalib/ros/conversions.h"
 
 namespace tescalib {
+namespace {
+
+/// One status line of an estimate for the overlay image, e.g.
+/// "LiDAR->left: converged, 10 kf, sigma <= 0.019 deg / 0.69 cm, weak: none".
+std::string statusLine(const char* name, const ExtrinsicEstimate& e) {
+  const double rot = *std::max_element(e.sigma_rot_deg.begin(), e.sigma_rot_deg.end());
+  const double trans = *std::max_element(e.sigma_trans_m.begin(), e.sigma_trans_m.end());
+  if (rot == 0 && trans == 0)  // LiDAR-stereo only: T_right_left is the fixed initial one
+    return std::string(name) + ": fixed (not estimated: co_calibration/estimate_stereo false)";
+  static const char* axes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
+  std::string weak;
+  for (int i = 0; i < 6; ++i)
+    if (!e.observable[i]) weak += std::string(weak.empty() ? "" : " ") + axes[i];
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), "%s: %s, %u kf, sigma <= %.3f deg / %.2f cm, weak: %s", name,
+                e.converged ? "converged" : "not converged", e.keyframes_used, rot, 100 * trans,
+                weak.empty() ? "none" : weak.c_str());
+  return buf;
+}
+
+}  // namespace
 
 void OverlayNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
@@ -42,21 +68,29 @@ void OverlayNodelet::onSet(const Cloud::ConstPtr& cloud, const Image::ConstPtr& 
     std::lock_guard<std::mutex> lock(mutex_);
     le = lidar_est_, se = stereo_est_;
   }
-  if (!le) {
-    NODELET_INFO_THROTTLE(10.0, "tescalib overlay: waiting for the first lidar_to_left estimate");
-    return;
-  }
   LidarScan scan;
   cv::Mat l, r;
   CameraIntrinsics lc, rc;
   std::string error;
-  if (!ros_conv::fromPointCloud2(*cloud, &scan, &error) || !ros_conv::toBgr8(*left, &l, &error) ||
+  if (!ros_conv::toBgr8(*left, &l, &error)) {
+    NODELET_WARN_THROTTLE(10.0, "tescalib overlay: %s", error.c_str());
+    return;
+  }
+  if (!le) {  // the plain image with the status, so rviz shows what the node is waiting for
+    drawStatusText({"tescalib: waiting for the first converged LiDAR->left estimate"}, &l);
+    left_pub_.publish(ros_conv::toImageMsg(l, left->header, "bgr8"));
+    return;
+  }
+  if (!ros_conv::fromPointCloud2(*cloud, &scan, &error) ||
       !ros_conv::fromCameraInfo(*li, &lc, &error)) {
     NODELET_WARN_THROTTLE(10.0, "tescalib overlay: %s", error.c_str());
     return;
   }
   const Eigen::Isometry3d T_cl = ros_conv::fromTransformMsg(le->transform);
   drawLidarOverlay(scan, T_cl, lc, &l, max_depth_);
+  std::vector<std::string> status{statusLine("LiDAR->left", *le)};
+  if (se) status.push_back(statusLine("left->right", *se));
+  drawStatusText(status, &l);
   left_pub_.publish(ros_conv::toImageMsg(l, left->header, "bgr8"));
   if (se && ros_conv::toBgr8(*right, &r, &error) && ros_conv::fromCameraInfo(*ri, &rc, &error)) {
     drawLidarOverlay(scan, ros_conv::fromTransformMsg(se->transform) * T_cl, rc, &r, max_depth_);

@@ -1,6 +1,9 @@
 // LiDAR-on-image overlay: the scan projected into an image with an extrinsic, coloured by depth.
 #pragma once
 
+#include <string>
+#include <vector>
+
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
@@ -13,5 +16,9 @@ namespace tescalib {
 /// number of points drawn.
 int drawLidarOverlay(const LidarScan& scan, const Eigen::Isometry3d& T_cam_lidar,
                      const CameraIntrinsics& cam, cv::Mat* image, double max_depth = 40.0);
+
+/// Writes `lines` (e.g. the estimate's status) in the top-left corner of `image` (BGR) on a dark
+/// band so they stay readable over any scene.
+void drawStatusText(const std::vector<std::string>& lines, cv::Mat* image);
 
 }  // namespace tescalib
