@@ -163,9 +163,9 @@ bool OnlineCalibrator::solve(std::string* msg) {
       cs.rerectify_direction_deg = settings_.warm_rerectify_direction_deg;
     }
     const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, cs);
-    if (r.rectifications > 0) {
-      // Keep the re-rectified clouds: swap the recomputed keyframes into the window (the window's
-      // keyframes are shared and never modified in place).
+    {
+      // Keep the re-rectified or rescaled clouds: swap those keyframes into the window (the
+      // window's keyframes are shared and never modified in place).
       std::lock_guard<std::mutex> lock(mutex_);
       for (const auto& k : snapshot)
         for (auto& w : window_)
