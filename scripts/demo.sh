@@ -16,13 +16,8 @@
 # DEMO_KITTI (1: run part 3 when the data exists; 0: skip it).
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-# shellcheck disable=SC1091
-source "$ROOT/build/devel/setup.bash"
-export ROS_HOME=${ROS_HOME:-$ROOT/build/ros_home}
-# Its own master on a free port: a roscore already running on this machine is left alone.
-ROS_PORT=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')
-export ROS_MASTER_URI=http://localhost:$ROS_PORT
+# shellcheck source=scripts/ros_env.sh
+source "$ROOT/scripts/ros_env.sh"
 FRAMES=${DEMO_FRAMES:-100}
 SEED=${DEMO_SEED:-1}
 SCENARIO=${DEMO_SCENARIO:-urban}

@@ -5,13 +5,8 @@
 # (installed here when missing). Usage: scripts/rviz_screenshot.sh [OUT.png] [SECONDS]
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-# shellcheck disable=SC1091
-source "$ROOT/build/devel/setup.bash"
-export ROS_HOME=${ROS_HOME:-$ROOT/build/ros_home}
-# Its own master on a free port: a roscore already running on this machine is left alone.
-ROS_PORT=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')
-export ROS_MASTER_URI=http://localhost:$ROS_PORT
+# shellcheck source=scripts/ros_env.sh
+source "$ROOT/scripts/ros_env.sh"
 OUT=${1:-$ROOT/doc/rviz_demo.png}
 WAIT=${2:-12}
 BAG=$(ls "$ROOT"/build/demo/urban_f*_s*_*.bag 2>/dev/null | head -1)
