@@ -67,6 +67,14 @@ TEST(CoCalibration, RerectificationOnlyWhenTheRotationOrDirectionChanges) {
   d.setZero();
   d[1] = 0.01 / kDegPerRad;
   EXPECT_TRUE(needsRerectification(a, perturb(a, d), 0.005, 0.05));
+  // A separate yaw tolerance (the LiDAR-stereo solve models the yaw): 0.01 deg of yaw passes,
+  // 0.04 deg does not, and 0.01 deg about x still does not pass.
+  EXPECT_FALSE(needsRerectification(a, perturb(a, d), 0.005, 0.05, 0.03));
+  d[1] = 0.04 / kDegPerRad;
+  EXPECT_TRUE(needsRerectification(a, perturb(a, d), 0.005, 0.05, 0.03));
+  d.setZero();
+  d[0] = 0.01 / kDegPerRad;
+  EXPECT_TRUE(needsRerectification(a, perturb(a, d), 0.005, 0.05, 0.03));
 }
 
 TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
@@ -76,8 +84,12 @@ TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
   std::mt19937_64 rng(3);
   const Eigen::Isometry3d T_cl_init =
       perturb(truth.T_cam_lidar, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
-  const Eigen::Isometry3d T_rl_init =
-      perturb(truth.T_right_left, randomPerturbation(1.0 / kDegPerRad, 0.1, rng));
+  // The hardest stereo start of the benchmark's kind: 1 deg off and the baseline 10 cm short
+  // (benchmark starts like this, 5-10 cm short, ended in a wrong basin before the LiDAR-stereo
+  // solves modelled the clouds' yaw; this window recovered without it too, in 15 rounds).
+  Vector6d stereo_delta = randomPerturbation(1.0 / kDegPerRad, 0.1, rng);
+  stereo_delta.tail<3>() = Eigen::Vector3d(0.1, 0, 0);
+  const Eigen::Isometry3d T_rl_init = perturb(truth.T_right_left, stereo_delta);
   GeneratedWindow w = generatedWindow(8, 1, &T_cl_init);
   std::vector<Keyframe*> window;
   for (auto& kf : w.keyframes) window.push_back(&kf);
@@ -91,6 +103,8 @@ TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
             << es.tail<3>().norm() * 1000 << " mm; " << r.message << "\n";
   EXPECT_TRUE(r.converged) << r.message;
   EXPECT_TRUE(r.stable);
+  // With the clouds' yaw modelled the alternation contracts fast (5 rounds here; 15 without).
+  EXPECT_LE(r.rounds, 10);
   // The success tolerances for both extrinsics, tighter per axis.
   EXPECT_LT(el.head<3>().norm() * kDegPerRad, 0.2);
   EXPECT_LT(el.tail<3>().norm(), 0.03);

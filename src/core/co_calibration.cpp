@@ -49,8 +49,11 @@ Eigen::Isometry3d applyNormalised(const Eigen::Isometry3d& T, const Vector6d& x_
 }  // namespace
 
 bool needsRerectification(const Eigen::Isometry3d& used, const Eigen::Isometry3d& now,
-                          double tol_deg, double tol_direction_deg) {
-  const double rot = logSO3(now.linear() * used.linear().transpose()).norm();
+                          double tol_deg, double tol_direction_deg, double tol_yaw_deg) {
+  // The rotation between the two right cameras, in the right camera frame: y is the yaw.
+  const Eigen::Vector3d phi = logSO3(now.linear() * used.linear().transpose());
+  const double rot = tol_yaw_deg < 0 ? phi.norm() : std::hypot(phi.x(), phi.z());
+  if (tol_yaw_deg >= 0 && std::fabs(phi.y()) * kDegPerRad > tol_yaw_deg) return true;
   const Eigen::Vector3d a = used.translation().normalized(), b = now.translation().normalized();
   const double dir = std::atan2(a.cross(b).norm(), a.dot(b));
   return rot * kDegPerRad > tol_deg ||
@@ -69,13 +72,14 @@ void rescaleStereo(Keyframe* kf, double baseline) {
 
 int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
                   const Eigen::Isometry3d& T_right_left, const StereoSettings& settings,
-                  double tol_deg, double* seconds, double tol_direction_deg) {
+                  double tol_deg, double* seconds, double tol_direction_deg, double tol_yaw_deg) {
   if (window.empty()) return 0;
   const auto t0 = Clock::now();
   int n = 0;
   for (Keyframe* kf : window) {
     if (!kf->stereo.points.empty() &&
-        !needsRerectification(kf->T_right_left_used, T_right_left, tol_deg, tol_direction_deg))
+        !needsRerectification(kf->T_right_left_used, T_right_left, tol_deg, tol_direction_deg,
+                              tol_yaw_deg))
       continue;
     recomputeStereo(kf, rig, T_right_left, settings);
     ++n;
@@ -128,18 +132,28 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
       // current length (set by the LiDAR-given stereo scale after round 1) and take the rotation
       // and the baseline direction.
       T_rl_new = res.stereo.T_right_left;
+      if (debug)
+        std::fprintf(stderr, "co round %d: photometric |t| %.4f (given %.4f), %s\n", res.rounds,
+                     T_rl_new.translation().norm(), T_rl.translation().norm(),
+                     res.stereo.converged ? "converged" : res.stereo.message.c_str());
       if (res.rounds > 1)
         T_rl_new.translation() = T_rl_new.translation().normalized() * T_rl.translation().norm();
     }
     // 2. Stereo clouds, only where the rectification changed enough to matter.
-    res.rectifications += rectifyWindow(window, rig, T_rl_new, s.stereo_cloud, s.rerectify_deg,
-                                        &res.seconds_stereo_cloud, s.rerectify_direction_deg) > 0;
+    res.rectifications +=
+        rectifyWindow(window, rig, T_rl_new, s.stereo_cloud, s.rerectify_deg,
+                      &res.seconds_stereo_cloud, s.rerectify_direction_deg,
+                      s.lidar_estimates_stereo_yaw ? s.rerectify_yaw_deg : -1.0) > 0;
     const double b_used = window.front()->T_right_left_used.translation().norm();
     // 3. LiDAR-stereo with the stereo scale: the LiDAR is metric, so the scale corrects the
     // baseline length (rectification does not depend on it, the clouds simply scale).
     LidarStereoSettings ls = s.lidar;
     ls.disparity_sigma = s.stereo_cloud.disparity_sigma;
     ls.estimate_stereo_scale = true;
+    // The clouds' rectification yaw is a nuisance here: a yaw error of the right camera shifts
+    // every disparity, which the LiDAR would otherwise absorb along the optical axis; the yaw
+    // itself stays the photometric solver's (with a good LiDAR it is far more precise).
+    ls.estimate_stereo_yaw = s.lidar_estimates_stereo_yaw;
     // The inner solve only needs to settle well below the outer tolerance (its defaults, 2e-4 deg
     // and 0.02 mm, are below what re-association noise allows with the scale free).
     ls.converge_rot_deg = std::max(ls.converge_rot_deg, s.inner_settle_fraction * s.stable_rot_deg);
@@ -160,10 +174,10 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     if (debug) {
       const Eigen::Vector3d r = logSO3(T_rl_new.linear()) * kDegPerRad;
       std::fprintf(stderr,
-                   "co round %d: scale %.4f T_rl rot [%.4f %.4f %.4f] deg t [%.4f %.4f %.4f]; "
+                   "co round %d: scale %.4f yaw %.4f deg T_rl rot [%.4f %.4f %.4f] deg t [%.4f %.4f %.4f]; "
                    "lidar %s %s; T_cl t [%.4f %.4f %.4f]; step %.2f rho %.2f%s; s: photo %.2f "
                    "cloud %.2f lidar %.2f\n",
-                   res.rounds, res.lidar.stereo_scale, r.x(), r.y(), r.z(),
+                   res.rounds, res.lidar.stereo_scale, res.lidar.stereo_yaw_rad * kDegPerRad, r.x(), r.y(), r.z(),
                    T_rl_new.translation().x(), T_rl_new.translation().y(),
                    T_rl_new.translation().z(), res.lidar.converged ? "conv" : "not conv",
                    res.lidar.message.c_str(), T_cl_new.translation().x(),

@@ -51,11 +51,26 @@ struct Association {
   Eigen::Vector3d p_s, n_s;  ///< stereo point and normal (camera frame)
   double inv_sigma = 1.0;
   int cluster = 0;  ///< keyframe and image cell, for the cluster-robust covariance
+  double d = 1.0;   ///< the stereo point's disparity (px)
+  double g = 0.0;   ///< its disparity change per rad of right-camera yaw, f (1 + x_r^2)
 };
+
+/// Disparity change of a rectified stereo point per rad of right-camera yaw (see
+/// correctedStereoScale): f (1 + x_r^2), x_r the normalised right image coordinate.
+double yawGain(const StereoCloud& st, double u, double d) {
+  const double xr = (u - d - st.cx) / st.fx;
+  return st.fx * (1.0 + xr * xr);
+}
+
+/// The stereo point of `a` as the current scale and yaw place it.
+Eigen::Vector3d correctedPoint(const Association& a, double scale, double yaw) {
+  return correctedStereoScale(&scale, &yaw, a.d, a.g) * a.p_s;
+}
 
 /// Solves the 6-DoF update of one association set; returns [phi; tau].
 Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& t_ref, bool coarse,
-                     const LidarStereoSettings& s, double loss_scale, double* scale) {
+                     const LidarStereoSettings& s, double loss_scale, double* scale,
+                     double* yaw) {
   double delta[6] = {0, 0, 0, 0, 0, 0};
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
@@ -70,11 +85,12 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
     if (coarse) {
       problem.AddResidualBlock(
           PointPlaneNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.n_s, a.inv_sigma,
-                                           s.normal_residual_weight),
-          loss.get(), delta, scale);
+                                           s.normal_residual_weight, a.d, a.g),
+          loss.get(), delta, scale, yaw);
     } else {
-      problem.AddResidualBlock(LidarNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.inv_sigma),
-                               loss.get(), delta, scale);
+      problem.AddResidualBlock(
+          LidarNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.inv_sigma, a.d, a.g), loss.get(),
+          delta, scale, yaw);
     }
   }
   if (!as.empty()) {
@@ -83,6 +99,13 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
       problem.SetParameterUpperBound(scale, 0, 2.0);
     } else {
       problem.SetParameterBlockConstant(scale);
+    }
+    if (s.estimate_stereo_yaw) {
+      const double limit = s.max_stereo_yaw_deg / kDegPerRad;
+      problem.SetParameterLowerBound(yaw, 0, -limit);
+      problem.SetParameterUpperBound(yaw, 0, limit);
+    } else {
+      problem.SetParameterBlockConstant(yaw);
     }
   }
   ceres::Solver::Options opt;
@@ -124,7 +147,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     return res;
   }
   Eigen::Isometry3d T = T_init;
-  double scale = 1.0;
+  double scale = 1.0, yaw = 0.0;
 
   // ---------------------------------------------------------------- coarse (eq. KD6 + eq. 2)
   const auto t_coarse = Clock::now();
@@ -182,6 +205,9 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
             a.q = q, a.m = m;
             a.p_l = f.centroid.cast<double>(), a.n_l = f.normal.cast<double>();
             a.p_s = sp.p.cast<double>(), a.n_s = sp.n.cast<double>();
+            a.d = sp.disparity;
+            const Eigen::Vector3d sr = st.R_rect_left * a.p_s;
+            a.g = yawGain(st, st.fx * sr.x() / sr.z() + st.cx, a.d);
             // Point-to-plane noise: LiDAR along the normal plus stereo depth noise along it.
             const Eigen::Vector3d beam = c.normalized();
             const double dFdd = std::fabs(m.dot(a.p_s)) / sp.disparity;
@@ -193,7 +219,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
         }
         res.coarse_inliers = static_cast<int>(as.size());
         if (static_cast<int>(as.size()) < s.min_inliers) break;
-        const Vector6d d = solveUpdate(as, T.translation(), true, s, s.coarse_loss_scale, &scale);
+        const Vector6d d =
+            solveUpdate(as, T.translation(), true, s, s.coarse_loss_scale, &scale, &yaw);
         T = perturb(T, d);
         if (smallUpdate(d, s)) break;
       }
@@ -214,10 +241,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       ++res.iterations;
       as.clear();
       const Eigen::Matrix3d R = T.linear();
-      for (size_t k = 0; k < window.size(); ++k) {
-        const StereoCloud& st = window[k]->stereo;
-        for (size_t fi : face_index[k]) {
-          const MeshFace& f = window[k]->mesh.faces[fi];
+      for (size_t kf = 0; kf < window.size(); ++kf) {
+        const StereoCloud& st = window[kf]->stereo;
+        for (size_t fi : face_index[kf]) {
+          const MeshFace& f = window[kf]->mesh.faces[fi];
           const Eigen::Vector3d q = R * f.centroid.cast<double>();
           const Eigen::Vector3d c = q + T.translation();
           const Eigen::Vector3d pr = st.R_rect_left * c;
@@ -227,11 +254,13 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
           if (!st.disparityAt(u, v, &d)) continue;
           const Eigen::Vector3d ps = st.pointAt(u, v, d);  // unscaled; the residual scales it
           const Eigen::Vector3d m = R * f.normal.cast<double>();
-          const double dFdd = scale * std::fabs(m.dot(ps)) / d;
+          const double g = yawGain(st, u, d);
+          const double k = correctedStereoScale(&scale, &yaw, d, g);
+          const double dFdd = k * std::fabs(m.dot(ps)) / d;
           const double var = lidarVarianceAlong(m, c.normalized(), f.range, s) +
                              dFdd * dFdd * s.disparity_sigma * s.disparity_sigma;
           const double inv_sigma = 1.0 / std::sqrt(var);
-          if (std::fabs(m.dot(c - scale * ps)) * inv_sigma > s.fine_gate_sigma) continue;
+          if (std::fabs(m.dot(c - k * ps)) * inv_sigma > s.fine_gate_sigma) continue;
           const int cell =
               std::clamp(static_cast<int>(u * s.cov_cells_x / st.disparity.cols), 0,
                          s.cov_cells_x - 1) +
@@ -239,12 +268,12 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                                          s.cov_cells_y - 1);
           as.push_back({q, m, f.centroid.cast<double>(), f.normal.cast<double>(), ps,
                         Eigen::Vector3d::Zero(), inv_sigma,
-                        static_cast<int>(k) * s.cov_cells_x * s.cov_cells_y + cell});
+                        static_cast<int>(kf) * s.cov_cells_x * s.cov_cells_y + cell, d, g});
         }
       }
       res.fine_inliers = static_cast<int>(as.size());
       if (static_cast<int>(as.size()) < s.min_inliers) break;
-      const Vector6d d = solveUpdate(as, T.translation(), false, s, s.fine_huber, &scale);
+      const Vector6d d = solveUpdate(as, T.translation(), false, s, s.fine_huber, &scale, &yaw);
       if (std::getenv("TESCALIB_DEBUG"))
         std::fprintf(stderr, "fine it %d: %zu assoc, update %.5f deg %.5f m\n", it, as.size(),
                      d.head<3>().norm() * kDegPerRad, d.tail<3>().norm());
@@ -261,6 +290,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   res.seconds_fine = secondsSince(t_fine);
   res.T_cam_lidar = T;
   res.stereo_scale = scale;
+  res.stereo_yaw_rad = yaw;
 
   // ---------------------------------------------------------------- information, honesty
   // Analytic Jacobian of r = (R m)^T (R q + t - s) / sigma at the estimate:
@@ -286,7 +316,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     for (const auto& a0 : as) {
       Eigen::Matrix<double, 1, 6> J;
       const Eigen::Vector3d m = T.linear() * a0.n_l, q = T.linear() * a0.p_l;
-      const Eigen::Vector3d ps = scale * a0.p_s;
+      const Eigen::Vector3d ps = correctedPoint(a0, scale, yaw);
       const double r = m.dot(q + T.translation() - ps) * a0.inv_sigma;
       J.head<3>() = m.cross(T.translation() - ps).transpose() * a0.inv_sigma;
       J.tail<3>() = m.transpose() * a0.inv_sigma;

@@ -46,6 +46,8 @@ struct Args {
   std::string stages = "coarse,fine";
   int cov_cells_x = -1, cov_cells_y = -1;  ///< -1: the solver default
   int smooth_keypoints_px = -1;  ///< photometric smooth_depth_radius_px; -1: the solver default
+  double co_model_scale = -1;  ///< scales CoCalibrationSettings::model_sigma_*; -1: as is
+  int stereo_yaw = -1;  ///< LiDAR-stereo estimates the right camera's yaw: 0/1; -1: the default
   double cov_model_scale = -1;             ///< scales the solver's model-error sigmas (0: none)
   std::string windows = "first";  ///< first: the first W keyframes; disjoint: every W in turn
 };
@@ -59,7 +61,7 @@ void usage() {
          "         [--json FILE] [--stages coarse,fine] [--lidar-rot-deg R --lidar-trans-m T]\n"
          "         [--windows first|disjoint] [--cov-cells XxY] [--cov-model-scale K] "
          "[--first-trial K]\n"
-         "         [--smooth-keypoints PX]\n"
+         "         [--co-model-scale K] [--smooth-keypoints PX] [--stereo-yaw 0|1]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
@@ -74,7 +76,10 @@ void usage() {
          "--windows disjoint splits all keyframes into consecutive windows of W and trial t uses\n"
          "window t mod (number of windows): independent windows, so mean NEES means something.\n"
          "--smooth-keypoints PX: full-resolution photometric key points only where the LiDAR depth\n"
-         "is smooth within PX pixels (PhotometricSettings::smooth_depth_radius_px; 0: off).\n";
+         "is smooth within PX pixels (PhotometricSettings::smooth_depth_radius_px; 0: off).\n"
+         "--stereo-yaw 0|1: the LiDAR-stereo solve also estimates the right camera's yaw relative\n"
+         "to the clouds' rectification (a disparity offset; LidarStereoSettings::\n"
+         "estimate_stereo_yaw, co: CoCalibrationSettings::lidar_estimates_stereo_yaw).\n";
 }
 
 std::vector<std::string> split(const std::string& s, char sep) {
@@ -140,6 +145,10 @@ bool parse(int argc, char** argv, Args* a) {
         a->cov_model_scale = std::stod(v);
       else if (k == "--smooth-keypoints")
         a->smooth_keypoints_px = std::stoi(v);
+      else if (k == "--co-model-scale")
+        a->co_model_scale = std::stod(v);
+      else if (k == "--stereo-yaw")
+        a->stereo_yaw = std::stoi(v);
       else {
         std::cerr << "tescalib_eval: unknown option " << k << "\n";
         return false;
@@ -311,6 +320,7 @@ int main(int argc, char** argv) {
   solver_settings.run_coarse = args.stages.find("coarse") != std::string::npos;
   solver_settings.run_fine = args.stages.find("fine") != std::string::npos;
   if (args.cov_cells_x > 0) solver_settings.cov_cells_x = args.cov_cells_x;
+  if (args.stereo_yaw >= 0) solver_settings.estimate_stereo_yaw = args.stereo_yaw > 0;
   if (args.cov_cells_y > 0) solver_settings.cov_cells_y = args.cov_cells_y;
   if (args.cov_model_scale >= 0) {
     for (double& v : solver_settings.model_sigma_rot_deg) v *= args.cov_model_scale;
@@ -371,6 +381,12 @@ int main(int argc, char** argv) {
       cs.lidar.model_sigma_trans_m = solver_settings.model_sigma_trans_m;
       if (args.smooth_keypoints_px >= 0)
         cs.stereo.smooth_depth_radius_px = args.smooth_keypoints_px;
+      if (args.stereo_yaw >= 0) cs.lidar_estimates_stereo_yaw = args.stereo_yaw > 0;
+      if (args.co_model_scale >= 0) {
+        for (auto* v : {&cs.model_sigma_lidar_rot_deg, &cs.model_sigma_lidar_trans_m,
+                        &cs.model_sigma_stereo_rot_deg, &cs.model_sigma_stereo_trans_m})
+          for (double& x : *v) x *= args.co_model_scale;
+      }
       const Eigen::Isometry3d T_rl_init = perturb(rig.T_right_left, tr.stereo.init);
       CoCalibrationResult r;
       if (args.mode == "joint") {

@@ -40,8 +40,17 @@ struct CoCalibrationSettings {
   double rerectify_deg = 0.005;
   /// The same for the baseline direction alone; negative: `rerectify_deg`. A direction error
   /// delta misplaces a match by about disparity x delta (0.07 px at 80 px for 0.05 deg), a
-  /// rotation error by f x delta (0.06 px for 0.005 deg): the online updates use 0.05 deg.
-  double rerectify_direction_deg = -1.0;
+  /// rotation error by f x delta (0.06 px for 0.005 deg).
+  double rerectify_direction_deg = 0.05;
+  /// The LiDAR-stereo solves estimate the right camera's yaw relative to the clouds'
+  /// rectification as a nuisance (LidarStereoSettings::estimate_stereo_yaw): the photometric yaw
+  /// of round 1, taken with the LiDAR still degrees off, is 0.1-0.5 deg wrong, and without it the
+  /// LiDAR absorbed that disparity offset along the optical axis and often stayed in a wrong
+  /// basin with the baseline length (README, "Co-calibration").
+  bool lidar_estimates_stereo_yaw = true;
+  /// Re-rectification tolerance for the right camera's yaw alone when the LiDAR-stereo solve
+  /// models it (`lidar_estimates_stereo_yaw`; first order, f yaw (1 + x_r^2) per point).
+  double rerectify_yaw_deg = 0.03;
   /// Extrapolates the fixed-point iteration (Aitken's delta-squared on the stacked 12-vector of
   /// both extrinsics) once three successive estimates contract consistently.
   bool extrapolate = true;
@@ -53,10 +62,10 @@ struct CoCalibrationSettings {
   /// covariance is conditional on the other extrinsic being exact, and in the alternation the
   /// stereo baseline length and yaw follow the LiDAR depth. Calibrated like the solvers' own terms
   /// (README, "Co-calibration"); the observability flags stay with the solvers' statistical part.
-  std::array<double, 3> model_sigma_lidar_rot_deg = {0.0019, 0.0127, 0.0188};
-  std::array<double, 3> model_sigma_lidar_trans_m = {0.0059, 0.0032, 0.0083};
-  std::array<double, 3> model_sigma_stereo_rot_deg = {0.0011, 0.0027, 0.0};
-  std::array<double, 3> model_sigma_stereo_trans_m = {0.00103, 0.00029, 0.00045};
+  std::array<double, 3> model_sigma_lidar_rot_deg = {0.0188, 0.0073, 0.0186};
+  std::array<double, 3> model_sigma_lidar_trans_m = {0.0023, 0.0022, 0.0032};
+  std::array<double, 3> model_sigma_stereo_rot_deg = {0.0, 0.0010, 0.0};
+  std::array<double, 3> model_sigma_stereo_trans_m = {0.0007, 0.00013, 0.00047};
 };
 
 struct CoCalibrationResult {
@@ -77,14 +86,16 @@ struct CoCalibrationResult {
 /// differs by more than `tol_deg` or the baseline direction by more than `tol_direction_deg`
 /// (negative: `tol_deg`); the baseline length does not matter.
 bool needsRerectification(const Eigen::Isometry3d& used, const Eigen::Isometry3d& now,
-                          double tol_deg, double tol_direction_deg = -1.0);
+                          double tol_deg, double tol_direction_deg = -1.0,
+                          double tol_yaw_deg = -1.0);
 
 /// Recomputes the window's stereo clouds with `T_right_left` where the rectification differs
 /// enough (needsRerectification) and rescales the others to its baseline length (a rectified
 /// cloud is linear in it); returns how many it recomputed and adds the time to `*seconds`.
 int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
                   const Eigen::Isometry3d& T_right_left, const StereoSettings& settings,
-                  double tol_deg, double* seconds, double tol_direction_deg = -1.0);
+                  double tol_deg, double* seconds, double tol_direction_deg = -1.0,
+                  double tol_yaw_deg = -1.0);
 
 /// Runs the alternation over `window` (stereo clouds are recomputed in place). The stereo solver
 /// goes first: it tolerates a bad LiDAR extrinsic (paper, "Sensitivity Analysis").

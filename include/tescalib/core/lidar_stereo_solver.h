@@ -33,6 +33,13 @@ struct LidarStereoSettings {
   /// Also estimate a scale of the stereo clouds (= true baseline / the baseline they were
   /// computed with). Used by co-calibration; off, the scale is held at 1.
   bool estimate_stereo_scale = false;
+  /// Also estimate a yaw of the right camera relative to the rectification the clouds were
+  /// computed with (it shifts every disparity by f yaw (1 + x_r^2), a depth error growing with
+  /// depth squared that the rigid T would otherwise absorb along the optical axis). Used by
+  /// co-calibration, where the clouds' rectification is itself being estimated; within
+  /// +-max_stereo_yaw_deg.
+  bool estimate_stereo_yaw = false;
+  double max_stereo_yaw_deg = 1.0;
   // Noise model (paper eq. lidar_noise and the disparity noise).
   double lidar_range_sigma = 0.02;     ///< m
   double lidar_beam_sigma_deg = 0.02;  ///< beam direction, deg
@@ -71,6 +78,7 @@ struct LidarStereoResult {
   /// Each keyframe's share of `information` (window order): what it constrains.
   std::vector<Matrix6d> keyframe_information;
   double stereo_scale = 1.0;    ///< estimated stereo scale (1 unless estimate_stereo_scale)
+  double stereo_yaw_rad = 0.0;  ///< estimated right-camera yaw (0 unless estimate_stereo_yaw)
   double residual_scale = 1.0;  ///< robust std of the normalised residuals (1 if the model fits)
   /// Published covariance over [phi; tau] (rad, m): cluster-robust sandwich (see the solver).
   Matrix6d covariance = Matrix6d::Identity();

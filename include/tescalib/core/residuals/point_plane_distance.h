@@ -25,4 +25,14 @@ T pointPlaneDistance(const T* const delta, const T* const scale, const Eigen::Ve
   return dist;
 }
 
+/// Scale of a stereo point whose disparity `d` is corrected by a yaw `phi` of the right camera
+/// relative to the clouds' rectification: d' = d + g phi with g = f (1 + x_r^2) (x_r: normalised
+/// right image coordinate), and the point scales with d / d' (times the stereo scale).
+template <typename T>
+T correctedStereoScale(const T* const scale, const T* const yaw, double d, double g) {
+  T dc = T(d) + T(g) * yaw[0];
+  if (dc < T(0.1 * d)) dc = T(0.1 * d);  // far outside the model: keep the point finite
+  return scale[0] * T(d) / dc;
+}
+
 }  // namespace tescalib
