@@ -181,6 +181,9 @@ TEST(LidarStereoSolver, EstimatesTheRightCameraYawOfTheClouds) {
             << e0.tail<3>().norm() * 100 << " cm\n";
   EXPECT_EQ(without.stereo_yaw_rad, 0.0);
   EXPECT_GT(e0.tail<3>().norm(), 3 * e.tail<3>().norm());
+  // A free yaw takes information from the pose: its covariance is the marginal one, larger
+  // along the optical axis than with the yaw known.
+  EXPECT_GT(with.covariance_model(5, 5), 1.2 * without.covariance_model(5, 5));
 }
 
 TEST(LidarStereoSolver, FailsHonestlyWithoutStructure) {

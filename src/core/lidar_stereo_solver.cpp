@@ -304,27 +304,37 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   // the paper's covariance scaled by the residuals' robust variance). Neither sees errors common
   // to the whole window (association and matching biases), so a calibrated model-error
   // covariance is added.
+  // With the stereo scale and yaw free, the pose shares information with them: the covariance
+  // is the pose block of the full inverse (the nuisance parameters marginalised), otherwise a
+  // window that cannot separate the LiDAR's forward offset from the clouds' scale or yaw would
+  // look well constrained.
+  const int n_scale = s.estimate_stereo_scale ? 1 : 0;
+  const int n = 6 + n_scale + (s.estimate_stereo_yaw ? 1 : 0);
   std::vector<double> abs_res;
-  Matrix6d H = Matrix6d::Zero();
-  std::vector<Vector6d> scores;
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
+  std::vector<Eigen::VectorXd> scores;
   double cost = 0;
   if (!as.empty()) {
     int n_clusters = 0;
     for (const auto& a0 : as) n_clusters = std::max(n_clusters, a0.cluster + 1);
-    scores.assign(n_clusters, Vector6d::Zero());
+    scores.assign(n_clusters, Eigen::VectorXd::Zero(n));
     res.keyframe_information.assign(window.size(), Matrix6d::Zero());
+    Eigen::VectorXd J(n);
     for (const auto& a0 : as) {
-      Eigen::Matrix<double, 1, 6> J;
       const Eigen::Vector3d m = T.linear() * a0.n_l, q = T.linear() * a0.p_l;
       const Eigen::Vector3d ps = correctedPoint(a0, scale, yaw);
       const double r = m.dot(q + T.translation() - ps) * a0.inv_sigma;
-      J.head<3>() = m.cross(T.translation() - ps).transpose() * a0.inv_sigma;
-      J.tail<3>() = m.transpose() * a0.inv_sigma;
+      J.head<3>() = m.cross(T.translation() - ps) * a0.inv_sigma;
+      J.segment<3>(3) = m * a0.inv_sigma;
+      // ps = scale d / (d + g yaw) p_s
+      const double dc = a0.d + a0.g * yaw, mp = m.dot(a0.p_s) * a0.inv_sigma;
+      if (n_scale) J[6] = -mp * a0.d / dc;
+      if (s.estimate_stereo_yaw) J[6 + n_scale] = mp * scale * a0.d * a0.g / (dc * dc);
       const double w = std::fabs(r) <= s.fine_huber ? 1.0 : s.fine_huber / std::fabs(r);
-      H += w * J.transpose() * J;
+      H += w * J * J.transpose();
       res.keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
-          w * J.transpose() * J;
-      scores[a0.cluster] += w * r * J.transpose();
+          w * J.head<6>() * J.head<6>().transpose();
+      scores[a0.cluster] += w * r * J;
       cost += w * r * r;
       abs_res.push_back(std::fabs(r));
     }
@@ -333,19 +343,20 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.residual_scale = 1.4826 * abs_res[abs_res.size() / 2];
   }
   res.final_cost = cost;
-  res.information = H;
   bool all_observable = false;
   if (!as.empty()) {
-    Eigen::SelfAdjointEigenSolver<Matrix6d> eig(H);
-    if (eig.eigenvalues().minCoeff() > 1e-12) {
-      const Matrix6d H_inv = H.inverse();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
+    if (eig.eigenvalues().minCoeff() > 1e-12 * std::max(1.0, eig.eigenvalues().maxCoeff())) {
+      const Eigen::MatrixXd H_inv_full = H.inverse();
+      const Matrix6d H_inv = H_inv_full.topLeftCorner<6, 6>();
+      res.information = H_inv.inverse();  // the pose's marginal information
       res.covariance_model = H_inv;
-      Matrix6d M = Matrix6d::Zero();
+      Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n);
       int used = 0;
-      for (const Vector6d& g : scores)
+      for (const Eigen::VectorXd& g : scores)
         if (g.squaredNorm() > 0) M += g * g.transpose(), ++used;
       if (used > 1) M *= double(used) / double(used - 1);  // small-sample correction
-      res.covariance = H_inv * M * H_inv;
+      res.covariance = (H_inv_full * M * H_inv_full).topLeftCorner<6, 6>();
       res.covariance = 0.5 * (res.covariance + res.covariance.transpose()).eval();
       // Never below the paper's model scaled by the residuals' own spread.
       const Matrix6d floor = res.residual_scale * res.residual_scale * H_inv;
@@ -371,6 +382,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
         all_observable = all_observable && res.observable[i];
       }
     } else {
+      res.information = H.topLeftCorner<6, 6>();
       res.covariance = res.covariance_model = Matrix6d::Identity() * 1e6;
     }
   }

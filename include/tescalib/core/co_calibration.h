@@ -62,8 +62,8 @@ struct CoCalibrationSettings {
   /// covariance is conditional on the other extrinsic being exact, and in the alternation the
   /// stereo baseline length and yaw follow the LiDAR depth. Calibrated like the solvers' own terms
   /// (README, "Co-calibration"); the observability flags stay with the solvers' statistical part.
-  std::array<double, 3> model_sigma_lidar_rot_deg = {0.0188, 0.0073, 0.0186};
-  std::array<double, 3> model_sigma_lidar_trans_m = {0.0023, 0.0022, 0.0032};
+  std::array<double, 3> model_sigma_lidar_rot_deg = {0.0187, 0.0063, 0.0186};
+  std::array<double, 3> model_sigma_lidar_trans_m = {0.0019, 0.0019, 0.00275};
   std::array<double, 3> model_sigma_stereo_rot_deg = {0.0, 0.0010, 0.0};
   std::array<double, 3> model_sigma_stereo_trans_m = {0.0007, 0.00013, 0.00047};
 };

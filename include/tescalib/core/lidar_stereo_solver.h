@@ -74,7 +74,9 @@ struct LidarStereoResult {
   double final_cost = 0;   ///< mean squared normalised fine residual (Huber-weighted)
   int coarse_inliers = 0;  ///< associations in the last coarse solve
   int fine_inliers = 0;    ///< associations in the last fine solve
-  Matrix6d information = Matrix6d::Zero();  ///< J^T W J of the final fine problem
+  /// J^T W J of the final fine problem over the pose (with the stereo scale and yaw, when
+  /// estimated, marginalised out: the Schur complement).
+  Matrix6d information = Matrix6d::Zero();
   /// Each keyframe's share of `information` (window order): what it constrains.
   std::vector<Matrix6d> keyframe_information;
   double stereo_scale = 1.0;    ///< estimated stereo scale (1 unless estimate_stereo_scale)
