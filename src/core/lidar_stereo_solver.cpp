@@ -237,6 +237,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     std::vector<std::vector<size_t>> face_index(window.size());
     for (size_t k = 0; k < window.size(); ++k)
       face_index[k] = strided(window[k]->mesh.faces.size(), s.fine_faces_per_keyframe);
+    Vector6d d_prev = Vector6d::Zero();
     for (int it = 0; it < s.fine_reassociations; ++it) {
       ++res.iterations;
       as.clear();
@@ -275,16 +276,31 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       if (static_cast<int>(as.size()) < s.min_inliers) break;
       const Vector6d d = solveUpdate(as, T.translation(), false, s, s.fine_huber, &scale, &yaw);
       if (std::getenv("TESCALIB_DEBUG"))
-        std::fprintf(stderr, "fine it %d: %zu assoc, update %.5f deg %.5f m\n", it, as.size(),
-                     d.head<3>().norm() * kDegPerRad, d.tail<3>().norm());
+        std::fprintf(stderr,
+                     "fine it %d: %zu assoc, update %.5f deg %.5f m (rot [%.5f %.5f %.5f] deg, "
+                     "t [%.5f %.5f %.5f] m), scale %.5f, yaw %.5f deg\n",
+                     it, as.size(), d.head<3>().norm() * kDegPerRad, d.tail<3>().norm(),
+                     d[0] * kDegPerRad, d[1] * kDegPerRad, d[2] * kDegPerRad, d[3], d[4], d[5],
+                     scale, yaw * kDegPerRad);
       T = perturb(T, d);
       // Projective re-association makes the last updates wiggle at the 0.1 mm level: settled
-      // means well below the noise, not exactly still.
-      if (d.head<3>().norm() * kDegPerRad < s.fine_settle_rot_deg &&
-          d.tail<3>().norm() < s.fine_settle_trans_m) {
+      // means well below the noise, not exactly still. It can also alternate between two
+      // association sets (a 2-cycle, seen with the stereo scale and yaw free): then the net
+      // move over the last two updates is what must be small, and the midpoint is kept.
+      auto below = [&](const Vector6d& x) {
+        return x.head<3>().norm() * kDegPerRad < s.fine_settle_rot_deg &&
+               x.tail<3>().norm() < s.fine_settle_trans_m;
+      };
+      if (below(d)) {
         settled = true;
         break;
       }
+      if (it > 0 && below(d + d_prev) && below(0.2 * d)) {
+        T = perturb(T, -0.5 * d);
+        settled = true;
+        break;
+      }
+      d_prev = d;
     }
   }
   res.seconds_fine = secondsSince(t_fine);
