@@ -70,6 +70,11 @@ for method in tescalib pcl_gicp; do
   run "kitti_1003_${method}_3deg" --sequences "$K/00,$K/02" --mode lidar_stereo \
     --method $method --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
 done
+# The clouds' yaw as a nuisance (on in co-calibration, off by default in LiDAR-stereo mode).
+run "kitti_0930_tescalib_3deg_stereo_yaw" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
+  --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --stereo-yaw 1
+run "kitti_1003_tescalib_3deg_stereo_yaw" --sequences "$K/00,$K/02" --mode lidar_stereo \
+  --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --stereo-yaw 1
 run "kitti_0930_tescalib_10deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
   --trials "$TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
 run "kitti_0930_tescalib_from_gt" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
