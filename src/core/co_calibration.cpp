@@ -139,6 +139,18 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
       if (res.rounds > 1)
         T_rl_new.translation() = T_rl_new.translation().normalized() * T_rl.translation().norm();
     }
+    if (debug) {
+      const Eigen::Isometry3d& used = window.front()->T_right_left_used;
+      const Eigen::Vector3d phi =
+          logSO3(T_rl_new.linear() * used.linear().transpose()) * kDegPerRad;
+      const Eigen::Vector3d a = used.translation().normalized(),
+                            b = T_rl_new.translation().normalized();
+      std::fprintf(stderr,
+                   "co round %d: vs clouds: rot [%.4f %.4f %.4f] deg, direction dy %.4f dz %.4f "
+                   "deg\n",
+                   res.rounds, phi.x(), phi.y(), phi.z(), (b.y() - a.y()) * kDegPerRad,
+                   (b.z() - a.z()) * kDegPerRad);
+    }
     // 2. Stereo clouds, only where the rectification changed enough to matter.
     res.rectifications +=
         rectifyWindow(window, rig, T_rl_new, s.stereo_cloud, s.rerectify_deg,
