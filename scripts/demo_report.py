@@ -185,12 +185,18 @@ def main():
     print('[demo] %d estimates published; the last one:' % len(est['lidar_to_left']))
     lidar = est['lidar_to_left'][-1][1]
     print_estimate('T_cam_lidar', lidar, ref['T_cam_lidar'] if ref else None)
+    co = [i for i, (_, m) in enumerate(est['left_to_right']) if any(s > 0 for s in m.sigma_trans_m)]
+    if co and est['lidar_to_left']:
+        print('[demo] first co-calibrated estimate (T_right_left estimated too): estimate %d of %d, '
+              '%.2f s (wall) after the first estimate' % (
+                  co[0] + 1, len(est['left_to_right']),
+                  est['left_to_right'][co[0]][0] - est['lidar_to_left'][0][0]))
     stereo = est['left_to_right'][-1][1] if est['left_to_right'] else None
     if stereo is not None and any(s > 0 for s in stereo.sigma_trans_m):
         print_estimate('T_right_left', stereo, ref.get('T_right_left') if ref else None)
     elif stereo is not None:
-        print('  T_right_left: not estimated (LiDAR-stereo only), kept at the camera_info '
-              'baseline %.4f m' % -stereo.transform.translation.x)
+        print('  T_right_left: not estimated (LiDAR-stereo only, or co-calibration not yet run), '
+              'kept at the camera_info baseline %.4f m' % -stereo.transform.translation.x)
     if tf_est is not None:
         phi, tau = ex.error(tf_est, ex.from_msg(lidar.transform))
         print('[demo] tf %s -> %s agrees with it to %.1e deg / %.1e m' % (

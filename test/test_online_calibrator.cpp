@@ -78,8 +78,9 @@ TEST(OnlineCalibrator, KeyframeSpacingAndTimeGoingBackwards) {
   EXPECT_EQ(cal.addFrame(syntheticFrame(rig, 10.2), 10.2, &msg), FrameResult::kTooClose);
   EXPECT_EQ(cal.addFrame(syntheticFrame(rig, 10.5), 10.5, &msg), FrameResult::kKeyframe) << msg;
   EXPECT_EQ(cal.windowFill(), 2u);
-  EXPECT_FALSE(cal.solve(&msg));  // co-calibration (the default) needs 5 keyframes
-  EXPECT_NE(msg.find("needs 5"), std::string::npos) << msg;
+  // Co-calibration (the core's default) solves LiDAR-stereo first, from 3 keyframes.
+  EXPECT_FALSE(cal.solve(&msg));
+  EXPECT_NE(msg.find("needs 3"), std::string::npos) << msg;
   // A looping bag: time jumps back, the window is cleared.
   EXPECT_EQ(cal.addFrame(syntheticFrame(rig, 2.0), 2.0, &msg), FrameResult::kReset);
   EXPECT_NE(msg.find("time went backwards"), std::string::npos) << msg;
@@ -170,6 +171,67 @@ TEST(OnlineCalibratorGenerated, HighwayKeyframesDoNotPushOutTownKeyframes) {
             << town_left["information"] << ", first in first out " << town_left["fifo"] << "\n";
   EXPECT_EQ(town_left["fifo"], 0);
   EXPECT_GE(town_left["information"], 2);
+}
+
+TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
+  // With co-calibration and lidar_first: 3 keyframes give a LiDAR-stereo estimate with the stereo
+  // pair at its start (not estimated); at min_keyframes_co the first alternation starts from it.
+  // The stereo start is 0.02 deg / 2 mm off (a slightly wrong camera_info); with 0.2 deg / 1 cm
+  // the LiDAR-stereo solve on the misrectified clouds is flagged unobservable, and nothing is
+  // published before the first co-calibration.
+  SimOptions o;
+  o.frames = 21;
+  o.seed = 4;
+  const Simulator sim(o);
+  StereoRig rig = sim.rig();
+  std::mt19937_64 rng(8);
+  rig.T_cam_lidar = perturb(rig.T_cam_lidar, randomPerturbation(1.0 / kDegPerRad, 0.05, rng));
+  rig.T_right_left = perturb(rig.T_right_left, randomPerturbation(0.02 / kDegPerRad, 0.002, rng));
+  OnlineSettings settings;
+  settings.estimate_stereo = true;
+  settings.window_size = 6;
+  settings.min_keyframes = 3;
+  settings.min_keyframes_co = 5;
+  ASSERT_TRUE(settings.lidar_first);
+  EXPECT_EQ(settings.minKeyframes(), 3);
+  OnlineCalibrator cal(rig, settings);
+  std::string msg;
+  for (int i = 0; i < 15; i += 5) {
+    Frame f = sim.renderFrame(i);
+    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  }
+  ASSERT_TRUE(cal.solve(&msg)) << msg;
+  auto e = cal.estimate();
+  ASSERT_TRUE(e.has_value());
+  EXPECT_FALSE(e->stereo_estimated);
+  EXPECT_EQ(e->co_rounds, 0);
+  EXPECT_TRUE(e->T_right_left.isApprox(rig.T_right_left));
+  EXPECT_EQ(e->cov_stereo.trace(), 0.0);
+  const Vector6d el0 = poseError(e->T_cam_lidar, sim.rig().T_cam_lidar);
+  std::cout << "[ online   ] LiDAR first, 3 keyframes: " << el0.head<3>().norm() * kDegPerRad
+            << " deg / " << el0.tail<3>().norm() * 100 << " cm\n";
+  EXPECT_LT(el0.head<3>().norm() * kDegPerRad, 0.5);
+  EXPECT_LT(el0.tail<3>().norm(), 0.05);
+  for (int i = 15; i < 25; i += 5) {
+    Frame f = sim.renderFrame(i);
+    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  }
+  ASSERT_TRUE(cal.solve(&msg)) << msg;
+  e = cal.estimate();
+  EXPECT_TRUE(e->stereo_estimated);
+  EXPECT_GE(e->co_rounds, 1);
+  EXPECT_GT(e->cov_stereo.trace(), 0.0);
+  const Vector6d el = poseError(e->T_cam_lidar, sim.rig().T_cam_lidar);
+  const Vector6d es = poseError(e->T_right_left, sim.rig().T_right_left);
+  std::cout << "[ online   ] co-calibration from it, 5 keyframes: LiDAR "
+            << el.head<3>().norm() * kDegPerRad << " deg / " << el.tail<3>().norm() * 100
+            << " cm, stereo " << es.head<3>().norm() * kDegPerRad << " deg / "
+            << es.tail<3>().norm() * 1000 << " mm, " << e->co_rounds << " rounds, "
+            << e->solve_seconds << " s\n";
+  EXPECT_LT(el.head<3>().norm() * kDegPerRad, 0.2);
+  EXPECT_LT(el.tail<3>().norm(), 0.03);
+  EXPECT_LT(es.head<3>().norm() * kDegPerRad, 0.02);
+  EXPECT_LT(es.tail<3>().norm(), 0.005);
 }
 
 TEST(OnlineCalibratorGenerated, CoCalibrationContinuesWarmAfterTheFirstEstimate) {

@@ -133,6 +133,7 @@ bool OnlineCalibrator::solve(std::string* msg) {
   std::vector<std::shared_ptr<Keyframe>> snapshot;
   Eigen::Isometry3d T_cl, T_rl;
   std::optional<OnlineEstimate> current;
+  bool co = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (static_cast<int>(window_.size()) < settings_.minKeyframes()) {
@@ -140,10 +141,12 @@ bool OnlineCalibrator::solve(std::string* msg) {
              std::to_string(settings_.minKeyframes());
       return false;
     }
+    co = settings_.estimate_stereo &&
+         (!settings_.lidar_first ||
+          static_cast<int>(window_.size()) >= settings_.min_keyframes_co);
     // Co-calibration recomputes the stereo clouds in place: it gets deep copies. The LiDAR-stereo
     // solve only reads, and the shared keyframes are never modified after insertion.
-    for (const auto& k : window_)
-      snapshot.push_back(settings_.estimate_stereo ? std::make_shared<Keyframe>(*k) : k);
+    for (const auto& k : window_) snapshot.push_back(co ? std::make_shared<Keyframe>(*k) : k);
     new_keyframes_ = 0;
     current = estimate_;
     T_cl = current ? current->T_cam_lidar : rig_.T_cam_lidar;
@@ -154,9 +157,10 @@ bool OnlineCalibrator::solve(std::string* msg) {
   std::vector<Matrix6d> keyframe_info;
   std::vector<Keyframe*> win;
   for (auto& k : snapshot) win.push_back(k.get());
-  if (settings_.estimate_stereo) {
+  if (co) {
     CoCalibrationSettings cs = settings_.co;
-    const bool warm = current && settings_.warm_start_fine_only;
+    // Warm only from a co-calibration: a LiDAR-first estimate has the stereo pair at its start.
+    const bool warm = current && current->stereo_estimated && settings_.warm_start_fine_only;
     if (warm) {
       cs.warm_first_round = true;
       cs.max_rounds = std::min(cs.max_rounds, settings_.warm_co_rounds);
@@ -183,6 +187,7 @@ bool OnlineCalibrator::solve(std::string* msg) {
     e.cost_lidar = r.lidar.final_cost, e.cost_stereo = r.stereo.final_cost;
     e.iterations_lidar = r.lidar.iterations, e.iterations_stereo = r.stereo.iterations;
     e.co_rounds = r.rounds;
+    e.stereo_estimated = true;
     if (!warm)
       *msg = r.message;
     else if (!r.stereo.converged)
@@ -204,6 +209,11 @@ bool OnlineCalibrator::solve(std::string* msg) {
     e.cov_stereo = Matrix6d::Zero();
     std::copy(r.observable, r.observable + 6, e.observable_lidar);
     std::fill(e.observable_stereo, e.observable_stereo + 6, true);
+    if (current && current->stereo_estimated) {  // keep a co-calibrated stereo pair as it is
+      e.cov_stereo = current->cov_stereo;
+      std::copy(current->observable_stereo, current->observable_stereo + 6, e.observable_stereo);
+      e.stereo_estimated = true;
+    }
     e.converged = r.converged;
     e.cost_lidar = r.final_cost;
     e.iterations_lidar = r.iterations;
@@ -224,10 +234,13 @@ bool OnlineCalibrator::solve(std::string* msg) {
     *msg = "not converged (" + *msg + "): keeping the previous estimate";
     return false;
   }
-  const double trace_new = e.cov_lidar.trace() + e.cov_stereo.trace();
   std::lock_guard<std::mutex> lock(mutex_);
   if (estimate_) {
-    const double trace_old = estimate_->cov_lidar.trace() + estimate_->cov_stereo.trace();
+    // Like with like: the stereo part counts only when both estimated it.
+    const bool both = e.stereo_estimated && estimate_->stereo_estimated;
+    const double trace_new = e.cov_lidar.trace() + (both ? e.cov_stereo.trace() : 0.0);
+    const double trace_old =
+        estimate_->cov_lidar.trace() + (both ? estimate_->cov_stereo.trace() : 0.0);
     if (!std::isfinite(trace_new) || trace_new > settings_.max_trace_growth * trace_old) {
       *msg = "new estimate is less certain than the published one (covariance trace " +
              std::to_string(trace_new) + " vs " + std::to_string(trace_old) + "): kept the old one";

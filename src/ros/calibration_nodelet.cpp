@@ -299,9 +299,13 @@ void CalibrationNodelet::solveLoop() {
     }
     if (updated) {
       publish(*e, ros::Time(e->stamp));
+      const std::string kind =
+          e->co_rounds > 0 ? "co-calibration, " + std::to_string(e->co_rounds) + " round(s)"
+          : e->stereo_estimated ? "LiDAR-stereo, T_right_left kept"
+                                : "LiDAR-stereo, T_right_left not estimated";
       NODELET_INFO(
-          "tescalib: new estimate from %d keyframes in %.2f s (keyframe to estimate %.2f s)",
-          e->keyframes_used, last_solve_seconds_.load(), latency);
+          "tescalib: new estimate from %d keyframes in %.2f s (keyframe to estimate %.2f s; %s)",
+          e->keyframes_used, last_solve_seconds_.load(), latency, kind.c_str());
     } else {
       NODELET_WARN_THROTTLE(5.0, "tescalib: %s", msg.c_str());
     }

@@ -18,8 +18,9 @@ namespace {
 std::string statusLine(const char* name, const ExtrinsicEstimate& e) {
   const double rot = *std::max_element(e.sigma_rot_deg.begin(), e.sigma_rot_deg.end());
   const double trans = *std::max_element(e.sigma_trans_m.begin(), e.sigma_trans_m.end());
-  if (rot == 0 && trans == 0)  // LiDAR-stereo only: T_right_left is the fixed initial one
-    return std::string(name) + ": fixed (not estimated: co_calibration/estimate_stereo false)";
+  if (rot == 0 && trans == 0)  // T_right_left is the initial one: LiDAR-stereo only, or
+    return std::string(name) +  // co-calibration has not run yet (co_calibration/lidar_first)
+           ": fixed at its initial value (not estimated)";
   static const char* axes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
   std::string weak;
   for (int i = 0; i < 6; ++i)

@@ -29,6 +29,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "co_calibration/max_rounds", &p->online.co.max_rounds);
   get(pnh, "co_calibration/warm_co_rounds", &p->online.warm_co_rounds);
   get(pnh, "co_calibration/lidar_estimates_stereo_yaw", &p->online.co.lidar_estimates_stereo_yaw);
+  get(pnh, "co_calibration/lidar_first", &p->online.lidar_first);
   get(pnh, "stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
   get(pnh, "stereo/block_size", &p->online.keyframe.stereo.block_size);
   get(pnh, "stereo/max_depth", &p->online.keyframe.stereo.max_depth);

@@ -26,8 +26,14 @@ struct OnlineSettings {
   /// With co-calibration at least this many: on 3 keyframes the first alternation often ran all
   /// its rounds without settling (7 s on the demo drive), delaying the first estimate.
   int min_keyframes_co = 5;
+  /// With co-calibration: until the window holds `min_keyframes_co` keyframes, solve LiDAR-stereo
+  /// only (T_right_left kept at its initial value, published as not estimated), so the first
+  /// T_cam_lidar comes as early as without co-calibration and the first alternation starts from
+  /// it. Off: nothing is published before the first co-calibration.
+  bool lidar_first = true;
   int minKeyframes() const {
-    return estimate_stereo ? std::max(min_keyframes, min_keyframes_co) : min_keyframes;
+    return estimate_stereo && !lidar_first ? std::max(min_keyframes, min_keyframes_co)
+                                           : min_keyframes;
   }
   bool estimate_stereo = true;   ///< co-calibration; false: LiDAR-stereo only, stereo fixed
   double max_sync_skew = 0.05;   ///< s; LiDAR and image stamps further apart are rejected
@@ -70,6 +76,8 @@ struct OnlineEstimate {
   double cost_lidar = 0, cost_stereo = 0;
   int iterations_lidar = 0, iterations_stereo = 0;
   int co_rounds = 0;  ///< co-calibration rounds of the solve (0: LiDAR-stereo only)
+  /// T_right_left comes from a co-calibration (false: the initial one, cov_stereo zero).
+  bool stereo_estimated = false;
   double stamp = 0;  ///< stamp of the newest keyframe of the window it came from
   double solve_seconds = 0;
 };
