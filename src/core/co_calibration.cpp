@@ -48,16 +48,29 @@ Eigen::Isometry3d applyNormalised(const Eigen::Isometry3d& T, const Vector6d& x_
 
 }  // namespace
 
+namespace {
+/// How the left-right extrinsic `now` differs from the one stereo clouds were rectified with.
+struct RectificationChange {
+  Eigen::Vector3d phi;        ///< rotation between the right cameras (right frame; y: the yaw)
+  Eigen::Vector3d direction;  ///< change of the unit baseline direction
+  double direction_angle;     ///< rad
+};
+
+RectificationChange rectificationChange(const Eigen::Isometry3d& used,
+                                        const Eigen::Isometry3d& now) {
+  const Eigen::Vector3d a = used.translation().normalized(), b = now.translation().normalized();
+  return {logSO3(now.linear() * used.linear().transpose()), b - a,
+          std::atan2(a.cross(b).norm(), a.dot(b))};
+}
+}  // namespace
+
 bool needsRerectification(const Eigen::Isometry3d& used, const Eigen::Isometry3d& now,
                           double tol_deg, double tol_direction_deg, double tol_yaw_deg) {
-  // The rotation between the two right cameras, in the right camera frame: y is the yaw.
-  const Eigen::Vector3d phi = logSO3(now.linear() * used.linear().transpose());
-  const double rot = tol_yaw_deg < 0 ? phi.norm() : std::hypot(phi.x(), phi.z());
-  if (tol_yaw_deg >= 0 && std::fabs(phi.y()) * kDegPerRad > tol_yaw_deg) return true;
-  const Eigen::Vector3d a = used.translation().normalized(), b = now.translation().normalized();
-  const double dir = std::atan2(a.cross(b).norm(), a.dot(b));
+  const RectificationChange c = rectificationChange(used, now);
+  const double rot = tol_yaw_deg < 0 ? c.phi.norm() : std::hypot(c.phi.x(), c.phi.z());
+  if (tol_yaw_deg >= 0 && std::fabs(c.phi.y()) * kDegPerRad > tol_yaw_deg) return true;
   return rot * kDegPerRad > tol_deg ||
-         dir * kDegPerRad > (tol_direction_deg < 0 ? tol_deg : tol_direction_deg);
+         c.direction_angle * kDegPerRad > (tol_direction_deg < 0 ? tol_deg : tol_direction_deg);
 }
 
 namespace {
@@ -140,16 +153,13 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
         T_rl_new.translation() = T_rl_new.translation().normalized() * T_rl.translation().norm();
     }
     if (debug) {
-      const Eigen::Isometry3d& used = window.front()->T_right_left_used;
-      const Eigen::Vector3d phi =
-          logSO3(T_rl_new.linear() * used.linear().transpose()) * kDegPerRad;
-      const Eigen::Vector3d a = used.translation().normalized(),
-                            b = T_rl_new.translation().normalized();
+      const RectificationChange c =
+          rectificationChange(window.front()->T_right_left_used, T_rl_new);
+      const Eigen::Vector3d phi = c.phi * kDegPerRad, dir = c.direction * kDegPerRad;
       std::fprintf(stderr,
                    "co round %d: vs clouds: rot [%.4f %.4f %.4f] deg, direction dy %.4f dz %.4f "
                    "deg\n",
-                   res.rounds, phi.x(), phi.y(), phi.z(), (b.y() - a.y()) * kDegPerRad,
-                   (b.z() - a.z()) * kDegPerRad);
+                   res.rounds, phi.x(), phi.y(), phi.z(), dir.y(), dir.z());
     }
     // 2. Stereo clouds, only where the rectification changed enough to matter.
     res.rectifications +=

@@ -164,7 +164,6 @@ bool OnlineCalibrator::solve(std::string* msg) {
     if (warm) {
       cs.warm_first_round = true;
       cs.max_rounds = std::min(cs.max_rounds, settings_.warm_co_rounds);
-      cs.rerectify_direction_deg = settings_.warm_rerectify_direction_deg;
     }
     const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, cs);
     {

@@ -51,9 +51,6 @@ struct OnlineSettings {
   /// both solves converged (and the trace rule holds), without the stability criterion of a
   /// full run. Re-rectified stereo clouds are kept in the window.
   int warm_co_rounds = 1;
-  /// Baseline-direction tolerance for re-rectifying the window in those warm updates
-  /// (CoCalibrationSettings::rerectify_direction_deg; the rotation keeps `co.rerectify_deg`).
-  double warm_rerectify_direction_deg = 0.05;
   /// Which keyframe leaves a full window: "information" drops the one whose loss costs least in
   /// the window's weakest direction (from the last solve's per-keyframe LiDAR-stereo information),
   /// so that keyframes adding nothing there (a highway after a town) do not push out the ones that
