@@ -64,6 +64,16 @@ RectificationChange rectificationChange(const Eigen::Isometry3d& used,
 }
 }  // namespace
 
+RectifyTolerances rectifyTolerances(const CoCalibrationSettings& s) {
+  RectifyTolerances t;
+  t.rot_deg = s.rerectify_deg;
+  t.direction_deg = s.rerectify_direction_deg;
+  t.yaw_deg = s.lidar_estimates_stereo_yaw ? s.rerectify_yaw_deg : -1.0;
+  t.rematch_rot_deg = s.rematch_deg;
+  t.rematch_direction_deg = s.rematch_direction_deg;
+  return t;
+}
+
 bool needsRerectification(const Eigen::Isometry3d& used, const Eigen::Isometry3d& now,
                           double tol_deg, double tol_direction_deg, double tol_yaw_deg) {
   const RectificationChange c = rectificationChange(used, now);
@@ -85,16 +95,27 @@ void rescaleStereo(Keyframe* kf, double baseline) {
 
 int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
                   const Eigen::Isometry3d& T_right_left, const StereoSettings& settings,
-                  double tol_deg, double* seconds, double tol_direction_deg, double tol_yaw_deg) {
+                  const RectifyTolerances& tol, double* seconds, int* rematched) {
   if (window.empty()) return 0;
   const auto t0 = Clock::now();
   int n = 0;
   for (Keyframe* kf : window) {
     if (!kf->stereo.points.empty() &&
-        !needsRerectification(kf->T_right_left_used, T_right_left, tol_deg, tol_direction_deg,
-                              tol_yaw_deg))
+        !needsRerectification(kf->T_right_left_used, T_right_left, tol.rot_deg, tol.direction_deg,
+                              tol.yaw_deg))
       continue;
-    recomputeStereo(kf, rig, T_right_left, settings);
+    // The yaw does not change what SGBM matches (only the disparity offset): not a reason to
+    // match again.
+    const bool rematch =
+        tol.rematch_rot_deg < 0 || kf->stereo_matched.disparity.empty() ||
+        needsRerectification(kf->T_right_left_matched, T_right_left, tol.rematch_rot_deg,
+                             tol.rematch_direction_deg, 1e9);
+    if (rematch) {
+      recomputeStereo(kf, rig, T_right_left, settings);
+      if (rematched) ++*rematched;
+    } else {
+      retriangulateStereo(kf, rig, T_right_left, settings);
+    }
     ++n;
   }
   // The LiDAR-stereo solver estimates one scale for the window: every cloud must share one
@@ -126,6 +147,12 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   std::deque<std::pair<Eigen::Isometry3d, Eigen::Isometry3d>> history;
   double prev_step = std::numeric_limits<double>::infinity();
   bool photometric_done = false;
+  // Free key point depth (free_depth_rounds) only while the LiDAR is far off; the final rounds
+  // always use the LiDAR depth, which fixes the yaw far better.
+  bool lidar_converged = false;     // in some round so far
+  bool free_depth = false;          // this round's photometric solve had free depth
+  bool free_depth_settled = false;  // a free-depth round already moved less than the tolerance
+  bool lidar_accepted = false;      // a LiDAR-stereo estimate was taken (later rounds: fine only)
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
     const bool warm = s.warm_start && (res.rounds > 1 || s.warm_first_round);
     Eigen::Isometry3d T_rl_new = T_rl;
@@ -133,6 +160,8 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     {
       PhotometricSettings ps = s.stereo;
       ps.fix_baseline_length = s.photometric_fixed_length;
+      free_depth = res.rounds <= s.free_depth_rounds && !lidar_converged && !free_depth_settled;
+      if (free_depth) ps.depth_prior_sigma = s.free_depth_prior_sigma;
       if (warm && (photometric_done || s.warm_first_round)) {
         ps.pyramid_levels = std::min(ps.pyramid_levels, s.warm_pyramid_levels);
         ps.iterations_per_level = s.warm_iterations;
@@ -163,9 +192,8 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     }
     // 2. Stereo clouds, only where the rectification changed enough to matter.
     res.rectifications +=
-        rectifyWindow(window, rig, T_rl_new, s.stereo_cloud, s.rerectify_deg,
-                      &res.seconds_stereo_cloud, s.rerectify_direction_deg,
-                      s.lidar_estimates_stereo_yaw ? s.rerectify_yaw_deg : -1.0) > 0;
+        rectifyWindow(window, rig, T_rl_new, s.stereo_cloud, rectifyTolerances(s),
+                      &res.seconds_stereo_cloud, &res.rematches) > 0;
     const double b_used = window.front()->T_right_left_used.translation().norm();
     // 3. LiDAR-stereo with the stereo scale: the LiDAR is metric, so the scale corrects the
     // baseline length (rectification does not depend on it, the clouds simply scale).
@@ -180,10 +208,32 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     // and 0.02 mm, are below what re-association noise allows with the scale free).
     ls.converge_rot_deg = std::max(ls.converge_rot_deg, s.inner_settle_fraction * s.stable_rot_deg);
     ls.converge_trans_m = std::max(ls.converge_trans_m, s.inner_settle_fraction * s.stable_trans_m);
-    if (warm) ls.run_coarse = false;
+    if (warm && lidar_accepted) ls.run_coarse = false;
     const auto t_l = Clock::now();
     res.lidar = solveLidarStereo(cwin, T_cl, ls);
     res.seconds_lidar += secondsSince(t_l);
+    lidar_converged = lidar_converged || res.lidar.converged;
+    // A LiDAR estimate implausibly far from the initial guess (the solver's own divergence
+    // bounds, counted from the start of the alternation) is not taken: the round is repeated from
+    // the previous estimates with the LiDAR depth (a free-depth round can hand it clouds rectified
+    // with a yaw far off, from which a start 3 deg off can run away on real data).
+    const Vector6d from_init = poseError(res.lidar.T_cam_lidar, T_cam_lidar_init);
+    if (from_init.head<3>().norm() * kDegPerRad > ls.max_correction_rot_deg ||
+        from_init.tail<3>().norm() > ls.max_correction_trans_m) {
+      ++res.rejected;
+      if (debug)
+        std::fprintf(stderr, "co round %d: LiDAR-stereo ran away (%.2f deg, %.2f m): rejected\n",
+                     res.rounds, from_init.head<3>().norm() * kDegPerRad,
+                     from_init.tail<3>().norm());
+      free_depth_settled = true;
+      res.lidar.converged = false;
+      res.lidar.T_cam_lidar = T_cl;
+      res.stereo.T_right_left = T_rl;
+      prev_step = std::numeric_limits<double>::infinity();
+      history.clear();
+      continue;
+    }
+    lidar_accepted = true;
     T_rl_new.translation() = T_rl_new.translation().normalized() * res.lidar.stereo_scale * b_used;
     res.stereo.T_right_left = T_rl_new;
     const Eigen::Isometry3d T_cl_new = res.lidar.T_cam_lidar;
@@ -191,8 +241,12 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     // Stability: this round's step, and the remaining distance predicted from its contraction.
     const double step = stepSize(normalisedDifference(T_cl_new, T_rl_new, T_cl, T_rl, s));
     const double rho = step / prev_step;
-    const bool stable = res.rounds > 1 && photometric_done && step < 1.0 &&
-                        (rho < 1.0 ? step * rho / (1.0 - rho) < 1.0 : prev_step < 1.0);
+    bool stable = res.rounds > 1 && photometric_done && step < 1.0 &&
+                  (rho < 1.0 ? step * rho / (1.0 - rho) < 1.0 : prev_step < 1.0);
+    if (free_depth && stable) {
+      free_depth_settled = true;  // settled with free depth: confirm with the LiDAR depth
+      stable = false;
+    }
     if (debug) {
       const Eigen::Vector3d r = logSO3(T_rl_new.linear()) * kDegPerRad;
       std::fprintf(stderr,

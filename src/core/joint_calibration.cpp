@@ -179,8 +179,11 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   // ------------------------------------------------------------ outer iterations
   for (res.rounds = 1; res.rounds <= js.max_outer; ++res.rounds) {
     // Re-rectify when the left-right rotation or direction moved enough to matter.
-    res.rectifications += rectifyWindow(window, rig, T_rl, s.stereo_cloud, s.rerectify_deg,
-                                        &res.seconds_stereo_cloud) > 0;
+    RectifyTolerances tol = rectifyTolerances(s);
+    tol.direction_deg = tol.yaw_deg = -1.0;  // the joint problem has no yaw nuisance
+    res.rectifications +=
+        rectifyWindow(window, rig, T_rl, s.stereo_cloud, tol, &res.seconds_stereo_cloud,
+                      &res.rematches) > 0;
     const double b_used = window.front()->T_right_left_used.translation().norm();
     const double scale = T_rl.translation().norm() / b_used;
     const Eigen::Vector3d phi0 =

@@ -7,6 +7,15 @@
 
 namespace tescalib {
 
+namespace {
+void keepMatches(Keyframe* kf) {
+  kf->stereo_matched = kf->stereo;
+  kf->stereo_matched.points.clear();
+  kf->stereo_matched.points.shrink_to_fit();
+  kf->T_right_left_matched = kf->T_right_left_used;
+}
+}  // namespace
+
 LidarMeshSettings meshSettingsForView(const StereoRig& rig,
                                       const Eigen::Isometry3d& T_cam_lidar_guess,
                                       const KeyframeSettings& s) {
@@ -31,6 +40,7 @@ Keyframe makeKeyframe(const Frame& frame, const StereoRig& rig,
   cv::cvtColor(frame.right, kf.right_gray, cv::COLOR_BGR2GRAY);
   kf.stereo = computeStereoCloud(frame.left, frame.right, rig, T_right_left, s.stereo);
   kf.T_right_left_used = T_right_left;
+  keepMatches(&kf);
   return kf;
 }
 
@@ -40,6 +50,17 @@ void recomputeStereo(Keyframe* kf, const StereoRig& rig, const Eigen::Isometry3d
   cv::cvtColor(kf->left_gray, l, cv::COLOR_GRAY2BGR);
   cv::cvtColor(kf->right_gray, r, cv::COLOR_GRAY2BGR);
   kf->stereo = computeStereoCloud(l, r, rig, T_right_left, settings);
+  kf->T_right_left_used = T_right_left;
+  keepMatches(kf);
+}
+
+void retriangulateStereo(Keyframe* kf, const StereoRig& rig, const Eigen::Isometry3d& T_right_left,
+                         const StereoSettings& settings) {
+  if (kf->stereo_matched.disparity.empty()) {
+    recomputeStereo(kf, rig, T_right_left, settings);
+    return;
+  }
+  kf->stereo = retriangulateStereoCloud(kf->stereo_matched, rig, T_right_left, settings);
   kf->T_right_left_used = T_right_left;
 }
 

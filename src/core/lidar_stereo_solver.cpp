@@ -95,8 +95,8 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
   }
   if (!as.empty()) {
     if (s.estimate_stereo_scale) {
-      problem.SetParameterLowerBound(scale, 0, 0.5);
-      problem.SetParameterUpperBound(scale, 0, 2.0);
+      problem.SetParameterLowerBound(scale, 0, 1.0 / s.max_stereo_scale);
+      problem.SetParameterUpperBound(scale, 0, s.max_stereo_scale);
     } else {
       problem.SetParameterBlockConstant(scale);
     }

@@ -156,6 +156,16 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     ceres::HuberLoss huber(s.huber);
     double delta[6] = {0, 0, 0, 0, 0, 0};
     int used = 0, occluded = 0;
+    const bool free_depth = s.depth_prior_sigma > 0 && L < s.depth_free_levels;
+    std::vector<double> rho;  // per key point; never reallocated while the problem holds it
+    // Cauchy on the depth prior: a key point whose LiDAR depth is off by far more than sigma (a
+    // depth edge, the road under a misprojected mesh) leaves the scale to the others.
+    ceres::CauchyLoss depth_loss(1.0);
+    if (free_depth) {
+      size_t n = 0;
+      for (size_t k = 0; k < window.size(); ++k) n += (L > 0 ? kps_all[k] : kps[k]).size();
+      rho.reserve(n);
+    }
     for (size_t k = 0; k < window.size(); ++k) {
       const Level& lv = pyr[k][L];
       // Visibility in the right camera under the current estimate.
@@ -181,11 +191,22 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
         }
         if (!ok) continue;
         const double w = c2 / (c2 + kp.grad2);
-        problem.AddResidualBlock(
-            PhotometricResidual::Create(lv.interp.get(), q, T.translation(), left_value,
-                                        std::sqrt(w), lv.right_cam.fx, lv.right_cam.fy,
-                                        lv.right_cam.cx, lv.right_cam.cy),
-            &huber, delta, ab[k].data());
+        const PhotometricResidual r(lv.interp.get(), q, T.translation(), left_value, std::sqrt(w),
+                                    lv.right_cam.fx, lv.right_cam.fy, lv.right_cam.cx,
+                                    lv.right_cam.cy);
+        if (free_depth) {
+          rho.push_back(0.0);
+          problem.AddResidualBlock(PhotometricDepthResidual::Create(r), &huber, delta,
+                                   ab[k].data(), &rho.back());
+          problem.AddResidualBlock(new ceres::AutoDiffCostFunction<LogDepthPrior, 1, 1>(
+                                       new LogDepthPrior(s.depth_prior_sigma)),
+                                   &depth_loss, &rho.back());
+        } else {
+          problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PhotometricResidual,
+                                                                   kPatternSize, 6, 2>(
+                                       new PhotometricResidual(r)),
+                                   &huber, delta, ab[k].data());
+        }
         ++used;
       }
     }
@@ -217,8 +238,12 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
       res.final_cost = 2.0 * summary.final_cost / std::max(1, n);
       // Covariance of the pose marginalised over the brightness parameters.
       ceres::Covariance::Options co;
-      co.algorithm_type = ceres::DENSE_SVD;
-      co.null_space_rank = -1;
+      if (free_depth) {
+        co.algorithm_type = ceres::SPARSE_QR;  // thousands of depth corrections
+      } else {
+        co.algorithm_type = ceres::DENSE_SVD;
+        co.null_space_rank = -1;
+      }
       ceres::Covariance cov(co);
       std::vector<std::pair<const double*, const double*>> blocks{{delta, delta}};
       if (cov.Compute(blocks, &problem)) {
@@ -226,7 +251,8 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
         cov.GetCovarianceBlock(delta, delta, C);
         // Ceres' covariance assumes unit residual variance: scale by the residuals' own.
         const double sigma2 =
-            2.0 * summary.final_cost / std::max(1, n - 6 - 2 * int(window.size()));
+            2.0 * summary.final_cost /
+            std::max(1, n - 6 - 2 * int(window.size()) - 2 * int(rho.size()));
         for (int i = 0; i < 36; ++i) res.covariance(i / 6, i % 6) = C[i] * sigma2;
       }
     }

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -19,6 +20,78 @@ cv::Mat toCv(const Eigen::Matrix3d& M) {
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) m.at<double>(r, c) = M(r, c);
   return m;
+}
+
+/// The rectification of the pair for a left->right estimate: shared intrinsics of both rectified
+/// images, the rotations from each original camera into its rectified frame, the baseline.
+struct Rectification {
+  double fx = 0, fy = 0, cx = 0, cy = 0, baseline = 0;
+  Eigen::Matrix3d R_left = Eigen::Matrix3d::Identity(), R_right = Eigen::Matrix3d::Identity();
+  bool identity = true;  ///< the input pair is already rectified (right image only shifted)
+  cv::Mat R1, R2, P1, P2;
+};
+
+Rectification rectificationFor(const StereoRig& rig, const Eigen::Isometry3d& T, cv::Size size) {
+  Rectification r;
+  if (isRectified(T)) {
+    r.fx = rig.left.fx, r.fy = rig.left.fy, r.cx = rig.left.cx, r.cy = rig.left.cy;
+    r.baseline = -T.translation().x();
+    return r;
+  }
+  // Re-rectify with the current estimate: the right camera is at R, t relative to the left.
+  const cv::Mat K1 = toCv(rig.left.K()), K2 = toCv(rig.right.K());
+  const cv::Mat R = toCv(T.linear());
+  const cv::Mat t =
+      (cv::Mat_<double>(3, 1) << T.translation().x(), T.translation().y(), T.translation().z());
+  cv::Mat Q;
+  cv::stereoRectify(K1, cv::Mat(), K2, cv::Mat(), size, R, t, r.R1, r.R2, r.P1, r.P2, Q,
+                    cv::CALIB_ZERO_DISPARITY, 0.0);
+  r.identity = false;
+  r.fx = r.P1.at<double>(0, 0), r.fy = r.P1.at<double>(1, 1);
+  r.cx = r.P1.at<double>(0, 2), r.cy = r.P1.at<double>(1, 2);
+  r.baseline = -r.P2.at<double>(0, 3) / r.P2.at<double>(0, 0);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      r.R_left(i, j) = r.R1.at<double>(i, j);
+      r.R_right(i, j) = r.R2.at<double>(i, j);
+    }
+  return r;
+}
+
+void setRectification(const Rectification& r, StereoCloud* out) {
+  out->fx = r.fx, out->fy = r.fy, out->cx = r.cx, out->cy = r.cy;
+  out->baseline = r.baseline;
+  out->R_rect_left = r.R_left;
+  out->R_rect_right = r.R_right;
+}
+
+/// Stereo points with normals from the disparity map, one every `sample_step` pixels.
+void samplePoints(const StereoSettings& s, StereoCloud* out) {
+  const cv::Mat& disp = out->disparity;
+  const int k = s.normal_scale;
+  for (int v = k; v < disp.rows - k; v += s.sample_step) {
+    for (int u = k; u < disp.cols - k; u += s.sample_step) {
+      const float d = disp.at<float>(v, u);
+      if (std::isnan(d)) continue;
+      const float l = disp.at<float>(v, u - k), r = disp.at<float>(v, u + k);
+      const float t = disp.at<float>(v - k, u), b = disp.at<float>(v + k, u);
+      if (std::isnan(l) || std::isnan(r) || std::isnan(t) || std::isnan(b)) continue;
+      const double Z = out->fx * out->baseline / d;
+      if (Z < s.min_depth || Z > s.max_depth) continue;
+      // Plane through the disparity's local affine fit: d = a u + b v + c  =>  n ~ K^T (a, b, c').
+      const double a = (r - l) / (2.0 * k), bb = (b - t) / (2.0 * k);
+      const double c0 = d - a * (u - out->cx) - bb * (v - out->cy);
+      Eigen::Vector3d n(a * out->fx, bb * out->fy, c0);
+      Eigen::Vector3d p_rect((u - out->cx) / out->fx * Z, (v - out->cy) / out->fy * Z, Z);
+      n.normalize();
+      if (n.dot(p_rect) > 0) n = -n;
+      StereoPoint sp;
+      sp.p = (out->R_rect_left.transpose() * p_rect).cast<float>();
+      sp.n = (out->R_rect_left.transpose() * n).cast<float>();
+      sp.disparity = d;
+      out->points.push_back(sp);
+    }
+  }
 }
 }  // namespace
 
@@ -56,9 +129,9 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
   cv::Mat left, right;
   cv::cvtColor(left_bgr, left, cv::COLOR_BGR2GRAY);
   cv::cvtColor(right_bgr, right, cv::COLOR_BGR2GRAY);
-  if (isRectified(T_right_left)) {
-    out.fx = rig.left.fx, out.fy = rig.left.fy, out.cx = rig.left.cx, out.cy = rig.left.cy;
-    out.baseline = -T_right_left.translation().x();
+  const Rectification rect = rectificationFor(rig, T_right_left, left.size());
+  setRectification(rect, &out);
+  if (rect.identity) {
     // The right camera of a rectified pair may have its own principal point: shift the right
     // image so that both share the left's (KITTI's P2/P3 share cx, cy).
     if (std::fabs(rig.right.cx - rig.left.cx) > 1e-6 ||
@@ -68,26 +141,14 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
       cv::warpAffine(right, right, shift, right.size(), cv::INTER_LINEAR);
     }
   } else {
-    // Re-rectify with the current estimate: the right camera is at R, t relative to the left.
-    cv::Mat R1, R2, P1, P2, Q;
     const cv::Mat K1 = toCv(rig.left.K()), K2 = toCv(rig.right.K());
-    const cv::Mat R = toCv(T_right_left.linear());
-    const cv::Mat t = (cv::Mat_<double>(3, 1) << T_right_left.translation().x(),
-                       T_right_left.translation().y(), T_right_left.translation().z());
-    cv::stereoRectify(K1, cv::Mat(), K2, cv::Mat(), left.size(), R, t, R1, R2, P1, P2, Q,
-                      cv::CALIB_ZERO_DISPARITY, 0.0);
     cv::Mat m1x, m1y, m2x, m2y;
-    cv::initUndistortRectifyMap(K1, cv::Mat(), R1, P1, left.size(), CV_32FC1, m1x, m1y);
-    cv::initUndistortRectifyMap(K2, cv::Mat(), R2, P2, left.size(), CV_32FC1, m2x, m2y);
+    cv::initUndistortRectifyMap(K1, cv::Mat(), rect.R1, rect.P1, left.size(), CV_32FC1, m1x, m1y);
+    cv::initUndistortRectifyMap(K2, cv::Mat(), rect.R2, rect.P2, left.size(), CV_32FC1, m2x, m2y);
     cv::Mat lr, rr;
     cv::remap(left, lr, m1x, m1y, cv::INTER_LINEAR);
     cv::remap(right, rr, m2x, m2y, cv::INTER_LINEAR);
     left = lr, right = rr;
-    out.fx = P1.at<double>(0, 0), out.fy = P1.at<double>(1, 1);
-    out.cx = P1.at<double>(0, 2), out.cy = P1.at<double>(1, 2);
-    out.baseline = -P2.at<double>(0, 3) / P2.at<double>(0, 0);
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) out.R_rect_left(r, c) = R1.at<double>(r, c);
   }
   if (out.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
 
@@ -134,30 +195,51 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
   disp.setTo(nan, edge);
   refineDisparity(left, right, &disp, s.refinement);
   out.disparity = disp;
+  samplePoints(s, &out);
+  out.seconds_total = secondsSince(t0);
+  return out;
+}
 
-  for (int v = k; v < disp.rows - k; v += s.sample_step) {
-    for (int u = k; u < disp.cols - k; u += s.sample_step) {
-      const float d = disp.at<float>(v, u);
-      if (std::isnan(d)) continue;
-      const float l = disp.at<float>(v, u - k), r = disp.at<float>(v, u + k);
-      const float t = disp.at<float>(v - k, u), b = disp.at<float>(v + k, u);
-      if (std::isnan(l) || std::isnan(r) || std::isnan(t) || std::isnan(b)) continue;
-      const double Z = out.fx * out.baseline / d;
-      if (Z < s.min_depth || Z > s.max_depth) continue;
-      // Plane through the disparity's local affine fit: d = a u + b v + c  =>  n ~ K^T (a, b, c').
-      const double a = (r - l) / (2.0 * k), bb = (b - t) / (2.0 * k);
-      const double c0 = d - a * (u - out.cx) - bb * (v - out.cy);
-      Eigen::Vector3d n(a * out.fx, bb * out.fy, c0);
-      Eigen::Vector3d p_rect((u - out.cx) / out.fx * Z, (v - out.cy) / out.fy * Z, Z);
-      n.normalize();
-      if (n.dot(p_rect) > 0) n = -n;
-      StereoPoint sp;
-      sp.p = (out.R_rect_left.transpose() * p_rect).cast<float>();
-      sp.n = (out.R_rect_left.transpose() * n).cast<float>();
-      sp.disparity = d;
-      out.points.push_back(sp);
+StereoCloud retriangulateStereoCloud(const StereoCloud& matched, const StereoRig& rig,
+                                     const Eigen::Isometry3d& T_right_left,
+                                     const StereoSettings& s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const cv::Mat& in = matched.disparity;
+  if (in.empty()) throw DataError("stereo cloud: no disparity to re-triangulate");
+  StereoCloud out;
+  const Rectification rect = rectificationFor(rig, T_right_left, in.size());
+  if (rect.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
+  setRectification(rect, &out);
+  // Each new rectified left pixel: its ray, the matched pixel pair in the old rectification
+  // (bilinear disparity), the right pixel's ray, and where that lands in the new rectified right
+  // image. Both images' pixels are unchanged, so this is the same match triangulated with the
+  // new extrinsic (left and right rays in their own camera frames: R_rect^T K_rect^-1 [u v 1]).
+  const Eigen::Matrix3d K_new =
+      (Eigen::Matrix3d() << out.fx, 0, out.cx, 0, out.fy, out.cy, 0, 0, 1).finished();
+  const Eigen::Matrix3d K_old = (Eigen::Matrix3d() << matched.fx, 0, matched.cx, 0, matched.fy,
+                                 matched.cy, 0, 0, 1).finished();
+  // Pixel maps: new rect left -> old rect left, old rect right -> new rect right.
+  const Eigen::Matrix3d H_left = K_old * matched.R_rect_left * out.R_rect_left.transpose() *
+                                 K_new.inverse();
+  const Eigen::Matrix3d H_right = K_new * out.R_rect_right * matched.R_rect_right.transpose() *
+                                  K_old.inverse();
+  cv::Mat disp(in.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+  cv::parallel_for_(cv::Range(0, in.rows), [&](const cv::Range& range) {
+    for (int v = range.start; v < range.end; ++v) {
+      float* o = disp.ptr<float>(v);
+      for (int u = 0; u < in.cols; ++u) {
+        const Eigen::Vector3d pl = H_left * Eigen::Vector3d(u, v, 1.0);
+        const double uo = pl.x() / pl.z(), vo = pl.y() / pl.z();
+        double d;
+        if (!matched.disparityAt(uo, vo, &d)) continue;
+        const Eigen::Vector3d pr = H_right * Eigen::Vector3d(uo - d, vo, 1.0);
+        const double dn = u - pr.x() / pr.z();
+        if (dn > 0) o[u] = static_cast<float>(dn);
+      }
     }
-  }
+  });
+  out.disparity = disp;
+  samplePoints(s, &out);
   out.seconds_total = secondsSince(t0);
   return out;
 }

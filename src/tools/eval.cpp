@@ -46,6 +46,9 @@ struct Args {
   std::string stages = "coarse,fine";
   int cov_cells_x = -1, cov_cells_y = -1;  ///< -1: the solver default
   int smooth_keypoints_px = -1;  ///< photometric smooth_depth_radius_px; -1: the solver default
+  double depth_prior = -1;       ///< photometric depth_prior_sigma; < 0: the solver default
+  int free_depth_rounds = -1;    ///< co: CoCalibrationSettings::free_depth_rounds; < 0: default
+  double rematch_deg = 0;        ///< co: CoCalibrationSettings::rematch_deg; 0: the default
   double co_model_scale = -1;  ///< scales CoCalibrationSettings::model_sigma_*; -1: as is
   int stereo_yaw = -1;  ///< LiDAR-stereo estimates the right camera's yaw: 0/1; -1: the default
   double cov_model_scale = -1;             ///< scales the solver's model-error sigmas (0: none)
@@ -77,6 +80,12 @@ void usage() {
          "window t mod (number of windows): independent windows, so mean NEES means something.\n"
          "--smooth-keypoints PX: full-resolution photometric key points only where the LiDAR depth\n"
          "is smooth within PX pixels (PhotometricSettings::smooth_depth_radius_px; 0: off).\n"
+         "--depth-prior SIGMA: photometric key points' depth free at full resolution with a\n"
+         "log-depth prior of SIGMA (PhotometricSettings::depth_prior_sigma; 0: the LiDAR's).\n"
+         "(co: the prior of the rounds with free depth, CoCalibrationSettings::free_depth_prior_sigma)\n"
+         "--free-depth-rounds N: co: photometric solves of rounds 1..N with free key point depth.\n"
+         "--rematch-deg X: co: SGBM matches again beyond X deg about x/z (and 5 X of baseline\n"
+         "direction) from its last matches, re-triangulates below (< 0: always matches again).\n"
          "--stereo-yaw 0|1: the LiDAR-stereo solve also estimates the right camera's yaw relative\n"
          "to the clouds' rectification (a disparity offset; LidarStereoSettings::\n"
          "estimate_stereo_yaw, co: CoCalibrationSettings::lidar_estimates_stereo_yaw).\n";
@@ -145,6 +154,12 @@ bool parse(int argc, char** argv, Args* a) {
         a->cov_model_scale = std::stod(v);
       else if (k == "--smooth-keypoints")
         a->smooth_keypoints_px = std::stoi(v);
+      else if (k == "--depth-prior")
+        a->depth_prior = std::stod(v);
+      else if (k == "--free-depth-rounds")
+        a->free_depth_rounds = std::stoi(v);
+      else if (k == "--rematch-deg")
+        a->rematch_deg = std::stod(v);
       else if (k == "--co-model-scale")
         a->co_model_scale = std::stod(v);
       else if (k == "--stereo-yaw")
@@ -381,6 +396,12 @@ int main(int argc, char** argv) {
       cs.lidar.model_sigma_trans_m = solver_settings.model_sigma_trans_m;
       if (args.smooth_keypoints_px >= 0)
         cs.stereo.smooth_depth_radius_px = args.smooth_keypoints_px;
+      if (args.depth_prior >= 0) cs.free_depth_prior_sigma = args.depth_prior;
+      if (args.free_depth_rounds >= 0) cs.free_depth_rounds = args.free_depth_rounds;
+      if (args.rematch_deg != 0) {
+        cs.rematch_deg = args.rematch_deg;
+        cs.rematch_direction_deg = 5 * args.rematch_deg;
+      }
       if (args.stereo_yaw >= 0) cs.lidar_estimates_stereo_yaw = args.stereo_yaw > 0;
       if (args.co_model_scale >= 0) {
         for (auto* v : {&cs.model_sigma_lidar_rot_deg, &cs.model_sigma_lidar_trans_m,
@@ -407,6 +428,7 @@ int main(int argc, char** argv) {
     } else if (stereo_mode) {
       PhotometricSettings ps;
       if (args.smooth_keypoints_px >= 0) ps.smooth_depth_radius_px = args.smooth_keypoints_px;
+      if (args.depth_prior >= 0) ps.depth_prior_sigma = args.depth_prior;
       const PhotometricResult r =
           solvePhotometric(window, rig, T_init, perturb(rig.T_right_left, tr.stereo.init), ps);
       tr.converged = r.converged;

@@ -51,6 +51,14 @@ struct CoCalibrationSettings {
   /// Re-rectification tolerance for the right camera's yaw alone when the LiDAR-stereo solve
   /// models it (`lidar_estimates_stereo_yaw`; first order, f yaw (1 + x_r^2) per point).
   double rerectify_yaw_deg = 0.03;
+  /// SGBM matches again only beyond these changes from the estimate it last matched with; below
+  /// them the clouds are re-triangulated from the last matches (retriangulateStereoCloud), about
+  /// 10x cheaper. The yaw does not count (it only shifts the disparity). About camera x and z,
+  /// 0.02 deg is a 0.25 px vertical misalignment at KITTI's focal length; a turn of the baseline
+  /// by 0.1 deg misaligns a point of disparity d by up to d / 570 vertically (0.1 px at 5 m).
+  /// < 0: always match again.
+  double rematch_deg = 0.02;
+  double rematch_direction_deg = 0.1;
   /// Extrapolates the fixed-point iteration (Aitken's delta-squared on the stacked 12-vector of
   /// both extrinsics) once three successive estimates contract consistently.
   bool extrapolate = true;
@@ -58,6 +66,18 @@ struct CoCalibrationSettings {
   /// The photometric solver keeps the baseline length it is given (rotation and direction free):
   /// the length comes from the LiDAR-given stereo scale. Off: round 1 takes the photometric length.
   bool photometric_fixed_length = true;
+  /// Until the LiDAR-stereo solve has converged (at most rounds 1..free_depth_rounds), the
+  /// photometric solves give each key point's depth a log-scale freedom with this prior
+  /// (PhotometricSettings::depth_prior_sigma): while the LiDAR is still far off, its depth pulls
+  /// the baseline direction (the forward component trades against the LiDAR's depth offset, and
+  /// the alternation then creeps back at about 20 % per round); with free depth the direction is
+  /// right from round 1, but the yaw is not (only the LiDAR depth fixes it), and clouds rectified
+  /// with a yaw 0.3 deg off can keep the warm LiDAR-stereo solves from moving. A round that
+  /// settles with free depth is repeated with the LiDAR depth; the final rounds always use it.
+  /// Off by default (0): measured in the README ("Co-calibration"), faster on most generated
+  /// starts, slower on some, and on KITTI one start in ten ran away.
+  int free_depth_rounds = 0;
+  double free_depth_prior_sigma = 0.05;
   /// Per-axis model error added to the final covariances (camera axes, 1 sigma): each solve's
   /// covariance is conditional on the other extrinsic being exact, and in the alternation the
   /// stereo baseline length and yaw follow the LiDAR depth. Calibrated like the solvers' own terms
@@ -72,8 +92,10 @@ struct CoCalibrationResult {
   LidarStereoResult lidar;   ///< last LiDAR-stereo solve (T_cam_lidar, covariance, ...)
   PhotometricResult stereo;  ///< last left-right solve (T_right_left, covariance, ...)
   int rounds = 0;
-  int rectifications = 0;           ///< times the window's stereo clouds were recomputed
+  int rectifications = 0;           ///< rounds in which stereo clouds were recomputed
+  int rematches = 0;                ///< keyframe clouds matched again (SGBM), not re-triangulated
   int extrapolations = 0;           ///< Aitken steps taken
+  int rejected = 0;                 ///< rounds whose LiDAR-stereo estimate ran away (not taken)
   bool stable = false;              ///< the stability criterion was met within max_rounds
   bool converged = false;           ///< stable and both solvers converged
   double seconds_stereo_cloud = 0;  ///< time spent recomputing stereo clouds
@@ -89,13 +111,29 @@ bool needsRerectification(const Eigen::Isometry3d& used, const Eigen::Isometry3d
                           double tol_deg, double tol_direction_deg = -1.0,
                           double tol_yaw_deg = -1.0);
 
-/// Recomputes the window's stereo clouds with `T_right_left` where the rectification differs
-/// enough (needsRerectification) and rescales the others to its baseline length (a rectified
-/// cloud is linear in it); returns how many it recomputed and adds the time to `*seconds`.
+/// When a window's stereo clouds follow a new left->right estimate (angles in degrees, < 0 as in
+/// needsRerectification). Beyond `rot_deg` / `direction_deg` / `yaw_deg` from the estimate a
+/// cloud was triangulated with, it is triangulated again; SGBM matches again only when the
+/// estimate is also beyond `rematch_rot_deg` (about x and z: vertical misalignment of the images
+/// SGBM saw) or `rematch_direction_deg` from the one it matched with (< 0: always).
+struct RectifyTolerances {
+  double rot_deg = 0.005;
+  double direction_deg = -1.0;
+  double yaw_deg = -1.0;
+  double rematch_rot_deg = -1.0;
+  double rematch_direction_deg = -1.0;
+};
+
+/// The tolerances of `settings` (rerectify_*, rematch_*; the yaw only with the yaw nuisance).
+RectifyTolerances rectifyTolerances(const CoCalibrationSettings& settings);
+
+/// Brings the window's stereo clouds to `T_right_left` where the rectification differs enough
+/// (re-triangulating or matching again, see RectifyTolerances) and rescales the others to its
+/// baseline length (a rectified cloud is linear in it); returns how many it recomputed and adds
+/// the time to `*seconds` (and the number matched again to `*rematched`, when given).
 int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
                   const Eigen::Isometry3d& T_right_left, const StereoSettings& settings,
-                  double tol_deg, double* seconds, double tol_direction_deg = -1.0,
-                  double tol_yaw_deg = -1.0);
+                  const RectifyTolerances& tolerances, double* seconds, int* rematched = nullptr);
 
 /// Runs the alternation over `window` (stereo clouds are recomputed in place). The stereo solver
 /// goes first: it tolerates a bad LiDAR extrinsic (paper, "Sensitivity Analysis").

@@ -33,6 +33,10 @@ struct LidarStereoSettings {
   /// Also estimate a scale of the stereo clouds (= true baseline / the baseline they were
   /// computed with). Used by co-calibration; off, the scale is held at 1.
   bool estimate_stereo_scale = false;
+  /// The scale stays within [1 / max_stereo_scale, max_stereo_scale]: a baseline 30 % off is
+  /// beyond any stereo rig's calibration, and a free scale can collapse a LiDAR-stereo solve that
+  /// starts far off (seen on KITTI: scale 0.5 and the LiDAR 2 m away).
+  double max_stereo_scale = 1.3;
   /// Also estimate a yaw of the right camera relative to the rectification the clouds were
   /// computed with (it shifts every disparity by f yaw (1 + x_r^2), a depth error growing with
   /// depth squared that the rigid T would otherwise absorb along the optical axis). Used by

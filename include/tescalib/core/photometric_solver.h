@@ -47,6 +47,14 @@ struct PhotometricSettings {
   /// direction stay free). Co-calibration sets it: there the LiDAR-given stereo scale decides the
   /// length, and a free length can absorb a large LiDAR depth error into a wrong local minimum.
   bool fix_baseline_length = false;
+  /// Free depth: at the finest `depth_free_levels` pyramid levels every key point's depth gets a
+  /// log-scale correction rho (depth e^rho times the LiDAR's) with the prior rho ~ N(0, sigma^2),
+  /// as Stereo DSO refines its points' depth. The LiDAR depth then only sets the scale (or nothing,
+  /// with `fix_baseline_length`): a LiDAR extrinsic error no longer pulls the baseline direction,
+  /// which the vertical disparities fix; the price is a weaker yaw and scale (their information
+  /// comes from the LiDAR depth). The prior is robust (Cauchy). 0 (the paper): the LiDAR depth.
+  double depth_prior_sigma = 0.0;
+  int depth_free_levels = 1;
 };
 
 /// A key point of the photometric objective: the strongest gradient of its cell with LiDAR depth.

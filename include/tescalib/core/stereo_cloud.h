@@ -47,6 +47,8 @@ struct StereoCloud {
   /// rectified frame (identity when the input pair was already rectified).
   double fx = 0, fy = 0, cx = 0, cy = 0, baseline = 0;
   Eigen::Matrix3d R_rect_left = Eigen::Matrix3d::Identity();
+  /// The same for the right camera (its points into its rectified frame).
+  Eigen::Matrix3d R_rect_right = Eigen::Matrix3d::Identity();
   double seconds_sgbm = 0;   ///< time spent in SGBM
   double seconds_total = 0;  ///< time for the whole cloud
 
@@ -64,5 +66,14 @@ bool isRectified(const Eigen::Isometry3d& T_right_left, double tol = 1e-9);
 StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
                                const StereoRig& rig, const Eigen::Isometry3d& T_right_left,
                                const StereoSettings& settings = {});
+
+/// The cloud of the same matches with another left->right estimate, without matching again:
+/// every pixel pair SGBM matched in `matched`'s rectification is triangulated with
+/// `T_right_left` (its disparity in the new rectification, then the points). Exact for the
+/// matches; the matches themselves are as good as `matched`'s rectification was (a vertical
+/// misalignment of the images SGBM saw stays), so it serves small changes of the estimate.
+StereoCloud retriangulateStereoCloud(const StereoCloud& matched, const StereoRig& rig,
+                                     const Eigen::Isometry3d& T_right_left,
+                                     const StereoSettings& settings = {});
 
 }  // namespace tescalib

@@ -43,9 +43,16 @@ struct PhotometricResidual {
 
   template <typename T>
   bool operator()(const T* const delta, const T* const ab, T* residual) const {
+    return evaluate(delta, ab, T(1), residual);
+  }
+
+  /// The residual with the key point's depth scaled by `depth_scale` (its pattern moves along
+  /// the left rays, keeping the LiDAR face's orientation).
+  template <typename T>
+  bool evaluate(const T* const delta, const T* const ab, const T& depth_scale, T* residual) const {
     const T gain = ceres::exp(ab[0]);
     for (int k = 0; k < kPatternSize; ++k) {
-      const T q[3] = {T(q_[k].x()), T(q_[k].y()), T(q_[k].z())};
+      const T q[3] = {depth_scale * q_[k].x(), depth_scale * q_[k].y(), depth_scale * q_[k].z()};
       T y[3];
       ceres::AngleAxisRotatePoint(delta, q, y);
       for (int i = 0; i < 3; ++i) y[i] += T(t_ref_[i]) + delta[3 + i];
@@ -75,6 +82,35 @@ struct PhotometricResidual {
   Eigen::Vector3d t_ref_;
   std::array<double, kPatternSize> left_;
   double sqrt_w_, fx_, fy_, cx_, cy_;
+};
+
+/// The same residual with the key point's log-depth correction rho as a parameter (depth
+/// e^rho times the LiDAR's): with every key point's depth free, only the epipolar geometry
+/// (vertical disparities) pins the baseline direction, not the LiDAR depth.
+struct PhotometricDepthResidual {
+  explicit PhotometricDepthResidual(const PhotometricResidual& r) : r_(r) {}
+  template <typename T>
+  bool operator()(const T* const delta, const T* const ab, const T* const rho, T* residual) const {
+    return r_.evaluate(delta, ab, ceres::exp(rho[0]), residual);
+  }
+  static ceres::CostFunction* Create(const PhotometricResidual& r) {
+    return new ceres::AutoDiffCostFunction<PhotometricDepthResidual, kPatternSize, 6, 2, 1>(
+        new PhotometricDepthResidual(r));
+  }
+
+ private:
+  PhotometricResidual r_;
+};
+
+/// Prior on a key point's log-depth correction: rho / sigma.
+struct LogDepthPrior {
+  explicit LogDepthPrior(double sigma) : inv_sigma_(1.0 / sigma) {}
+  template <typename T>
+  bool operator()(const T* const rho, T* residual) const {
+    residual[0] = rho[0] * T(inv_sigma_);
+    return true;
+  }
+  double inv_sigma_;
 };
 
 }  // namespace tescalib
