@@ -42,6 +42,12 @@ if [ "$BENCH" != kitti ]; then
   run "sim_urban_stereo_1deg_lidar_off_smooth8" --sequences "$URBAN" --mode stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
     --lidar-trans-m 0.1 --seed 5 --window 20 --smooth-keypoints 8
+  # The same with free key point depth (PhotometricSettings::depth_prior_sigma), and at the truth.
+  run "sim_urban_stereo_1deg_lidar_off_free_depth" --sequences "$URBAN" --mode stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
+    --lidar-trans-m 0.1 --seed 5 --window 20 --depth-prior 0.05
+  run "sim_urban_stereo_1deg_free_depth" --sequences "$URBAN" --mode stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20 --depth-prior 0.05
   # Issue 6: NEES over independent windows of 10 keyframes (15 urban drives; 4 held out).
   NEES_SEQS=$URBAN
   for s in 11 12 13 14 15 16 21 22 23 24 31 32 33 34; do NEES_SEQS=$NEES_SEQS,$(simulate urban $s 100); done

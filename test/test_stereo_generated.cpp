@@ -199,3 +199,40 @@ TEST(StereoGenerated, RetriangulationMatchesMatchingAgain) {
   EXPECT_TRUE(re.R_rect_left.isIdentity(1e-12));
   EXPECT_NEAR(re.baseline, rig.baseline(), 1e-9);
 }
+
+TEST(PhotometricGenerated, FreeDepthFreesTheBaselineDirectionFromAWrongLidarDepth) {
+  // With the LiDAR turned 1 deg about the camera's y axis a key point's depth is off in
+  // proportion to its lateral position, the disparity pattern of the right camera's forward
+  // offset, which absorbs it; with free depth (depth_prior_sigma) the vertical disparities decide
+  // the baseline direction. From the truth, on 5 generated keyframes.
+  SimOptions o;
+  o.frames = 21;
+  o.seed = 4;
+  const Simulator sim(o);
+  const StereoRig& rig = sim.rig();
+  Vector6d lidar_off;
+  lidar_off << 0, 1.0 / kDegPerRad, 0, 0, 0, 0;
+  const Eigen::Isometry3d T_cl_wrong = perturb(rig.T_cam_lidar, lidar_off);
+  std::vector<Keyframe> kfs;
+  for (int i = 0; i < o.frames; i += 5)
+    kfs.push_back(makeKeyframe(sim.renderFrame(i), rig, T_cl_wrong, rig.T_right_left));
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : kfs) window.push_back(&kf);
+  PhotometricSettings fixed, free;
+  fixed.fix_baseline_length = free.fix_baseline_length = true;  // as in co-calibration
+  free.depth_prior_sigma = 0.05;
+  const Vector6d e_fixed =
+      poseError(solvePhotometric(window, rig, T_cl_wrong, rig.T_right_left, fixed).T_right_left,
+                rig.T_right_left);
+  const PhotometricResult r = solvePhotometric(window, rig, T_cl_wrong, rig.T_right_left, free);
+  const Vector6d e_free = poseError(r.T_right_left, rig.T_right_left);
+  std::cout << "[ stereo   ] LiDAR 1 deg off about y: baseline y/z error with the LiDAR depth "
+            << e_fixed[4] * 1000 << " / " << e_fixed[5] * 1000 << " mm, with free depth "
+            << e_free[4] * 1000 << " / " << e_free[5] * 1000 << " mm; yaw "
+            << e_fixed[1] * kDegPerRad << " / " << e_free[1] * kDegPerRad << " deg\n";
+  EXPECT_TRUE(r.converged) << r.message;
+  EXPECT_GT(std::fabs(e_fixed[5]), 0.004);
+  EXPECT_LT(std::fabs(e_free[5]), 0.5 * std::fabs(e_fixed[5]));
+  EXPECT_LT(std::fabs(e_free[4]), 0.002);
+  EXPECT_LT(e_free.head<3>().norm() * kDegPerRad, 0.05);
+}
