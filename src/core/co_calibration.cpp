@@ -153,6 +153,8 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   bool free_depth = false;          // this round's photometric solve had free depth
   bool free_depth_settled = false;  // a free-depth round already moved less than the tolerance
   bool lidar_accepted = false;      // a LiDAR-stereo estimate was taken (later rounds: fine only)
+  double lidar_yaw = 0;             // its clouds' yaw nuisance, relative to lidar_yaw_clouds
+  Eigen::Isometry3d lidar_yaw_clouds = Eigen::Isometry3d::Identity();
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
     const bool warm = s.warm_start && (res.rounds > 1 || s.warm_first_round);
     Eigen::Isometry3d T_rl_new = T_rl;
@@ -208,11 +210,18 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     // and 0.02 mm, are below what re-association noise allows with the scale free).
     ls.converge_rot_deg = std::max(ls.converge_rot_deg, s.inner_settle_fraction * s.stable_rot_deg);
     ls.converge_trans_m = std::max(ls.converge_trans_m, s.inner_settle_fraction * s.stable_trans_m);
-    if (warm && lidar_accepted) ls.run_coarse = false;
+    if (warm && lidar_accepted) {
+      ls.run_coarse = false;
+      // The clouds' yaw relative to the right camera, as the last solve found it, carried over
+      // to the rectification the clouds have now.
+      if (ls.estimate_stereo_yaw)
+        ls.initial_stereo_yaw_rad =
+            lidar_yaw - rectificationChange(lidar_yaw_clouds, window.front()->T_right_left_used)
+                            .phi.y();
+    }
     const auto t_l = Clock::now();
     res.lidar = solveLidarStereo(cwin, T_cl, ls);
     res.seconds_lidar += secondsSince(t_l);
-    lidar_converged = lidar_converged || res.lidar.converged;
     // A LiDAR estimate implausibly far from the initial guess (the solver's own divergence
     // bounds, counted from the start of the alternation) is not taken: the round is repeated from
     // the previous estimates with the LiDAR depth (a free-depth round can hand it clouds rectified
@@ -234,6 +243,12 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
       continue;
     }
     lidar_accepted = true;
+    lidar_converged = lidar_converged || res.lidar.converged;
+    lidar_yaw = res.lidar.stereo_yaw_rad;
+    lidar_yaw_clouds = window.front()->T_right_left_used;
+    if (debug && ls.estimate_stereo_yaw)
+      std::fprintf(stderr, "co round %d: LiDAR-stereo yaw started at %.4f deg, ended at %.4f deg\n",
+                   res.rounds, ls.initial_stereo_yaw_rad * kDegPerRad, lidar_yaw * kDegPerRad);
     T_rl_new.translation() = T_rl_new.translation().normalized() * res.lidar.stereo_scale * b_used;
     res.stereo.T_right_left = T_rl_new;
     const Eigen::Isometry3d T_cl_new = res.lidar.T_cam_lidar;

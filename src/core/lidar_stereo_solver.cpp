@@ -147,7 +147,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     return res;
   }
   Eigen::Isometry3d T = T_init;
-  double scale = 1.0, yaw = 0.0;
+  double scale = 1.0, yaw = s.estimate_stereo_yaw ? s.initial_stereo_yaw_rad : 0.0;
 
   // ---------------------------------------------------------------- coarse (eq. KD6 + eq. 2)
   const auto t_coarse = Clock::now();

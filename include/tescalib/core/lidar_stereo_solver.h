@@ -44,6 +44,9 @@ struct LidarStereoSettings {
   /// +-max_stereo_yaw_deg.
   bool estimate_stereo_yaw = false;
   double max_stereo_yaw_deg = 1.0;
+  /// Start of the yaw (rad): a warm start knows it from the previous solve; starting at 0 with
+  /// clouds 0.3 deg off in yaw, the fine stage's gate can reject nearly every association.
+  double initial_stereo_yaw_rad = 0.0;
   // Noise model (paper eq. lidar_noise and the disparity noise).
   double lidar_range_sigma = 0.02;     ///< m
   double lidar_beam_sigma_deg = 0.02;  ///< beam direction, deg
