@@ -151,7 +151,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   // always use the LiDAR depth, which fixes the yaw far better.
   bool lidar_converged = false;     // in some round so far
   bool free_depth = false;          // this round's photometric solve had free depth
-  bool free_depth_settled = false;  // a free-depth round already moved less than the tolerance
+  bool free_depth_done = false;     // a free-depth round settled, or a LiDAR-stereo solve ran away
   bool lidar_accepted = false;      // a LiDAR-stereo estimate was taken (later rounds: fine only)
   double lidar_yaw = 0;             // its clouds' yaw nuisance, relative to lidar_yaw_clouds
   Eigen::Isometry3d lidar_yaw_clouds = Eigen::Isometry3d::Identity();
@@ -162,7 +162,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     {
       PhotometricSettings ps = s.stereo;
       ps.fix_baseline_length = s.photometric_fixed_length;
-      free_depth = res.rounds <= s.free_depth_rounds && !lidar_converged && !free_depth_settled;
+      free_depth = res.rounds <= s.free_depth_rounds && !lidar_converged && !free_depth_done;
       if (free_depth) ps.depth_prior_sigma = s.free_depth_prior_sigma;
       if (warm && (photometric_done || s.warm_first_round)) {
         ps.pyramid_levels = std::min(ps.pyramid_levels, s.warm_pyramid_levels);
@@ -234,7 +234,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
         std::fprintf(stderr, "co round %d: LiDAR-stereo ran away (%.2f deg, %.2f m): rejected\n",
                      res.rounds, from_init.head<3>().norm() * kDegPerRad,
                      from_init.tail<3>().norm());
-      free_depth_settled = true;
+      free_depth_done = true;
       res.lidar.converged = false;
       res.lidar.T_cam_lidar = T_cl;
       res.stereo.T_right_left = T_rl;
@@ -259,7 +259,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     bool stable = res.rounds > 1 && photometric_done && step < 1.0 &&
                   (rho < 1.0 ? step * rho / (1.0 - rho) < 1.0 : prev_step < 1.0);
     if (free_depth && stable) {
-      free_depth_settled = true;  // settled with free depth: confirm with the LiDAR depth
+      free_depth_done = true;  // settled with free depth: confirm with the LiDAR depth
       stable = false;
     }
     if (debug) {

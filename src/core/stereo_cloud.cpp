@@ -28,7 +28,7 @@ struct Rectification {
   double fx = 0, fy = 0, cx = 0, cy = 0, baseline = 0;
   Eigen::Matrix3d R_left = Eigen::Matrix3d::Identity(), R_right = Eigen::Matrix3d::Identity();
   bool identity = true;  ///< the input pair is already rectified (right image only shifted)
-  cv::Mat R1, R2, P1, P2;
+  cv::Mat K1, K2, R1, R2, P1, P2;  ///< OpenCV's, when not `identity`
 };
 
 Rectification rectificationFor(const StereoRig& rig, const Eigen::Isometry3d& T, cv::Size size) {
@@ -39,12 +39,12 @@ Rectification rectificationFor(const StereoRig& rig, const Eigen::Isometry3d& T,
     return r;
   }
   // Re-rectify with the current estimate: the right camera is at R, t relative to the left.
-  const cv::Mat K1 = toCv(rig.left.K()), K2 = toCv(rig.right.K());
+  r.K1 = toCv(rig.left.K()), r.K2 = toCv(rig.right.K());
   const cv::Mat R = toCv(T.linear());
   const cv::Mat t =
       (cv::Mat_<double>(3, 1) << T.translation().x(), T.translation().y(), T.translation().z());
   cv::Mat Q;
-  cv::stereoRectify(K1, cv::Mat(), K2, cv::Mat(), size, R, t, r.R1, r.R2, r.P1, r.P2, Q,
+  cv::stereoRectify(r.K1, cv::Mat(), r.K2, cv::Mat(), size, R, t, r.R1, r.R2, r.P1, r.P2, Q,
                     cv::CALIB_ZERO_DISPARITY, 0.0);
   r.identity = false;
   r.fx = r.P1.at<double>(0, 0), r.fy = r.P1.at<double>(1, 1);
@@ -141,10 +141,11 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
       cv::warpAffine(right, right, shift, right.size(), cv::INTER_LINEAR);
     }
   } else {
-    const cv::Mat K1 = toCv(rig.left.K()), K2 = toCv(rig.right.K());
     cv::Mat m1x, m1y, m2x, m2y;
-    cv::initUndistortRectifyMap(K1, cv::Mat(), rect.R1, rect.P1, left.size(), CV_32FC1, m1x, m1y);
-    cv::initUndistortRectifyMap(K2, cv::Mat(), rect.R2, rect.P2, left.size(), CV_32FC1, m2x, m2y);
+    cv::initUndistortRectifyMap(rect.K1, cv::Mat(), rect.R1, rect.P1, left.size(), CV_32FC1, m1x,
+                                m1y);
+    cv::initUndistortRectifyMap(rect.K2, cv::Mat(), rect.R2, rect.P2, left.size(), CV_32FC1, m2x,
+                                m2y);
     cv::Mat lr, rr;
     cv::remap(left, lr, m1x, m1y, cv::INTER_LINEAR);
     cv::remap(right, rr, m2x, m2y, cv::INTER_LINEAR);
