@@ -103,6 +103,36 @@ TEST(LidarStereoGenerated, RecoversKnownPerturbationsOnAnUrbanDrive) {
   }
 }
 
+TEST(LidarStereoGenerated, HighwayIsWeakInTheDirectionsThePaperNames) {
+  // The paper's uncertainty section: on a highway (road, guard rails, hardly any vertical
+  // structure) translation along camera x and z and rotation about camera y are what the scene
+  // constrains least, and the many road points constrain the other three better than a town does.
+  // Measured on the statistical covariance (the model error is the same for every scene), one
+  // window of 10 keyframes each, solved from the truth.
+  auto statisticalSigma = [](Scenario scenario) {
+    const std::vector<Keyframe> kfs = generatedWindow(scenario, 10, 1);
+    std::vector<const Keyframe*> window;
+    for (const auto& kf : kfs) window.push_back(&kf);
+    SimOptions o;
+    o.seed = 1;
+    const LidarStereoResult r = solveLidarStereo(window, Simulator(o).rig().T_cam_lidar);
+    EXPECT_TRUE(r.converged) << r.message;
+    return Vector6d(r.covariance_statistical.diagonal().cwiseSqrt());
+  };
+  const Vector6d urban = statisticalSigma(Scenario::kUrban);
+  const Vector6d highway = statisticalSigma(Scenario::kHighway);
+  const Vector6d ratio = highway.cwiseQuotient(urban);
+  const char* axes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
+  for (int i = 0; i < 6; ++i)
+    std::cout << "[ highway  ] " << axes[i] << ": sigma " << highway[i] * (i < 3 ? kDegPerRad : 100)
+              << (i < 3 ? " deg" : " cm") << ", urban " << urban[i] * (i < 3 ? kDegPerRad : 100)
+              << ", ratio " << ratio[i] << " (variance ratio " << ratio[i] * ratio[i] << ")\n";
+  for (int weak : {1, 3, 5}) {
+    EXPECT_GT(ratio[weak], 1.5) << axes[weak];
+    for (int strong : {0, 2, 4}) EXPECT_GT(ratio[weak], 2 * ratio[strong]) << axes[weak];
+  }
+}
+
 TEST(PhotometricGenerated, RecoversThePairAndTheExposureDifference) {
   // The generator renders right = 0.9 x left + 8 (before noise): the brightness estimate must say
   // so, and T_right_left must come back from 1 deg / 10 cm.

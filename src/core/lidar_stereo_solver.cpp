@@ -381,7 +381,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
           res.covariance = floor;
           break;
         }
-      const Matrix6d statistical = res.covariance;
+      const Matrix6d& statistical = res.covariance_statistical = res.covariance;
       // Model error that more data does not average away (calibrated on generated drives, see
       // the README): added per axis.
       for (int i = 0; i < 3; ++i) {
@@ -399,7 +399,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       }
     } else {
       res.information = H.topLeftCorner<6, 6>();
-      res.covariance = res.covariance_model = Matrix6d::Identity() * 1e6;
+      res.covariance = res.covariance_model = res.covariance_statistical =
+          Matrix6d::Identity() * 1e6;
     }
   }
   const Vector6d correction = poseError(T, T_init);

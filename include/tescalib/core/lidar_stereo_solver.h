@@ -93,6 +93,9 @@ struct LidarStereoResult {
   Matrix6d covariance = Matrix6d::Identity();
   /// The paper's eq. residual_uncertainty, information^-1 (independent residuals assumed).
   Matrix6d covariance_model = Matrix6d::Identity();
+  /// `covariance` without the scene-independent model error: what this window's geometry
+  /// constrains (the per-axis `observable` flags and scene comparisons use it).
+  Matrix6d covariance_statistical = Matrix6d::Identity();
   bool observable[6] = {false, false, false, false, false, false};  ///< per axis
   double seconds_coarse = 0, seconds_fine = 0;
   std::string message;  ///< why it did not converge, when it did not
