@@ -1,6 +1,7 @@
 // Co-calibration on a generated urban window (exact ground truth, rendered in memory): from the
 // issue's start (LiDAR 3 deg / 0.3 m, stereo 1 deg / 0.1 m off) the alternation recovers both
-// extrinsics within the tolerances and says it converged; the re-rectification test.
+// extrinsics within the tolerances and says it converged; a LiDAR-stereo estimate that
+// runs away from the initial guess is not taken; the re-rectification test.
 #include <cmath>
 #include <iostream>
 #include <random>
@@ -127,4 +128,40 @@ TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
     EXPECT_LT(std::fabs(el[i]), 3 * std::sqrt(r.lidar.covariance(i, i))) << "LiDAR axis " << i;
     EXPECT_LT(std::fabs(es[i]), 3 * std::sqrt(r.stereo.covariance(i, i))) << "stereo axis " << i;
   }
+}
+
+TEST(CoCalibration, RunawayLidarEstimatesAreNotTaken) {
+  // The runaway rule, made to fire: with divergence bounds of 1 deg / 5 cm, every LiDAR-stereo
+  // solve from a start 3 deg / 0.3 m off ends beyond them. No such estimate may be taken, and the
+  // result keeps the initial guesses (never worse than the last good estimate) and says why.
+  SimOptions o;
+  o.seed = 1;
+  const StereoRig truth = Simulator(o).rig();
+  std::mt19937_64 rng(3);
+  const Eigen::Isometry3d T_cl_init =
+      perturb(truth.T_cam_lidar, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
+  const Eigen::Isometry3d T_rl_init =
+      perturb(truth.T_right_left, randomPerturbation(0.2 / kDegPerRad, 0.01, rng));
+  GeneratedWindow w = generatedWindow(5, 1, &T_cl_init);
+  std::vector<Keyframe*> window;
+  for (auto& kf : w.keyframes) window.push_back(&kf);
+  CoCalibrationSettings s;
+  s.max_rounds = 2;
+  s.lidar.max_correction_rot_deg = 1.0;
+  s.lidar.max_correction_trans_m = 0.05;
+  const CoCalibrationResult r = coCalibrate(window, w.rig, T_cl_init, T_rl_init, s);
+  std::cout << "[ co       ] " << r.rounds << " rounds, " << r.rejected << " rejected: " << r.message
+            << "\n";
+  EXPECT_EQ(r.rejected, 2);
+  EXPECT_FALSE(r.converged);
+  EXPECT_FALSE(r.lidar.converged);
+  EXPECT_NE(r.message.find("ran away"), std::string::npos) << r.message;
+  EXPECT_LT(poseError(r.lidar.T_cam_lidar, T_cl_init).norm(), 1e-12);
+  EXPECT_LT(poseError(r.stereo.T_right_left, T_rl_init).norm(), 1e-12);
+  // The same window and start with the default bounds: the estimate is taken and is good.
+  CoCalibrationSettings d;
+  d.max_rounds = 2;
+  const CoCalibrationResult ok = coCalibrate(window, w.rig, T_cl_init, T_rl_init, d);
+  EXPECT_EQ(ok.rejected, 0);
+  EXPECT_LT(poseError(ok.lidar.T_cam_lidar, truth.T_cam_lidar).tail<3>().norm(), 0.05);
 }

@@ -319,7 +319,11 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   }
   res.converged = res.stable && res.lidar.converged && res.stereo.converged;
   if (!res.stable)
-    res.message = "estimates still moving after " + std::to_string(s.max_rounds) + " rounds";
+    res.message = "estimates still moving after " + std::to_string(s.max_rounds) + " rounds" +
+                  (res.rejected ? " (" + std::to_string(res.rejected) +
+                                      " LiDAR-stereo estimates ran away from the initial guess "
+                                      "and were not taken)"
+                                : "");
   else if (!res.stereo.converged)
     res.message = "left-right: " + res.stereo.message;
   else if (!res.lidar.converged)
