@@ -189,6 +189,16 @@ void expectCoAccuracy(const OnlineEstimate& e, const StereoRig& truth, const cha
   EXPECT_LT(es.head<3>().norm() * kDegPerRad, 0.02);
   EXPECT_LT(es.tail<3>().norm(), 0.005);
 }
+
+/// Adds the drive's frames first, first + 5, ... (0.5 s apart) below `end`; each must become a
+/// keyframe.
+void addKeyframes(OnlineCalibrator& cal, const Simulator& sim, int first, int end) {
+  std::string msg;
+  for (int i = first; i < end; i += 5) {
+    const Frame f = sim.renderFrame(i);
+    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  }
+}
 }  // namespace
 
 TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
@@ -214,10 +224,7 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
   EXPECT_EQ(settings.minKeyframes(), 3);
   OnlineCalibrator cal(rig, settings);
   std::string msg;
-  for (int i = 0; i < 15; i += 5) {
-    Frame f = sim.renderFrame(i);
-    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
-  }
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 15));
   ASSERT_TRUE(cal.solve(&msg)) << msg;
   auto e = cal.estimate();
   ASSERT_TRUE(e.has_value());
@@ -230,10 +237,7 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
             << " deg / " << el0.tail<3>().norm() * 100 << " cm\n";
   EXPECT_LT(el0.head<3>().norm() * kDegPerRad, 0.5);
   EXPECT_LT(el0.tail<3>().norm(), 0.05);
-  for (int i = 15; i < 25; i += 5) {
-    Frame f = sim.renderFrame(i);
-    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
-  }
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 15, 25));
   ASSERT_TRUE(cal.solve(&msg)) << msg;
   e = cal.estimate();
   EXPECT_GE(e->co_rounds, 1);
@@ -264,15 +268,11 @@ TEST(OnlineCalibratorGenerated, CoCalibrationContinuesWarmAfterTheFirstEstimate)
     ASSERT_TRUE(e.has_value());
     expectCoAccuracy(*e, sim.rig(), what);
   };
-  for (int i = 0; i < 25; i += 5) {
-    Frame f = sim.renderFrame(i);
-    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
-  }
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
   ASSERT_TRUE(cal.solve(&msg)) << msg;
   check("full co-calibration, 5 keyframes");
   EXPECT_GT(cal.estimate()->co_rounds, 1);
-  Frame f = sim.renderFrame(25);
-  ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 25, 26));
   ASSERT_TRUE(cal.solve(&msg)) << msg;
   check("warm update, 6 keyframes");
   EXPECT_EQ(cal.estimate()->co_rounds, settings.warm_co_rounds);

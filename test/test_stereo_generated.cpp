@@ -51,6 +51,15 @@ double medianRoadDisparityError(const Simulator& sim, int i, const StereoSetting
       sim, i, computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left, settings));
 }
 
+/// One noise-free frame of the generated urban drive of seed 1.
+Simulator noiseFreeFrame() {
+  SimOptions o;
+  o.frames = 1;
+  o.seed = 1;
+  o.noise = NoiseLevel::kNone;
+  return Simulator(o);
+}
+
 std::vector<Keyframe> generatedWindow(Scenario scenario, int keyframes, uint64_t seed) {
   SimOptions o;
   o.scenario = scenario;
@@ -67,11 +76,7 @@ std::vector<Keyframe> generatedWindow(Scenario scenario, int keyframes, uint64_t
 }  // namespace
 
 TEST(StereoGenerated, RefinementRemovesTheRoadDisparityBias) {
-  SimOptions o;
-  o.frames = 1;
-  o.seed = 1;
-  o.noise = NoiseLevel::kNone;
-  const Simulator sim(o);
+  const Simulator sim = noiseFreeFrame();
   StereoSettings raw;
   raw.refinement.iterations = 0;
   const double before = medianRoadDisparityError(sim, 0, raw);
@@ -197,11 +202,7 @@ TEST(StereoGenerated, RetriangulationMatchesMatchingAgain) {
   // Clouds follow a small change of T_right_left without running SGBM again: the matches made
   // with a slightly wrong estimate, triangulated with the true one, must show the road where the
   // exact road plane predicts it, as matching again with the true estimate does.
-  SimOptions o;
-  o.frames = 1;
-  o.seed = 1;
-  o.noise = NoiseLevel::kNone;
-  const Simulator sim(o);
+  const Simulator sim = noiseFreeFrame();
   const StereoRig& rig = sim.rig();
   const Frame f = sim.renderFrame(0);
   Vector6d d;

@@ -542,16 +542,24 @@ int main(int argc, char** argv) {
   std::ostringstream summary_json;
   for (const auto& [name, member] : estimated) {
     double med_rot[3], med_trans[3];
+    // What the windows constrain: the median statistical sigma per axis (no model error).
+    double stat_rot[3], stat_trans[3];
     std::vector<double> rn, tn;
     int ok = 0;
     for (int i = 0; i < 3; ++i) {
-      std::vector<double> r, tt;
+      std::vector<double> r, tt, sr, st;
       for (const auto& tr : trials) {
         r.push_back(std::fabs((tr.*member).err[i]) * kDegPerRad);
         tt.push_back(std::fabs((tr.*member).err[3 + i]));
+        const Matrix6d& c = (tr.*member).cov_stat;
+        if (!c.allFinite()) continue;
+        sr.push_back(std::sqrt(c(i, i)) * kDegPerRad);
+        st.push_back(std::sqrt(c(3 + i, 3 + i)));
       }
       med_rot[i] = median(r);
       med_trans[i] = median(tt);
+      stat_rot[i] = median(sr);
+      stat_trans[i] = median(st);
     }
     for (const auto& tr : trials) {
       rn.push_back((tr.*member).err.head<3>().norm() * kDegPerRad);
@@ -559,19 +567,6 @@ int main(int argc, char** argv) {
       ok += (tr.*member).success();
     }
     const double success = double(ok) / trials.size();
-    // What the windows constrain: the median statistical sigma per axis (no model error).
-    double stat_rot[3], stat_trans[3];
-    for (int i = 0; i < 3; ++i) {
-      std::vector<double> r, tt;
-      for (const auto& tr : trials) {
-        const Matrix6d& c = (tr.*member).cov_stat;
-        if (!c.allFinite()) continue;
-        r.push_back(std::sqrt(c(i, i)) * kDegPerRad);
-        tt.push_back(std::sqrt(c(3 + i, 3 + i)));
-      }
-      stat_rot[i] = median(r);
-      stat_trans[i] = median(tt);
-    }
     std::printf("  %s: success %.1f %%\n", name.c_str(), 100.0 * success);
     std::printf("    median |err| rot  [x y z] deg: %.4f %.4f %.4f   (median norm %.4f deg)\n",
                 med_rot[0], med_rot[1], med_rot[2], median(rn));
