@@ -329,6 +329,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   std::vector<double> abs_res;
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n);
   std::vector<Eigen::VectorXd> scores;
+  // sum w J dr/db for the window-common biases: disparity offset (px), LiDAR range offset (m).
+  Eigen::MatrixXd JtD = Eigen::MatrixXd::Zero(n, 2);
   double cost = 0;
   if (!as.empty()) {
     int n_clusters = 0;
@@ -348,6 +350,9 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       if (s.estimate_stereo_yaw) J[6 + n_scale] = mp * scale * a0.d * a0.g / (dc * dc);
       const double w = std::fabs(r) <= s.fine_huber ? 1.0 : s.fine_huber / std::fabs(r);
       H += w * J * J.transpose();
+      // ps ~ d / (d + delta): dr/d(delta) = m.ps / d_c; q = R p_l: dr/d(range) = m.R p_l / |p_l|.
+      JtD.col(0) += w * J * (m.dot(ps) / dc * a0.inv_sigma);
+      JtD.col(1) += w * J * (m.dot(q) / a0.p_l.norm() * a0.inv_sigma);
       res.keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
           w * J.head<6>() * J.head<6>().transpose();
       scores[a0.cluster] += w * r * J;
@@ -367,6 +372,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       const Matrix6d H_inv = H_inv_full.topLeftCorner<6, 6>();
       res.information = H_inv.inverse();  // the pose's marginal information
       res.covariance_model = H_inv;
+      res.bias_sensitivity = -(H_inv_full * JtD).topRows<6>();
       Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n);
       int used = 0;
       for (const Eigen::VectorXd& g : scores)
@@ -383,7 +389,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
         }
       const Matrix6d& statistical = res.covariance_statistical = res.covariance;
       // Model error that more data does not average away (calibrated on generated drives, see
-      // the README): added per axis.
+      // the README): common biases through this window's sensitivity to them, and a floor per axis.
+      const auto& h = res.bias_sensitivity;
+      res.covariance += std::pow(s.model_sigma_disparity_px, 2) * h.col(0) * h.col(0).transpose() +
+                        std::pow(s.model_sigma_range_m, 2) * h.col(1) * h.col(1).transpose();
       for (int i = 0; i < 3; ++i) {
         res.covariance(i, i) += std::pow(s.model_sigma_rot_deg[i] / kDegPerRad, 2);
         res.covariance(3 + i, 3 + i) += std::pow(s.model_sigma_trans_m[i], 2);

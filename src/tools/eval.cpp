@@ -218,6 +218,8 @@ struct ExtrinsicOutcome {
   Matrix6d cov = Matrix6d::Identity();
   /// The covariance without the model error (LiDAR-stereo): what the window constrains.
   Matrix6d cov_stat = Matrix6d::Constant(std::nan(""));
+  /// Pose shift per px of common disparity offset and per m of common LiDAR range offset.
+  Eigen::Matrix<double, 6, 2> bias = Eigen::Matrix<double, 6, 2>::Constant(std::nan(""));
   bool success() const {
     return err.head<3>().norm() * kDegPerRad < 0.2 && err.tail<3>().norm() < 0.03;
   }
@@ -239,6 +241,14 @@ struct ExtrinsicOutcome {
         sr[i] = std::sqrt(cov_stat(i, i)) * kDegPerRad, st[i] = std::sqrt(cov_stat(3 + i, 3 + i));
       o << ", \"sigma_statistical_rot_deg\": " << jsonArray(sr, 3)
         << ", \"sigma_statistical_trans_m\": " << jsonArray(st, 3);
+      for (int i = 0; i < 36; ++i) c[i] = cov_stat(i / 6, i % 6);
+      o << ", \"covariance_statistical\": " << jsonArray(c, 36);
+    }
+    if (bias.allFinite()) {
+      double b[12];
+      for (int i = 0; i < 12; ++i) b[i] = bias(i % 6, i / 6);
+      o << ", \"bias_sensitivity_disparity_px\": " << jsonArray(b, 6)
+        << ", \"bias_sensitivity_range_m\": " << jsonArray(b + 6, 6);
     }
     o << "}";
     return o.str();
@@ -349,6 +359,8 @@ int main(int argc, char** argv) {
   if (args.cov_model_scale >= 0) {
     for (double& v : solver_settings.model_sigma_rot_deg) v *= args.cov_model_scale;
     for (double& v : solver_settings.model_sigma_trans_m) v *= args.cov_model_scale;
+    solver_settings.model_sigma_disparity_px *= args.cov_model_scale;
+    solver_settings.model_sigma_range_m *= args.cov_model_scale;
   }
   std::vector<Trial> trials;
   std::cout << " trial  conv  init(deg,m)    err rot [x y z] deg          err trans [x y z] cm"
@@ -403,6 +415,8 @@ int main(int argc, char** argv) {
       cs.lidar.cov_cells_y = solver_settings.cov_cells_y;
       cs.lidar.model_sigma_rot_deg = solver_settings.model_sigma_rot_deg;
       cs.lidar.model_sigma_trans_m = solver_settings.model_sigma_trans_m;
+      cs.lidar.model_sigma_disparity_px = solver_settings.model_sigma_disparity_px;
+      cs.lidar.model_sigma_range_m = solver_settings.model_sigma_range_m;
       if (args.smooth_keypoints_px >= 0)
         cs.stereo.smooth_depth_radius_px = args.smooth_keypoints_px;
       if (args.depth_prior >= 0) cs.free_depth_prior_sigma = args.depth_prior;
@@ -430,6 +444,7 @@ int main(int argc, char** argv) {
       tr.iterations = r.rounds;
       tr.lidar.cov = r.lidar.covariance;
       tr.lidar.cov_stat = r.lidar.covariance_statistical;
+      tr.lidar.bias = r.lidar.bias_sensitivity;
       tr.stereo.cov = r.stereo.covariance;
       T_est = r.lidar.T_cam_lidar;
       tr.stereo.err = poseError(r.stereo.T_right_left, rig.T_right_left);
@@ -454,6 +469,7 @@ int main(int argc, char** argv) {
       tr.iterations = r.iterations;
       tr.lidar.cov = r.covariance;
       tr.lidar.cov_stat = r.covariance_statistical;
+      tr.lidar.bias = r.bias_sensitivity;
       tr.lidar_cov_model = r.covariance_model;
       tr.message = r.message;
     } else {
