@@ -99,8 +99,8 @@ struct LidarStereoResult {
   Matrix6d covariance = Matrix6d::Identity();
   /// The paper's eq. residual_uncertainty, information^-1 (independent residuals assumed).
   Matrix6d covariance_model = Matrix6d::Identity();
-  /// `covariance` without the scene-independent model error: what this window's geometry
-  /// constrains (the per-axis `observable` flags and scene comparisons use it).
+  /// `covariance` without the model error: what this window's residuals constrain (the per-axis
+  /// `observable` flags and scene comparisons use it).
   Matrix6d covariance_statistical = Matrix6d::Identity();
   /// How window-common measurement biases move the estimate ([phi; tau] per unit bias, the
   /// nuisance parameters marginalised): column 0 per px of disparity offset of every stereo
