@@ -65,9 +65,21 @@ if [ "$BENCH" != kitti ]; then
   run "sim_urban_co_nees_held_out" --sequences "$CO_HELD_OUT" --mode co --trials 54 \
     --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
     --seed 61 --window 10 --windows disjoint
-  HW=$(simulate highway 1 100)
-  run "sim_highway_nees" --sequences "$HW" --mode lidar_stereo --trials 12 \
-    --init-rot-deg 3 --init-trans-m 0.3 --seed 13 --window 10 --windows disjoint
+  # The LiDAR-stereo model error by scene type (README, "Uncertainty"): one start per window on the
+  # windows it was fitted on (urban: 20 drives, residential 41-46, highway 1-5), then held out.
+  nees_scene() {  # name scenario seed-list seed
+    local seqs="" s
+    for s in $3; do seqs=$seqs,$(simulate "$2" "$s" 100); done
+    seqs=${seqs#,}
+    run "$1" --sequences "$seqs" --mode lidar_stereo --trials $((2 * $(echo $3 | wc -w))) \
+      --init-rot-deg 3 --init-trans-m 0.3 --seed "$4" --window 10 --windows disjoint
+  }
+  nees_scene sim_urban_nees_by_scene urban "1 11 12 13 14 15 16 21 22 23 24 31 32 33 34 51 52 53 54 55" 71
+  nees_scene sim_residential_nees residential "41 42 43 44 45 46" 71
+  nees_scene sim_highway_nees highway "1 2 3 4 5" 71
+  nees_scene sim_urban_nees_held_out urban "56 57" 73
+  nees_scene sim_residential_nees_held_out residential "47 48" 73
+  nees_scene sim_highway_nees_held_out highway "6 7 8" 73
 fi
 [ "$BENCH" = sim ] && { echo "[bench] JSON files in $OUT"; exit 0; }
 if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data benchmarks"; exit 0; fi
