@@ -311,12 +311,9 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     }
   }
   res.rounds = std::min(res.rounds, s.max_rounds);
-  for (int i = 0; i < 3; ++i) {
-    res.lidar.covariance(i, i) += std::pow(s.model_sigma_lidar_rot_deg[i] / kDegPerRad, 2);
-    res.lidar.covariance(3 + i, 3 + i) += std::pow(s.model_sigma_lidar_trans_m[i], 2);
-    res.stereo.covariance(i, i) += std::pow(s.model_sigma_stereo_rot_deg[i] / kDegPerRad, 2);
-    res.stereo.covariance(3 + i, 3 + i) += std::pow(s.model_sigma_stereo_trans_m[i], 2);
-  }
+  addAxisVariances(&res.lidar.covariance, s.model_sigma_lidar_rot_deg, s.model_sigma_lidar_trans_m);
+  addAxisVariances(&res.stereo.covariance, s.model_sigma_stereo_rot_deg,
+                   s.model_sigma_stereo_trans_m);
   res.converged = res.stable && res.lidar.converged && res.stereo.converged;
   if (!res.stable)
     res.message = "estimates still moving after " + std::to_string(s.max_rounds) + " rounds" +

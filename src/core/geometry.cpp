@@ -28,6 +28,14 @@ Eigen::Isometry3d perturb(const Eigen::Isometry3d& T, const Vector6d& delta) {
   return out;
 }
 
+void addAxisVariances(Matrix6d* covariance, const std::array<double, 3>& sigma_rot_deg,
+                      const std::array<double, 3>& sigma_trans_m) {
+  for (int i = 0; i < 3; ++i) {
+    (*covariance)(i, i) += std::pow(sigma_rot_deg[i] / kDegPerRad, 2);
+    (*covariance)(3 + i, 3 + i) += std::pow(sigma_trans_m[i], 2);
+  }
+}
+
 Vector6d poseError(const Eigen::Isometry3d& T_est, const Eigen::Isometry3d& T_gt) {
   Vector6d e;
   e.head<3>() = logSO3(T_est.linear() * T_gt.linear().transpose());

@@ -313,10 +313,7 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
         for (int i = 0; i < 36; ++i) res.lidar.covariance(i / 6, i % 6) = C[i];
         cov.GetCovarianceBlock(d_rl, d_rl, C);
         for (int i = 0; i < 36; ++i) res.stereo.covariance(i / 6, i % 6) = C[i];
-        for (int i = 0; i < 3; ++i) {
-          res.lidar.covariance(i, i) += std::pow(ls.model_sigma_rot_deg[i] / kDegPerRad, 2);
-          res.lidar.covariance(3 + i, 3 + i) += std::pow(ls.model_sigma_trans_m[i], 2);
-        }
+        addAxisVariances(&res.lidar.covariance, ls.model_sigma_rot_deg, ls.model_sigma_trans_m);
       }
       break;
     }

@@ -393,10 +393,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       const auto& h = res.bias_sensitivity;
       res.covariance += std::pow(s.model_sigma_disparity_px, 2) * h.col(0) * h.col(0).transpose() +
                         std::pow(s.model_sigma_range_m, 2) * h.col(1) * h.col(1).transpose();
-      for (int i = 0; i < 3; ++i) {
-        res.covariance(i, i) += std::pow(s.model_sigma_rot_deg[i] / kDegPerRad, 2);
-        res.covariance(3 + i, 3 + i) += std::pow(s.model_sigma_trans_m[i], 2);
-      }
+      addAxisVariances(&res.covariance, s.model_sigma_rot_deg, s.model_sigma_trans_m);
       all_observable = true;
       for (int i = 0; i < 6; ++i) {
         // What the window constrains: the statistical part (the model error is the same

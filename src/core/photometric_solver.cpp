@@ -268,10 +268,7 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
   // Ceres' covariance assumes independent pixels; neighbouring key points share interpolation,
   // LiDAR-depth and exposure errors. A per-axis model error, calibrated like the LiDAR one (mean
   // NEES over independent generated windows), is added; the flags above use the statistical part.
-  for (int i = 0; i < 3; ++i) {
-    res.covariance(i, i) += std::pow(s.model_sigma_rot_deg[i] / kDegPerRad, 2);
-    res.covariance(3 + i, 3 + i) += std::pow(s.model_sigma_trans_m[i], 2);
-  }
+  addAxisVariances(&res.covariance, s.model_sigma_rot_deg, s.model_sigma_trans_m);
   const Vector6d corr = poseError(T, T_init);
   if (corr.head<3>().norm() * kDegPerRad > s.max_correction_rot_deg ||
       corr.tail<3>().norm() > s.max_correction_trans_m)

@@ -2,6 +2,7 @@
 //   R = Exp(phi) * R_ref,  t = t_ref + tau,  phi and tau in the target frame.
 #pragma once
 
+#include <array>
 #include <random>
 
 #include <Eigen/Core>
@@ -26,6 +27,11 @@ Eigen::Isometry3d perturb(const Eigen::Isometry3d& T, const Vector6d& delta);
 
 /// Error of an estimate against ground truth in the same model: [Log(R_est R_gt^T); t_est - t_gt].
 Vector6d poseError(const Eigen::Isometry3d& T_est, const Eigen::Isometry3d& T_gt);
+
+/// Adds independent per-axis variances to a covariance over [phi; tau]: 1-sigma rotations (deg)
+/// and translations (m) about / along the camera axes (the solvers' model-error floors).
+void addAxisVariances(Matrix6d* covariance, const std::array<double, 3>& sigma_rot_deg,
+                      const std::array<double, 3>& sigma_trans_m);
 
 /// A perturbation whose rotation has exactly `rot_rad` about a uniformly random axis and whose
 /// translation has exactly `trans_m` in a uniformly random direction.
