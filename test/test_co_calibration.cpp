@@ -2,6 +2,7 @@
 // issue's start (LiDAR 3 deg / 0.3 m, stereo 1 deg / 0.1 m off) the alternation recovers both
 // extrinsics within the tolerances and says it converged; a LiDAR-stereo estimate that
 // runs away from the initial guess is not taken; the re-rectification test.
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <random>
@@ -44,15 +45,18 @@ CoStart lidarStart(std::mt19937_64& rng) {
 
 /// `n` keyframes 0.5 s apart of a generated urban drive; meshes view-filtered with `T_cl_guess`,
 /// no stereo clouds yet (co-calibration computes them).
-GeneratedWindow generatedWindow(int n, uint64_t seed, const Eigen::Isometry3d* T_cl_guess) {
+/// `drive_frames` > 0: the keyframes are the first of a drive that long (its scene depends on
+/// the length), as `tescalib_eval` sees the drive `tescalib_simulate --frames drive_frames` wrote.
+GeneratedWindow generatedWindow(int n, uint64_t seed, const Eigen::Isometry3d* T_cl_guess,
+                                int drive_frames = 0) {
   SimOptions o;
   o.scenario = Scenario::kUrban;
-  o.frames = 5 * (n - 1) + 1;
+  o.frames = std::max(5 * (n - 1) + 1, drive_frames);
   o.seed = seed;
   const Simulator sim(o);
   GeneratedWindow w;
   w.rig = sim.rig();
-  for (int i = 0; i < o.frames; i += 5) {
+  for (int i = 0; i < 5 * (n - 1) + 1; i += 5) {
     const Frame f = sim.renderFrame(i);
     Keyframe kf =
         makeKeyframe(f, w.rig, T_cl_guess ? *T_cl_guess : w.rig.T_cam_lidar, w.rig.T_right_left);
@@ -173,4 +177,46 @@ TEST(CoCalibration, RunawayLidarEstimatesAreNotTaken) {
   const CoCalibrationResult ok = coCalibrate(window, w.rig, T_cl_init, T_rl_init, d);
   EXPECT_EQ(ok.rejected, 0);
   EXPECT_LT(poseError(ok.lidar.T_cam_lidar, truth.T_cam_lidar).tail<3>().norm(), 0.05);
+}
+
+TEST(CoCalibration, LeavesAWrongPhotometricYawMinimum) {
+  // The one failure of the 54 held-out benchmark starts (README, "Co-calibration"): window 0 of the
+  // generated urban drive of seed 31 (100 frames), trial 0 of `tescalib_eval --seed 61`. Its
+  // round-1 photometric solve, with the LiDAR 2.7 deg / 0.28 m off, settles with the right
+  // camera's yaw 0.9 deg off, and the LiDAR-stereo solves say so (clouds' yaw -0.56..-0.88 deg);
+  // without the hand-over the alternation stays there (and the LiDAR ends 1.6 m off).
+  std::mt19937_64 rng(61 * 1000003ULL);
+  const Vector6d lidar_delta = randomPerturbation(3.0 / kDegPerRad, 0.3, rng);
+  const Vector6d stereo_delta = randomPerturbation(1.0 / kDegPerRad, 0.1, rng);
+  SimOptions o;
+  o.seed = 31;
+  const StereoRig truth = Simulator(o).rig();
+  const Eigen::Isometry3d T_cl_init = perturb(truth.T_cam_lidar, lidar_delta);
+  const Eigen::Isometry3d T_rl_init = perturb(truth.T_right_left, stereo_delta);
+  GeneratedWindow w = generatedWindow(10, 31, &T_cl_init, 100);
+  const std::vector<Keyframe*> window = w.window();
+
+  CoCalibrationSettings without;
+  without.yaw_handover_deg = -1;
+  without.max_rounds = 4;
+  const CoCalibrationResult bad = coCalibrate(window, w.rig, T_cl_init, T_rl_init, without);
+  const Vector6d eb = poseError(bad.stereo.T_right_left, truth.T_right_left);
+  std::cout << "[ co       ] without the hand-over, after " << bad.rounds << " rounds: stereo yaw "
+            << eb[1] * kDegPerRad << " deg off, LiDAR "
+            << poseError(bad.lidar.T_cam_lidar, truth.T_cam_lidar).tail<3>().norm() << " m off\n";
+  EXPECT_GT(std::fabs(eb[1]) * kDegPerRad, 0.5);
+
+  const CoCalibrationResult r = coCalibrate(window, w.rig, T_cl_init, T_rl_init);
+  const Vector6d el = poseError(r.lidar.T_cam_lidar, truth.T_cam_lidar);
+  const Vector6d es = poseError(r.stereo.T_right_left, truth.T_right_left);
+  std::cout << "[ co       ] " << r.rounds << " rounds, " << r.yaw_handovers << " hand-overs, "
+            << r.seconds << " s; LiDAR " << el.head<3>().norm() * kDegPerRad << " deg "
+            << el.tail<3>().norm() * 100 << " cm; stereo " << es.head<3>().norm() * kDegPerRad
+            << " deg " << es.tail<3>().norm() * 1000 << " mm; " << r.message << "\n";
+  EXPECT_GE(r.yaw_handovers, 1);
+  EXPECT_TRUE(r.converged) << r.message;
+  EXPECT_LT(el.head<3>().norm() * kDegPerRad, 0.2);
+  EXPECT_LT(el.tail<3>().norm(), 0.03);
+  EXPECT_LT(std::fabs(es[1]) * kDegPerRad, 0.02);
+  EXPECT_LT(es.tail<3>().norm(), 0.005);
 }

@@ -100,16 +100,20 @@ int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
   const auto t0 = Clock::now();
   int n = 0;
   for (Keyframe* kf : window) {
-    if (!kf->stereo.points.empty() &&
-        !needsRerectification(kf->T_right_left_used, T_right_left, tol.rot_deg, tol.direction_deg,
-                              tol.yaw_deg))
-      continue;
     // The yaw does not change what SGBM matches (only the disparity offset): not a reason to
-    // match again.
-    const bool rematch =
-        tol.rematch_rot_deg < 0 || kf->stereo_matched.disparity.empty() ||
+    // match again. Matches made too far from the estimate are redone even when the cloud was
+    // re-triangulated close to it, so that the final clouds come from matches near the estimate.
+    const bool needed =
+        kf->stereo.points.empty() ||
+        needsRerectification(kf->T_right_left_used, T_right_left, tol.rot_deg, tol.direction_deg,
+                             tol.yaw_deg);
+    const bool matches_off =
+        tol.rematch_rot_deg >= 0 && !kf->stereo_matched.disparity.empty() &&
         needsRerectification(kf->T_right_left_matched, T_right_left, tol.rematch_rot_deg,
                              tol.rematch_direction_deg, 1e9);
+    if (!needed && !matches_off) continue;
+    const bool rematch =
+        matches_off || tol.rematch_rot_deg < 0 || kf->stereo_matched.disparity.empty();
     if (rematch) {
       recomputeStereo(kf, rig, T_right_left, settings);
       if (rematched) ++*rematched;
@@ -153,6 +157,9 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   bool free_depth = false;          // this round's photometric solve had free depth
   bool free_depth_done = false;     // a free-depth round settled, or a LiDAR-stereo solve ran away
   bool lidar_accepted = false;      // a LiDAR-stereo estimate was taken (later rounds: fine only)
+  bool lidar_settled = false;       // ... and its solve converged
+  // |clouds' yaw| the last accepted LiDAR-stereo solve found (deg); inf: none yet
+  double last_yaw_gap = std::numeric_limits<double>::infinity();
   double lidar_yaw = 0;             // its clouds' yaw nuisance, relative to lidar_yaw_clouds
   Eigen::Isometry3d lidar_yaw_clouds = Eigen::Isometry3d::Identity();
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
@@ -211,7 +218,9 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     ls.converge_rot_deg = std::max(ls.converge_rot_deg, s.inner_settle_fraction * s.stable_rot_deg);
     ls.converge_trans_m = std::max(ls.converge_trans_m, s.inner_settle_fraction * s.stable_trans_m);
     if (warm && lidar_accepted) {
-      ls.run_coarse = false;
+      // Fine stage only after a solve that converged: from an estimate a degenerate or unsettled
+      // solve left far off, the fine stage alone creeps back by ~0.1 m per round.
+      ls.run_coarse = !lidar_settled;
       // The clouds' yaw relative to the right camera, as the last solve found it, carried over
       // to the rectification the clouds have now.
       if (ls.estimate_stereo_yaw)
@@ -242,7 +251,40 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
       history.clear();
       continue;
     }
+    const double yaw_gap = std::fabs(res.lidar.stereo_yaw_rad) * kDegPerRad;
+    if (ls.estimate_stereo_yaw && s.yaw_handover_deg >= 0 && yaw_gap > s.yaw_handover_deg &&
+        yaw_gap >= last_yaw_gap && res.yaw_handovers < s.max_yaw_handovers) {
+      // The solvers disagree on the right camera's yaw, and the disagreement did not shrink since
+      // the last round (it does when the photometric yaw is merely pulled by a LiDAR still far
+      // off): the photometric yaw sits in a wrong minimum, and the estimates since were built on
+      // it. Turn the right camera (about its centre) to the LiDAR-stereo yaw and start again from
+      // there, with the initial LiDAR extrinsic and baseline length.
+      const double delta = res.lidar.stereo_yaw_rad -
+                           rectificationChange(window.front()->T_right_left_used, T_rl_new).phi.y();
+      const Eigen::Matrix3d E = expSO3(Eigen::Vector3d(0, delta, 0));
+      T_rl_new.linear() = E * T_rl_new.linear();
+      T_rl_new.translation() =
+          E * T_rl_new.translation().normalized() * T_right_left_init.translation().norm();
+      ++res.yaw_handovers;
+      if (debug)
+        std::fprintf(stderr,
+                     "co round %d: LiDAR-stereo yaw %.4f deg (last round %.4f): right camera turned "
+                     "by %.4f deg, starting again from the initial LiDAR extrinsic\n",
+                     res.rounds, res.lidar.stereo_yaw_rad * kDegPerRad, last_yaw_gap,
+                     delta * kDegPerRad);
+      T_cl = T_cam_lidar_init;
+      res.lidar.converged = false;
+      res.lidar.T_cam_lidar = T_cl;
+      res.stereo.T_right_left = T_rl = T_rl_new;
+      lidar_accepted = lidar_settled = lidar_converged = false;
+      last_yaw_gap = std::numeric_limits<double>::infinity();
+      prev_step = std::numeric_limits<double>::infinity();
+      history.clear();
+      continue;
+    }
+    last_yaw_gap = yaw_gap;
     lidar_accepted = true;
+    lidar_settled = res.lidar.converged;
     lidar_converged = lidar_converged || res.lidar.converged;
     lidar_yaw = res.lidar.stereo_yaw_rad;
     lidar_yaw_clouds = window.front()->T_right_left_used;

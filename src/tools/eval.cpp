@@ -264,7 +264,9 @@ struct Trial {
   Matrix6d lidar_cov_model = Matrix6d::Constant(std::nan(""));
   int window_index = 0;
   double preprocess = 0, solve = 0;
-  int iterations = 0;
+  int iterations = 0;        ///< solver iterations; co/joint: rounds
+  int rematches = -1;        ///< co/joint: keyframe clouds matched again (SGBM)
+  std::vector<std::pair<std::string, double>> stage_seconds;  ///< co/joint: time per solve stage
   std::vector<Eigen::Vector2d> brightness;  ///< stereo mode: per keyframe (a, b)
   std::string message;
 };
@@ -442,6 +444,10 @@ int main(int argc, char** argv) {
       }
       tr.converged = r.converged;
       tr.iterations = r.rounds;
+      tr.rematches = r.rematches;
+      tr.stage_seconds = {{"photometric", r.seconds_photometric},
+                          {"stereo_cloud", r.seconds_stereo_cloud},
+                          {"lidar_stereo", r.seconds_lidar}};
       tr.lidar.cov = r.lidar.covariance;
       tr.lidar.cov_stat = r.lidar.covariance_statistical;
       tr.lidar.bias = r.lidar.bias_sensitivity;
@@ -639,9 +645,12 @@ int main(int argc, char** argv) {
       }
       js << ", \"nees\": " << (std::isfinite(tr.nees) ? tr.nees : -1.0)
          << ", \"nees_model\": " << (std::isfinite(tr.nees_model) ? tr.nees_model : -1.0)
-         << ", \"seconds\": {\"preprocess\": " << tr.preprocess << ", \"solve\": " << tr.solve
-         << ", \"total\": " << tr.preprocess + tr.solve << "}}"
-         << (i + 1 < trials.size() ? ",\n" : "\n");
+         << ", \"iterations\": " << tr.iterations;
+      if (tr.rematches >= 0) js << ", \"rematches\": " << tr.rematches;
+      js << ", \"seconds\": {\"preprocess\": " << tr.preprocess << ", \"solve\": " << tr.solve
+         << ", \"total\": " << tr.preprocess + tr.solve;
+      for (const auto& [stage, sec] : tr.stage_seconds) js << ", \"" << stage << "\": " << sec;
+      js << "}}" << (i + 1 < trials.size() ? ",\n" : "\n");
     }
     js << "], \"summary\": {" << summary_json.str()
        << "\"success_rate\": " << double(ok_all) / trials.size()
