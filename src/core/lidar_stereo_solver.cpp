@@ -387,18 +387,20 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
           res.covariance = floor;
           break;
         }
-      const Matrix6d& statistical = res.covariance_statistical = res.covariance;
+      res.covariance_statistical = res.covariance;
       // Model error that more data does not average away (calibrated on generated drives, see
       // the README): common biases through this window's sensitivity to them, and a floor per axis.
       const auto& h = res.bias_sensitivity;
       res.covariance += std::pow(s.model_sigma_disparity_px, 2) * h.col(0) * h.col(0).transpose() +
                         std::pow(s.model_sigma_range_m, 2) * h.col(1) * h.col(1).transpose();
+      // What the window constrains: the statistical part and the common biases through this
+      // window's sensitivity (a weakly constrained axis is the one they move furthest: the
+      // highway's optical axis), without the scene-independent floor.
+      const Matrix6d constrained = res.covariance;
       addAxisVariances(&res.covariance, s.model_sigma_rot_deg, s.model_sigma_trans_m);
       all_observable = true;
       for (int i = 0; i < 6; ++i) {
-        // What the window constrains: the statistical part (the model error is the same
-        // whatever the scene).
-        const double sigma = std::sqrt(statistical(i, i));
+        const double sigma = std::sqrt(constrained(i, i));
         const double limit = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
         res.observable[i] = sigma < limit;
         all_observable = all_observable && res.observable[i];

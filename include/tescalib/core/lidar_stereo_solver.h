@@ -58,7 +58,9 @@ struct LidarStereoSettings {
   double fine_settle_rot_deg = 1e-3;  ///< the fine stage has settled below this update
   double fine_settle_trans_m = 3e-4;
   int min_inliers = 300;
-  double max_sigma_rot_deg = 0.1;  ///< an axis looser than this (1 sigma) is unconstrained
+  /// An axis whose sigma is looser than this (1 sigma; the statistical part plus the common
+  /// biases through this window's sensitivity, without the per-axis floor) is unconstrained.
+  double max_sigma_rot_deg = 0.1;
   double max_sigma_trans_m = 0.01;
   // Covariance: clusters of the sandwich estimator (image cells per keyframe), and the model
   // error added to it (errors shared by the whole window, which no residual statistic sees):
@@ -99,15 +101,16 @@ struct LidarStereoResult {
   Matrix6d covariance = Matrix6d::Identity();
   /// The paper's eq. residual_uncertainty, information^-1 (independent residuals assumed).
   Matrix6d covariance_model = Matrix6d::Identity();
-  /// `covariance` without the model error: what this window's residuals constrain (the per-axis
-  /// `observable` flags and scene comparisons use it).
+  /// `covariance` without the model error: what this window's residuals alone constrain (scene
+  /// comparisons use it; the `observable` flags add the bias terms, see max_sigma_*).
   Matrix6d covariance_statistical = Matrix6d::Identity();
   /// How window-common measurement biases move the estimate ([phi; tau] per unit bias, the
   /// nuisance parameters marginalised): column 0 per px of disparity offset of every stereo
   /// point, column 1 per m of range offset of every LiDAR point. The published covariance adds
   /// h h^T sigma_b^2 for each (LidarStereoSettings::model_sigma_disparity_px, _range_m).
   Eigen::Matrix<double, 6, 2> bias_sensitivity = Eigen::Matrix<double, 6, 2>::Zero();
-  bool observable[6] = {false, false, false, false, false, false};  ///< per axis
+  /// Per axis: constrained within max_sigma_* (false: do not trust this axis of the estimate).
+  bool observable[6] = {false, false, false, false, false, false};
   double seconds_coarse = 0, seconds_fine = 0;
   std::string message;  ///< why it did not converge, when it did not
 };
