@@ -13,6 +13,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_DOUBLE_EQ(p.online.keyframe_min_dt, 0.5);
   EXPECT_EQ(p.initial_tf_camera_frame, "camera_color_left");
   EXPECT_EQ(p.left_frame, "tescalib_left");
+  EXPECT_DOUBLE_EQ(p.online.co.yaw_handover_deg, 0.2);
 }
 
 TEST(Params, InvalidValuesAreNamed) {
@@ -20,11 +21,13 @@ TEST(Params, InvalidValuesAreNamed) {
   pnh.setParam("stereo/num_disparities", 100);
   pnh.setParam("window/size", 0);
   pnh.setParam("initial/T_cam_lidar", std::vector<double>{1, 2, 3});
+  pnh.setParam("co_calibration/yaw_handover_deg", 0.0);
   tescalib::NodeParams p;
   std::string error;
   EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
   EXPECT_NE(error.find("stereo/num_disparities"), std::string::npos) << error;
   EXPECT_NE(error.find("window/size"), std::string::npos) << error;
+  EXPECT_NE(error.find("co_calibration/yaw_handover_deg"), std::string::npos) << error;
   EXPECT_NE(error.find("initial/T_cam_lidar must be [x, y, z, qx, qy, qz, qw] (7 values, got 3)"),
             std::string::npos)
       << error;

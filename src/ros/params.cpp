@@ -32,6 +32,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "co_calibration/lidar_first", &p->online.lidar_first);
   get(pnh, "co_calibration/free_depth_rounds", &p->online.co.free_depth_rounds);
   get(pnh, "co_calibration/rematch_deg", &p->online.co.rematch_deg);
+  get(pnh, "co_calibration/yaw_handover_deg", &p->online.co.yaw_handover_deg);
   get(pnh, "stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
   get(pnh, "stereo/block_size", &p->online.keyframe.stereo.block_size);
   get(pnh, "stereo/max_depth", &p->online.keyframe.stereo.max_depth);
@@ -88,6 +89,8 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.warm_co_rounds < 1) e << "co_calibration/warm_co_rounds must be >= 1; ";
   if (o.co.free_depth_rounds < 0) e << "co_calibration/free_depth_rounds must be >= 0; ";
   if (o.co.rematch_deg == 0) e << "co_calibration/rematch_deg must be > 0 (< 0: always match); ";
+  if (o.co.yaw_handover_deg == 0)
+    e << "co_calibration/yaw_handover_deg must be > 0 (< 0: never hand over); ";
   if (o.co.stereo.pyramid_levels < 1 || o.co.stereo.pyramid_levels > 5)
     e << "photometric/pyramid_levels must be in [1, 5]; ";
   if (!p.initial_T_cam_lidar.empty() && p.initial_T_cam_lidar.size() != 7)
