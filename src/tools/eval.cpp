@@ -266,6 +266,7 @@ struct Trial {
   double preprocess = 0, solve = 0;
   int iterations = 0;        ///< solver iterations; co/joint: rounds
   int rematches = -1;        ///< co/joint: keyframe clouds matched again (SGBM)
+  int yaw_handovers = -1;    ///< co: restarts at the LiDAR-stereo yaw (CoCalibrationResult)
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< co/joint: time per solve stage
   std::vector<Eigen::Vector2d> brightness;  ///< stereo mode: per keyframe (a, b)
   std::string message;
@@ -445,6 +446,7 @@ int main(int argc, char** argv) {
       tr.converged = r.converged;
       tr.iterations = r.rounds;
       tr.rematches = r.rematches;
+      tr.yaw_handovers = r.yaw_handovers;
       tr.stage_seconds = {{"photometric", r.seconds_photometric},
                           {"stereo_cloud", r.seconds_stereo_cloud},
                           {"lidar_stereo", r.seconds_lidar}};
@@ -647,6 +649,7 @@ int main(int argc, char** argv) {
          << ", \"nees_model\": " << (std::isfinite(tr.nees_model) ? tr.nees_model : -1.0)
          << ", \"iterations\": " << tr.iterations;
       if (tr.rematches >= 0) js << ", \"rematches\": " << tr.rematches;
+      if (tr.yaw_handovers >= 0) js << ", \"yaw_handovers\": " << tr.yaw_handovers;
       js << ", \"seconds\": {\"preprocess\": " << tr.preprocess << ", \"solve\": " << tr.solve
          << ", \"total\": " << tr.preprocess + tr.solve;
       for (const auto& [stage, sec] : tr.stage_seconds) js << ", \"" << stage << "\": " << sec;
