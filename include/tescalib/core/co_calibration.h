@@ -92,7 +92,7 @@ struct CoCalibrationSettings {
   /// Per-axis model error added to the final covariances (camera axes, 1 sigma): each solve's
   /// covariance is conditional on the other extrinsic being exact, and in the alternation the
   /// stereo baseline length and yaw follow the LiDAR depth. Calibrated like the solvers' own terms
-  /// (README, "Co-calibration"); the observability flags stay with the solvers' statistical part.
+  /// (README, "Co-calibration"); the observability flags do not use it (they stay the solvers').
   std::array<double, 3> model_sigma_lidar_rot_deg = {0.0187, 0.0063, 0.0186};
   std::array<double, 3> model_sigma_lidar_trans_m = {0.0019, 0.0019, 0.00275};
   std::array<double, 3> model_sigma_stereo_rot_deg = {0.0, 0.0010, 0.0};
