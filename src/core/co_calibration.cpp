@@ -162,6 +162,16 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   double last_yaw_gap = std::numeric_limits<double>::infinity();
   double lidar_yaw = 0;             // its clouds' yaw nuisance, relative to lidar_yaw_clouds
   Eigen::Isometry3d lidar_yaw_clouds = Eigen::Isometry3d::Identity();
+  // A round whose LiDAR-stereo estimate is not taken: the next one starts from these estimates,
+  // and the stability criterion and the extrapolation start afresh.
+  auto continueFrom = [&](const Eigen::Isometry3d& cl, const Eigen::Isometry3d& rl) {
+    T_cl = cl, T_rl = rl;
+    res.lidar.converged = false;
+    res.lidar.T_cam_lidar = T_cl;
+    res.stereo.T_right_left = T_rl;
+    prev_step = std::numeric_limits<double>::infinity();
+    history.clear();
+  };
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
     const bool warm = s.warm_start && (res.rounds > 1 || s.warm_first_round);
     Eigen::Isometry3d T_rl_new = T_rl;
@@ -244,11 +254,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
                      res.rounds, from_init.head<3>().norm() * kDegPerRad,
                      from_init.tail<3>().norm());
       free_depth_done = true;
-      res.lidar.converged = false;
-      res.lidar.T_cam_lidar = T_cl;
-      res.stereo.T_right_left = T_rl;
-      prev_step = std::numeric_limits<double>::infinity();
-      history.clear();
+      continueFrom(T_cl, T_rl);
       continue;
     }
     const double yaw_gap = std::fabs(res.lidar.stereo_yaw_rad) * kDegPerRad;
@@ -272,14 +278,9 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
                      "by %.4f deg, starting again from the initial LiDAR extrinsic\n",
                      res.rounds, res.lidar.stereo_yaw_rad * kDegPerRad, last_yaw_gap,
                      delta * kDegPerRad);
-      T_cl = T_cam_lidar_init;
-      res.lidar.converged = false;
-      res.lidar.T_cam_lidar = T_cl;
-      res.stereo.T_right_left = T_rl = T_rl_new;
+      continueFrom(T_cam_lidar_init, T_rl_new);
       lidar_accepted = lidar_settled = lidar_converged = false;
       last_yaw_gap = std::numeric_limits<double>::infinity();
-      prev_step = std::numeric_limits<double>::infinity();
-      history.clear();
       continue;
     }
     last_yaw_gap = yaw_gap;
