@@ -112,8 +112,20 @@ TEST(OnlineCalibratorReal, PublishesOnlyTrustworthyEstimates) {
   // and z is ~1.1 cm, above the default 1 cm trust limit. This test is about the never-worse
   // rule, so it accepts axes up to 2 cm.
   settings.co.lidar.max_sigma_trans_m = 0.02;
-  OnlineCalibrator cal(rig, settings);
   std::string msg;
+  {
+    // Even so, the split-window check sees that the window's two halves (sequences 04+05 and
+    // 06+07) disagree far beyond their covariances, scales the covariance and publishes nothing.
+    OnlineCalibrator checked(rig, settings);
+    for (const auto& f : frames)
+      ASSERT_EQ(checked.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+    EXPECT_FALSE(checked.solve(&msg));
+    EXPECT_NE(msg.find("halves disagree"), std::string::npos) << msg;
+    EXPECT_FALSE(checked.estimate().has_value());
+  }
+  // Without the check, the first estimate is published.
+  settings.co.lidar.check_window_halves = false;
+  OnlineCalibrator cal(rig, settings);
   for (const auto& f : frames)
     ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
   ASSERT_TRUE(cal.solve(&msg)) << msg;

@@ -14,6 +14,8 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_EQ(p.initial_tf_camera_frame, "camera_color_left");
   EXPECT_EQ(p.left_frame, "tescalib_left");
   EXPECT_DOUBLE_EQ(p.online.co.yaw_handover_deg, 0.2);
+  EXPECT_TRUE(p.online.co.lidar.check_window_halves);
+  EXPECT_DOUBLE_EQ(p.online.co.lidar.halves_chi2_limit, 22.46);
 }
 
 TEST(Params, InvalidValuesAreNamed) {
@@ -22,12 +24,14 @@ TEST(Params, InvalidValuesAreNamed) {
   pnh.setParam("window/size", 0);
   pnh.setParam("initial/T_cam_lidar", std::vector<double>{1, 2, 3});
   pnh.setParam("co_calibration/yaw_handover_deg", 0.0);
+  pnh.setParam("lidar_stereo/halves_chi2_limit", -1.0);
   tescalib::NodeParams p;
   std::string error;
   EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
   EXPECT_NE(error.find("stereo/num_disparities"), std::string::npos) << error;
   EXPECT_NE(error.find("window/size"), std::string::npos) << error;
   EXPECT_NE(error.find("co_calibration/yaw_handover_deg"), std::string::npos) << error;
+  EXPECT_NE(error.find("lidar_stereo/halves_chi2_limit"), std::string::npos) << error;
   EXPECT_NE(error.find("initial/T_cam_lidar must be [x, y, z, qx, qy, qz, qw] (7 values, got 3)"),
             std::string::npos)
       << error;

@@ -73,6 +73,18 @@ std::vector<Keyframe> generatedWindow(Scenario scenario, int keyframes, uint64_t
   return kfs;
 }
 
+/// The keyframe with every stereo disparity `delta_px` larger (points moved accordingly).
+Keyframe withDisparityOffset(const Keyframe& in, double delta_px) {
+  Keyframe kf = in;
+  kf.stereo.disparity = in.stereo.disparity.clone();  // Keyframe copies share Mats
+  kf.stereo.disparity += delta_px;                    // NaN stays NaN
+  for (StereoPoint& p : kf.stereo.points) {
+    p.p *= p.disparity / (p.disparity + delta_px);
+    p.disparity += delta_px;
+  }
+  return kf;
+}
+
 }  // namespace
 
 TEST(StereoGenerated, RefinementRemovesTheRoadDisparityBias) {
@@ -161,14 +173,7 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
   for (int i = 0; i < o.frames; i += 5) {
     Frame f = sim.renderFrame(i);
     plain.push_back(makeKeyframe(f, rig, rig.T_cam_lidar, rig.T_right_left));
-    Keyframe kf = plain.back();
-    kf.stereo.disparity = plain.back().stereo.disparity.clone();  // Keyframe copies share Mats
-    kf.stereo.disparity += delta_px;                                // NaN stays NaN
-    for (StereoPoint& p : kf.stereo.points) {
-      p.p *= p.disparity / (p.disparity + delta_px);
-      p.disparity += delta_px;
-    }
-    shifted.push_back(std::move(kf));
+    shifted.push_back(withDisparityOffset(plain.back(), delta_px));
     for (LidarPoint& p : f.scan) {
       const double r = std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z);
       const float k = static_cast<float>((r + delta_m) / r);
@@ -210,6 +215,53 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
       EXPECT_GT(cosine, 0.9) << names[b] << " " << part;
     }
   }
+}
+
+TEST(LidarStereoGenerated, WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow) {
+  // The split-window check: on a generated window the two halves agree within their covariances;
+  // when the second half's stereo clouds carry a disparity offset the first half's do not (as if
+  // its images had been rectified differently: on real KITTI the sequences of one day disagree
+  // like this), the halves disagree beyond the limit, the covariance is scaled by the
+  // disagreement and the solve is no longer declared converged.
+  SimOptions o;
+  o.frames = 36;
+  o.seed = 3;
+  const Simulator sim(o);
+  const StereoRig& rig = sim.rig();
+  std::vector<Keyframe> plain, mixed;
+  for (int i = 0; i < o.frames; i += 5) {
+    plain.push_back(makeKeyframe(sim.renderFrame(i), rig, rig.T_cam_lidar, rig.T_right_left));
+    mixed.push_back(plain.size() <= 4 ? plain.back() : withDisparityOffset(plain.back(), 0.6));
+  }
+  auto solve = [&rig](const std::vector<Keyframe>& kfs) {
+    std::vector<const Keyframe*> window;
+    for (const auto& kf : kfs) window.push_back(&kf);
+    return solveLidarStereo(window, rig.T_cam_lidar);
+  };
+  const LidarStereoResult a = solve(plain), b = solve(mixed);
+  for (const LidarStereoResult* r : {&a, &b})
+    std::cout << "[ halves   ] " << (r == &a ? "plain" : "second half +0.6 px") << ": chi2 "
+              << r->halves.chi2 << ", covariance scale " << r->halves.covariance_scale
+              << ", converged " << r->converged << " " << r->message << "\n";
+  ASSERT_TRUE(a.halves.tested);
+  EXPECT_LT(a.halves.chi2, LidarStereoSettings().halves_chi2_limit);
+  EXPECT_EQ(a.halves.covariance_scale, 1.0);
+  EXPECT_TRUE(a.converged) << a.message;
+  ASSERT_TRUE(b.halves.tested);
+  EXPECT_GT(b.halves.chi2, LidarStereoSettings().halves_chi2_limit);
+  EXPECT_NEAR(b.halves.covariance_scale, b.halves.chi2 / 6.0, 1e-9);
+  EXPECT_FALSE(b.converged);
+  EXPECT_NE(b.message.find("halves disagree"), std::string::npos) << b.message;
+  // Without the check the same window is declared converged: it is the check that catches it.
+  LidarStereoSettings off;
+  off.check_window_halves = false;
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : mixed) window.push_back(&kf);
+  const LidarStereoResult c = solveLidarStereo(window, rig.T_cam_lidar, off);
+  EXPECT_FALSE(c.halves.tested);
+  EXPECT_TRUE(c.converged) << c.message;
+  EXPECT_LT((c.covariance - b.covariance / b.halves.covariance_scale).norm(),
+            1e-9 + 1e-6 * c.covariance.norm());
 }
 
 TEST(PhotometricGenerated, RecoversThePairAndTheExposureDifference) {

@@ -172,6 +172,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     prev_step = std::numeric_limits<double>::infinity();
     history.clear();
   };
+  LidarStereoSettings ls_last = s.lidar;  // the settings of the last LiDAR-stereo solve
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
     const bool warm = s.warm_start && (res.rounds > 1 || s.warm_first_round);
     Eigen::Isometry3d T_rl_new = T_rl;
@@ -219,6 +220,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     LidarStereoSettings ls = s.lidar;
     ls.disparity_sigma = s.stereo_cloud.disparity_sigma;
     ls.estimate_stereo_scale = true;
+    ls.check_window_halves = false;  // once, on the final estimate
     // The clouds' rectification yaw is a nuisance here: a yaw error of the right camera shifts
     // every disparity, which the LiDAR would otherwise absorb along the optical axis; the yaw
     // itself stays the photometric solver's (with a good LiDAR it is far more precise).
@@ -239,6 +241,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
                             .phi.y();
     }
     const auto t_l = Clock::now();
+    ls_last = ls;
     res.lidar = solveLidarStereo(cwin, T_cl, ls);
     res.seconds_lidar += secondsSince(t_l);
     // A LiDAR estimate implausibly far from the initial guess (the solver's own divergence
@@ -354,6 +357,14 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     }
   }
   res.rounds = std::min(res.rounds, s.max_rounds);
+  // The split-window check of the LiDAR-stereo noise model, on the final estimate (the clouds are
+  // still those the last solve used; also after an unstable run, for the online node's warm
+  // rounds, which take a converged LiDAR-stereo solve as it is).
+  if (res.lidar.converged && s.lidar.check_window_halves) {
+    const auto t_h = Clock::now();
+    checkWindowHalves(cwin, ls_last, &res.lidar);
+    res.seconds_lidar += secondsSince(t_h);
+  }
   addAxisVariances(&res.lidar.covariance, s.model_sigma_lidar_rot_deg, s.model_sigma_lidar_trans_m);
   addAxisVariances(&res.stereo.covariance, s.model_sigma_stereo_rot_deg,
                    s.model_sigma_stereo_trans_m);

@@ -121,6 +121,27 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
   return d;
 }
 
+/// Per-axis trust flags from the covariance of what the window constrains (statistical part and
+/// common biases, no floor); true when every axis is within max_sigma_*.
+bool trustFlags(const Matrix6d& constrained, const LidarStereoSettings& s, bool observable[6]) {
+  bool all = true;
+  for (int i = 0; i < 6; ++i) {
+    const double sigma = std::sqrt(constrained(i, i));
+    const double limit = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
+    observable[i] = sigma < limit;
+    all = all && observable[i];
+  }
+  return all;
+}
+
+/// The covariance of what the window constrains: the statistical part plus the common biases.
+Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {
+  const auto& h = r.bias_sensitivity;
+  return r.covariance_statistical +
+         std::pow(s.model_sigma_disparity_px, 2) * h.col(0) * h.col(0).transpose() +
+         std::pow(s.model_sigma_range_m, 2) * h.col(1) * h.col(1).transpose();
+}
+
 bool smallUpdate(const Vector6d& d, const LidarStereoSettings& s) {
   return d.head<3>().norm() * kDegPerRad < s.converge_rot_deg &&
          d.tail<3>().norm() < s.converge_trans_m;
@@ -307,6 +328,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   res.T_cam_lidar = T;
   res.stereo_scale = scale;
   res.stereo_yaw_rad = yaw;
+  res.settled = settled;
 
   // ---------------------------------------------------------------- information, honesty
   // Analytic Jacobian of r = (R m)^T (R q + t - s) / sigma at the estimate:
@@ -390,21 +412,12 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       res.covariance_statistical = res.covariance;
       // Model error that more data does not average away (calibrated on generated drives, see
       // the README): common biases through this window's sensitivity to them, and a floor per axis.
-      const auto& h = res.bias_sensitivity;
-      res.covariance += std::pow(s.model_sigma_disparity_px, 2) * h.col(0) * h.col(0).transpose() +
-                        std::pow(s.model_sigma_range_m, 2) * h.col(1) * h.col(1).transpose();
-      // What the window constrains: the statistical part and the common biases through this
-      // window's sensitivity (a weakly constrained axis is the one they move furthest: the
-      // highway's optical axis), without the scene-independent floor.
-      const Matrix6d constrained = res.covariance;
+      // What the window constrains is the statistical part and the common biases (a weakly
+      // constrained axis is the one they move furthest: the highway's optical axis), without
+      // the scene-independent floor.
+      res.covariance = constrainedCovariance(res, s);
+      all_observable = trustFlags(res.covariance, s, res.observable);
       addAxisVariances(&res.covariance, s.model_sigma_rot_deg, s.model_sigma_trans_m);
-      all_observable = true;
-      for (int i = 0; i < 6; ++i) {
-        const double sigma = std::sqrt(constrained(i, i));
-        const double limit = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
-        res.observable[i] = sigma < limit;
-        all_observable = all_observable && res.observable[i];
-      }
     } else {
       res.information = H.topLeftCorner<6, 6>();
       res.covariance = res.covariance_model = res.covariance_statistical =
@@ -425,7 +438,65 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.message = "the fine stage did not settle within its iteration budget";
   else
     res.converged = true;
+  if (res.converged && s.check_window_halves) checkWindowHalves(window, s, &res);
   return res;
+}
+
+void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarStereoSettings& s,
+                       LidarStereoResult* full) {
+  const auto t0 = Clock::now();
+  full->halves = LidarStereoResult::Halves();
+  const size_t half = window.size() / 2;
+  if (s.min_keyframes_per_half < 1 || half < static_cast<size_t>(s.min_keyframes_per_half))
+    return;
+  LidarStereoSettings hs = s;
+  hs.run_coarse = false;
+  hs.check_window_halves = false;
+  hs.initial_stereo_yaw_rad = full->stereo_yaw_rad;
+  // A half constrains less than the window: its fine stage may need longer to settle.
+  hs.fine_reassociations = 2 * s.fine_reassociations;
+  const std::vector<const Keyframe*> first(window.begin(), window.begin() + half),
+      second(window.begin() + half, window.end());
+  const LidarStereoResult a = solveLidarStereo(first, full->T_cam_lidar, hs);
+  const LidarStereoResult b = solveLidarStereo(second, full->T_cam_lidar, hs);
+  full->halves.seconds = secondsSince(t0);
+  if (a.fine_inliers < s.min_inliers || b.fine_inliers < s.min_inliers) return;
+  const Vector6d e = poseError(a.T_cam_lidar, b.T_cam_lidar);
+  const Matrix6d S = a.covariance + b.covariance;
+  const double chi2 = e.dot(S.ldlt().solve(e));
+  if (!std::isfinite(chi2)) return;
+  if (std::getenv("TESCALIB_DEBUG")) {
+    std::fprintf(stderr, "window halves: chi2 %.1f, difference rot [%.4f %.4f %.4f] deg, "
+                 "t [%.2f %.2f %.2f] cm\n", chi2, e[0] * kDegPerRad, e[1] * kDegPerRad,
+                 e[2] * kDegPerRad, e[3] * 100, e[4] * 100, e[5] * 100);
+    for (const LidarStereoResult* h : {&a, &b}) {
+      const Vector6d sd = h->covariance.diagonal().cwiseSqrt();
+      std::fprintf(stderr, "  half: settled %d, %d iterations, sigma rot [%.4f %.4f %.4f] deg, "
+                   "t [%.2f %.2f %.2f] cm\n", h->settled, h->iterations, sd[0] * kDegPerRad,
+                   sd[1] * kDegPerRad, sd[2] * kDegPerRad, sd[3] * 100, sd[4] * 100, sd[5] * 100);
+    }
+  }
+  full->halves.tested = true;
+  full->halves.chi2 = chi2;
+  full->halves.difference = e;
+  if (chi2 <= s.halves_chi2_limit) return;
+  // The halves disagree beyond what the covariances allow: the data hold an error the model
+  // does not know (on real KITTI, sequences of one day differ by 3-6 sigma). Scale the
+  // covariances by the observed disagreement (chi2 / DoF) and judge the axes again.
+  const double k = chi2 / 6.0;
+  full->halves.covariance_scale = k;
+  const Matrix6d constrained = k * constrainedCovariance(*full, s);
+  full->covariance *= k;
+  full->covariance_statistical *= k;
+  if (!trustFlags(constrained, s, full->observable) && full->converged) {
+    full->converged = false;
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "the window's two halves disagree (chi2 %.1f > %.1f, 6 DoF): covariance scaled "
+                  "by %.1f, and then the window does not constrain every axis",
+                  chi2, s.halves_chi2_limit, k);
+    full->message = buf;
+  }
 }
 
 }  // namespace tescalib

@@ -42,6 +42,8 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "lidar_stereo/normal_weight", &p->online.co.lidar.normal_weight);
   get(pnh, "lidar_stereo/lidar_range_sigma", &p->online.co.lidar.lidar_range_sigma);
   get(pnh, "lidar_stereo/max_depth", &p->online.co.lidar.max_depth);
+  get(pnh, "lidar_stereo/check_window_halves", &p->online.co.lidar.check_window_halves);
+  get(pnh, "lidar_stereo/halves_chi2_limit", &p->online.co.lidar.halves_chi2_limit);
   get(pnh, "photometric/pyramid_levels", &p->online.co.stereo.pyramid_levels);
   get(pnh, "photometric/huber", &p->online.co.stereo.huber);
   get(pnh, "initial/T_cam_lidar", &p->initial_T_cam_lidar);
@@ -91,6 +93,9 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.co.rematch_deg == 0) e << "co_calibration/rematch_deg must be > 0 (< 0: always match); ";
   if (o.co.yaw_handover_deg == 0)
     e << "co_calibration/yaw_handover_deg must be > 0 (< 0: never hand over); ";
+  if (!(o.co.lidar.halves_chi2_limit > 0))
+    e << "lidar_stereo/halves_chi2_limit must be > 0 (got " << o.co.lidar.halves_chi2_limit
+      << "); ";
   if (o.co.stereo.pyramid_levels < 1 || o.co.stereo.pyramid_levels > 5)
     e << "photometric/pyramid_levels must be in [1, 5]; ";
   if (!p.initial_T_cam_lidar.empty() && p.initial_T_cam_lidar.size() != 7)

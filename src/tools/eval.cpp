@@ -51,6 +51,7 @@ struct Args {
   double rematch_deg = 0;        ///< co: CoCalibrationSettings::rematch_deg; 0: the default
   double co_model_scale = -1;  ///< scales CoCalibrationSettings::model_sigma_*; -1: as is
   int stereo_yaw = -1;  ///< LiDAR-stereo estimates the right camera's yaw: 0/1; -1: the default
+  int check_halves = -1;  ///< LidarStereoSettings::check_window_halves: 0/1; -1: the default
   double cov_model_scale = -1;             ///< scales the solver's model-error sigmas (0: none)
   std::string windows = "first";  ///< first: the first W keyframes; disjoint: every W in turn
 };
@@ -65,6 +66,7 @@ void usage() {
          "         [--windows first|disjoint] [--cov-cells XxY] [--cov-model-scale K] "
          "[--first-trial K]\n"
          "         [--co-model-scale K] [--smooth-keypoints PX] [--stereo-yaw 0|1]\n"
+         "         [--check-halves 0|1]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
@@ -88,7 +90,9 @@ void usage() {
          "direction) from its last matches, re-triangulates below (< 0: always matches again).\n"
          "--stereo-yaw 0|1: the LiDAR-stereo solve also estimates the right camera's yaw relative\n"
          "to the clouds' rectification (a disparity offset; LidarStereoSettings::\n"
-         "estimate_stereo_yaw, co: CoCalibrationSettings::lidar_estimates_stereo_yaw).\n";
+         "estimate_stereo_yaw, co: CoCalibrationSettings::lidar_estimates_stereo_yaw).\n"
+         "--check-halves 0|1: the split-window check of the LiDAR-stereo noise model after a\n"
+         "converged solve (LidarStereoSettings::check_window_halves; on by default).\n";
 }
 
 std::vector<std::string> split(const std::string& s, char sep) {
@@ -164,6 +168,8 @@ bool parse(int argc, char** argv, Args* a) {
         a->co_model_scale = std::stod(v);
       else if (k == "--stereo-yaw")
         a->stereo_yaw = std::stoi(v);
+      else if (k == "--check-halves")
+        a->check_halves = std::stoi(v);
       else {
         std::cerr << "tescalib_eval: unknown option " << k << "\n";
         return false;
@@ -267,6 +273,7 @@ struct Trial {
   int iterations = 0;        ///< solver iterations; co/joint: rounds
   int rematches = -1;        ///< co/joint: keyframe clouds matched again (SGBM)
   int yaw_handovers = -1;    ///< co: restarts at the LiDAR-stereo yaw (CoCalibrationResult)
+  LidarStereoResult::Halves halves;  ///< the LiDAR-stereo split-window check
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< co/joint: time per solve stage
   std::vector<Eigen::Vector2d> brightness;  ///< stereo mode: per keyframe (a, b)
   std::string message;
@@ -358,6 +365,7 @@ int main(int argc, char** argv) {
   solver_settings.run_fine = args.stages.find("fine") != std::string::npos;
   if (args.cov_cells_x > 0) solver_settings.cov_cells_x = args.cov_cells_x;
   if (args.stereo_yaw >= 0) solver_settings.estimate_stereo_yaw = args.stereo_yaw > 0;
+  if (args.check_halves >= 0) solver_settings.check_window_halves = args.check_halves > 0;
   if (args.cov_cells_y > 0) solver_settings.cov_cells_y = args.cov_cells_y;
   if (args.cov_model_scale >= 0) {
     for (double& v : solver_settings.model_sigma_rot_deg) v *= args.cov_model_scale;
@@ -420,6 +428,7 @@ int main(int argc, char** argv) {
       cs.lidar.model_sigma_trans_m = solver_settings.model_sigma_trans_m;
       cs.lidar.model_sigma_disparity_px = solver_settings.model_sigma_disparity_px;
       cs.lidar.model_sigma_range_m = solver_settings.model_sigma_range_m;
+      cs.lidar.check_window_halves = solver_settings.check_window_halves;
       if (args.smooth_keypoints_px >= 0)
         cs.stereo.smooth_depth_radius_px = args.smooth_keypoints_px;
       if (args.depth_prior >= 0) cs.free_depth_prior_sigma = args.depth_prior;
@@ -447,6 +456,7 @@ int main(int argc, char** argv) {
       tr.iterations = r.rounds;
       tr.rematches = r.rematches;
       tr.yaw_handovers = r.yaw_handovers;
+      tr.halves = r.lidar.halves;
       tr.stage_seconds = {{"photometric", r.seconds_photometric},
                           {"stereo_cloud", r.seconds_stereo_cloud},
                           {"lidar_stereo", r.seconds_lidar}};
@@ -479,6 +489,7 @@ int main(int argc, char** argv) {
       tr.lidar.cov_stat = r.covariance_statistical;
       tr.lidar.bias = r.bias_sensitivity;
       tr.lidar_cov_model = r.covariance_model;
+      tr.halves = r.halves;
       tr.message = r.message;
     } else {
       const GicpBaselineResult r = solveGicpBaseline(window, T_init);
@@ -622,6 +633,19 @@ int main(int argc, char** argv) {
   if (std::isfinite(mean_nees_model))
     std::printf("  mean NEES with the paper's covariance alone (eq. residual_uncertainty): %.2f\n",
                 mean_nees_model);
+  {
+    std::vector<double> chi2;
+    int beyond = 0;
+    for (const auto& tr : trials)
+      if (tr.halves.tested) {
+        chi2.push_back(tr.halves.chi2);
+        beyond += tr.halves.covariance_scale > 1.0;
+      }
+    if (!chi2.empty())
+      std::printf("  split-window check: %zu of %zu trials tested, median chi2 %.1f (6 DoF), %d "
+                  "beyond the limit (covariance scaled)\n",
+                  chi2.size(), trials.size(), median(chi2), beyond);
+  }
 
   if (!args.json.empty()) {
     std::ofstream js(args.json);
@@ -650,6 +674,10 @@ int main(int argc, char** argv) {
          << ", \"iterations\": " << tr.iterations;
       if (tr.rematches >= 0) js << ", \"rematches\": " << tr.rematches;
       if (tr.yaw_handovers >= 0) js << ", \"yaw_handovers\": " << tr.yaw_handovers;
+      if (tr.halves.tested)
+        js << ", \"halves\": {\"chi2\": " << tr.halves.chi2
+           << ", \"covariance_scale\": " << tr.halves.covariance_scale
+           << ", \"seconds\": " << tr.halves.seconds << "}";
       js << ", \"seconds\": {\"preprocess\": " << tr.preprocess << ", \"solve\": " << tr.solve
          << ", \"total\": " << tr.preprocess + tr.solve;
       for (const auto& [stage, sec] : tr.stage_seconds) js << ", \"" << stage << "\": " << sec;

@@ -78,6 +78,15 @@ struct LidarStereoSettings {
   std::array<double, 3> model_sigma_trans_m = {0.0021, 0.00105, 0.00455};
   double max_correction_rot_deg = 25.0;  ///< a larger correction from the start is divergence
   double max_correction_trans_m = 2.5;
+  /// Split-window check of the noise model (checkWindowHalves), run after a converged solve:
+  /// the first and the second half of the window (at least `min_keyframes_per_half` keyframes
+  /// each) are solved again on their own, fine stage only, from the estimate; when their
+  /// difference is beyond `halves_chi2_limit` (chi-square, 6 DoF, of their summed covariances;
+  /// 22.46 is the 99.9 % quantile) the data hold an error the model does not explain, and the
+  /// covariance is scaled by chi2 / 6 (the trust flags are evaluated again with it).
+  bool check_window_halves = true;
+  int min_keyframes_per_half = 2;
+  double halves_chi2_limit = 22.46;
   int threads = 2;
 };
 
@@ -85,6 +94,7 @@ struct LidarStereoResult {
   Eigen::Isometry3d T_cam_lidar = Eigen::Isometry3d::Identity();  ///< estimate
   Eigen::Isometry3d T_after_coarse = Eigen::Isometry3d::Identity();
   bool converged = false;  ///< fine stage settled, enough inliers, every axis constrained
+  bool settled = false;    ///< the fine stage settled (its updates fell below fine_settle_*)
   int iterations = 0;      ///< re-associations, coarse + fine
   double final_cost = 0;   ///< mean squared normalised fine residual (Huber-weighted)
   int coarse_inliers = 0;  ///< associations in the last coarse solve
@@ -112,6 +122,15 @@ struct LidarStereoResult {
   /// Per axis: constrained within max_sigma_* (false: do not trust this axis of the estimate).
   bool observable[6] = {false, false, false, false, false, false};
   double seconds_coarse = 0, seconds_fine = 0;
+  /// The split-window check (LidarStereoSettings::check_window_halves; `tested` false when it
+  /// did not run: check off, solve not converged, or too few keyframes).
+  struct Halves {
+    bool tested = false;
+    double chi2 = 0;                ///< (x_a - x_b)^T (P_a + P_b)^-1 (x_a - x_b), 6 DoF
+    double covariance_scale = 1.0;  ///< applied to the covariances (1: consistent)
+    Vector6d difference = Vector6d::Zero();  ///< first half's estimate minus the second's
+    double seconds = 0;
+  } halves;
   std::string message;  ///< why it did not converge, when it did not
 };
 
@@ -125,5 +144,15 @@ double lidarVarianceAlong(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_
 LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                                    const Eigen::Isometry3d& T_init,
                                    const LidarStereoSettings& settings = {});
+
+/// The split-window check on a solve of `window` (`full`, with the settings it was solved with):
+/// solves each half again (fine stage only, from `full`'s estimate, stereo scale and yaw) and
+/// compares the two estimates against their summed covariances (a half that did not settle within
+/// twice the fine stage's budget still counts: its last updates are far below its sigma). Within the limit the result is
+/// unchanged apart from `halves`; beyond it every covariance of the result is scaled by chi2 / 6,
+/// the trust flags are evaluated again, and a solve that loses one is no longer converged.
+/// Real KITTI windows fail it (sequences of one day disagree by 3-6 sigma), generated ones pass.
+void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarStereoSettings& settings,
+                       LidarStereoResult* full);
 
 }  // namespace tescalib
