@@ -324,13 +324,11 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
       T_rl.translation().norm() / window.front()->T_right_left_used.translation().norm();
   res.stereo.T_right_left = T_rl;
   for (size_t k = 0; k < window.size(); ++k) res.stereo.brightness[k] = {ab[k][0], ab[k][1]};
-  bool all = true;
+  bool all = trustFlags(res.lidar.covariance, ls, res.lidar.observable);
   for (int i = 0; i < 6; ++i) {
-    res.lidar.observable[i] = std::sqrt(res.lidar.covariance(i, i)) <
-                              (i < 3 ? ls.max_sigma_rot_deg / kDegPerRad : ls.max_sigma_trans_m);
     res.stereo.observable[i] = std::sqrt(res.stereo.covariance(i, i)) <
                                (i < 3 ? ps.max_sigma_rot_deg / kDegPerRad : ps.max_sigma_trans_m);
-    all = all && res.lidar.observable[i] && res.stereo.observable[i];
+    all = all && res.stereo.observable[i];
   }
   const Vector6d corr_l = poseError(T_cl, T_cam_lidar_init);
   const Vector6d corr_s = poseError(T_rl, T_right_left_init);

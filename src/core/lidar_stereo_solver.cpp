@@ -121,19 +121,6 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
   return d;
 }
 
-/// Per-axis trust flags from the covariance of what the window constrains (statistical part and
-/// common biases, no floor); true when every axis is within max_sigma_*.
-bool trustFlags(const Matrix6d& constrained, const LidarStereoSettings& s, bool observable[6]) {
-  bool all = true;
-  for (int i = 0; i < 6; ++i) {
-    const double sigma = std::sqrt(constrained(i, i));
-    const double limit = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
-    observable[i] = sigma < limit;
-    all = all && observable[i];
-  }
-  return all;
-}
-
 /// The covariance of what the window constrains: the statistical part plus the common biases.
 Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {
   const auto& h = r.bias_sensitivity;
@@ -148,6 +135,17 @@ bool smallUpdate(const Vector6d& d, const LidarStereoSettings& s) {
 }
 
 }  // namespace
+
+bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& s, bool observable[6]) {
+  bool all = true;
+  for (int i = 0; i < 6; ++i) {
+    const double sigma = std::sqrt(covariance(i, i));
+    const double limit = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
+    observable[i] = sigma < limit;
+    all = all && observable[i];
+  }
+  return all;
+}
 
 // Variance of a LiDAR point along unit normal n (camera frame), eq. lidar_noise projected:
 // range noise along the beam, beam-direction noise (times the range) across it.

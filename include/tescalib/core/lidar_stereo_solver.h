@@ -145,12 +145,18 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                                    const Eigen::Isometry3d& T_init,
                                    const LidarStereoSettings& settings = {});
 
+/// Per-axis trust flags (LidarStereoResult::observable) from a covariance over [phi; tau]: an
+/// axis is trusted when its sigma is within settings.max_sigma_*; true when every axis is.
+bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& settings,
+                bool observable[6]);
+
 /// The split-window check on a solve of `window` (`full`, with the settings it was solved with):
 /// solves each half again (fine stage only, from `full`'s estimate, stereo scale and yaw) and
-/// compares the two estimates against their summed covariances (a half that did not settle within
-/// twice the fine stage's budget still counts: its last updates are far below its sigma). Within the limit the result is
-/// unchanged apart from `halves`; beyond it every covariance of the result is scaled by chi2 / 6,
-/// the trust flags are evaluated again, and a solve that loses one is no longer converged.
+/// compares the two estimates against their summed covariances (a half that did not settle
+/// within twice the fine stage's budget still counts: its last updates are far below its sigma).
+/// Within the limit the result is unchanged apart from `halves`; beyond it `covariance` and
+/// `covariance_statistical` are scaled by chi2 / 6 (`covariance_model`, the paper's formula, is
+/// kept), the trust flags are evaluated again, and a solve that loses one is no longer converged.
 /// Real KITTI windows fail it (sequences of one day disagree by 3-6 sigma), generated ones pass.
 void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarStereoSettings& settings,
                        LidarStereoResult* full);
