@@ -142,6 +142,14 @@ TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
     EXPECT_GE(r.lidar.covariance(3 + i, 3 + i), std::pow(s.model_sigma_lidar_trans_m[i], 2));
     EXPECT_GE(r.stereo.covariance(i, i), std::pow(s.model_sigma_stereo_rot_deg[i] / kDegPerRad, 2));
   }
+  // The baseline length is the LiDAR-stereo solve's stereo scale: its variance is in the stereo
+  // covariance along the baseline (on top of the per-axis model error).
+  EXPECT_GT(r.lidar.stereo_scale_variance, 0.0);
+  EXPECT_LT(std::sqrt(r.lidar.stereo_scale_variance), 0.01);
+  const Eigen::Vector3d t = r.stereo.T_right_left.translation();
+  EXPECT_GE(t.dot(r.stereo.covariance.bottomRightCorner<3, 3>() * t) / t.squaredNorm(),
+            r.lidar.stereo_scale_variance * t.squaredNorm() +
+                std::pow(s.model_sigma_stereo_trans_m[0], 2) * 0.99);
   for (int i = 0; i < 6; ++i) {
     EXPECT_LT(std::fabs(el[i]), 3 * std::sqrt(r.lidar.covariance(i, i))) << "LiDAR axis " << i;
     EXPECT_LT(std::fabs(es[i]), 3 * std::sqrt(r.stereo.covariance(i, i))) << "stereo axis " << i;

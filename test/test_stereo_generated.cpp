@@ -264,6 +264,39 @@ TEST(LidarStereoGenerated, WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow) {
             1e-9 + 1e-6 * c.covariance.norm());
 }
 
+TEST(LidarStereoGenerated, StereoScaleAndItsVarianceFindABaselineError) {
+  // Clouds triangulated with a baseline 1 % too long: with the stereo scale free (as
+  // co-calibration runs the solver) the scale comes out 1 / 1.01 within its own sigma, which the
+  // result reports (co-calibration puts it into the left-right covariance along the baseline);
+  // with the scale held at 1 the variance is 0.
+  SimOptions o;
+  o.frames = 26;
+  o.seed = 3;
+  const Simulator sim(o);
+  const StereoRig& rig = sim.rig();
+  std::vector<Keyframe> kfs;
+  for (int i = 0; i < o.frames; i += 5) {
+    kfs.push_back(makeKeyframe(sim.renderFrame(i), rig, rig.T_cam_lidar, rig.T_right_left));
+    for (StereoPoint& p : kfs.back().stereo.points) p.p *= 1.01f;
+    kfs.back().stereo.baseline *= 1.01;
+  }
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : kfs) window.push_back(&kf);
+  LidarStereoSettings free_scale;
+  free_scale.estimate_stereo_scale = true;
+  const LidarStereoResult r = solveLidarStereo(window, rig.T_cam_lidar, free_scale);
+  const double sigma = std::sqrt(r.stereo_scale_variance);
+  std::cout << "[ scale    ] stereo scale " << r.stereo_scale << " (truth " << 1 / 1.01
+            << "), sigma " << sigma << ", " << r.message << "\n";
+  EXPECT_TRUE(r.converged) << r.message;
+  EXPECT_GT(sigma, 1e-4);
+  EXPECT_LT(sigma, 3e-3);
+  EXPECT_LT(std::fabs(r.stereo_scale - 1 / 1.01), 3 * sigma);
+  const LidarStereoResult fixed = solveLidarStereo(window, rig.T_cam_lidar);
+  EXPECT_EQ(fixed.stereo_scale, 1.0);
+  EXPECT_EQ(fixed.stereo_scale_variance, 0.0);
+}
+
 TEST(PhotometricGenerated, RecoversThePairAndTheExposureDifference) {
   // The generator renders right = 0.9 x left + 8 (before noise): the brightness estimate must say
   // so, and T_right_left must come back from 1 deg / 10 cm.
@@ -294,6 +327,54 @@ TEST(PhotometricGenerated, RecoversThePairAndTheExposureDifference) {
               << "), offset " << ab.y() << " (true " << offset << ")\n";
     EXPECT_NEAR(std::exp(ab.x()), gain, 0.02);
     EXPECT_NEAR(ab.y(), offset, 2.0);
+  }
+}
+
+TEST(PhotometricGenerated, LidarSensitivityPredictsHowALidarErrorMovesTheEstimate) {
+  // The left-right estimate stands on the LiDAR depth: its covariance is conditional on the LiDAR
+  // extrinsic. The first-order sensitivity the solver reports must predict how the estimate moves
+  // when the LiDAR extrinsic is off by a small known amount (the same images, so the difference
+  // of the two solves is deterministic), with and without the fixed baseline length.
+  SimOptions o;
+  o.frames = 16;
+  o.seed = 4;
+  const Simulator sim(o);
+  const StereoRig& rig = sim.rig();
+  std::vector<Keyframe> kfs;
+  for (int i = 0; i < o.frames; i += 5)
+    kfs.push_back(makeKeyframe(sim.renderFrame(i), rig, rig.T_cam_lidar, rig.T_right_left));
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : kfs) window.push_back(&kf);
+  Vector6d xi;
+  xi << 0.0, 0.05 / kDegPerRad, 0.0, 0.01, 0.0, 0.03;  // 0.05 deg about y, 1 cm x, 3 cm z
+  for (const bool fixed_length : {false, true}) {
+    PhotometricSettings s;
+    s.fix_baseline_length = fixed_length;
+    const PhotometricResult a = solvePhotometric(window, rig, rig.T_cam_lidar, rig.T_right_left, s);
+    const PhotometricResult b =
+        solvePhotometric(window, rig, perturb(rig.T_cam_lidar, xi), rig.T_right_left, s);
+    ASSERT_TRUE(a.converged && b.converged) << a.message << " / " << b.message;
+    const Vector6d moved = poseError(b.T_right_left, a.T_right_left);
+    const Vector6d predicted = a.lidar_sensitivity * xi;
+    std::cout << "[ stereo   ] " << (fixed_length ? "fixed length" : "free length")
+              << ": LiDAR off by 0.05 deg / 3.2 cm moves T_right_left by rot "
+              << (moved.head<3>() * kDegPerRad).transpose() << " deg, t "
+              << (moved.tail<3>() * 1000).transpose() << " mm; predicted rot "
+              << (predicted.head<3>() * kDegPerRad).transpose() << " deg, t "
+              << (predicted.tail<3>() * 1000).transpose() << " mm\n";
+    // Rotation and translation on their own scales (1 mm ~ 0.1 deg ~ what matters here).
+    Vector6d diff = moved - predicted, size = predicted;
+    diff.head<3>() *= 0.01 / (0.1 / kDegPerRad), size.head<3>() *= 0.01 / (0.1 / kDegPerRad);
+    EXPECT_GT(size.norm(), 3e-4);  // the LiDAR error matters: at least 0.3 mm
+    EXPECT_LT(diff.norm(), 0.3 * size.norm() + 1e-4);
+    // The marginal covariance adds S P S^T.
+    PhotometricResult c = a;
+    Matrix6d P = Matrix6d::Zero();
+    P.diagonal() << 1e-6, 1e-6, 1e-6, 1e-4, 1e-4, 1e-4;
+    addLidarUncertainty(&c, P);
+    EXPECT_LT((c.covariance - a.covariance -
+               a.lidar_sensitivity * P * a.lidar_sensitivity.transpose()).norm(),
+              1e-12);
   }
 }
 

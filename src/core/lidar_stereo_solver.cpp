@@ -398,15 +398,24 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       for (const Eigen::VectorXd& g : scores)
         if (g.squaredNorm() > 0) M += g * g.transpose(), ++used;
       if (used > 1) M *= double(used) / double(used - 1);  // small-sample correction
-      res.covariance = (H_inv_full * M * H_inv_full).topLeftCorner<6, 6>();
+      const Eigen::MatrixXd sandwich = H_inv_full * M * H_inv_full;
+      res.covariance = sandwich.topLeftCorner<6, 6>();
       res.covariance = 0.5 * (res.covariance + res.covariance.transpose()).eval();
+      if (n_scale) res.stereo_scale_variance = sandwich(6, 6);
       // Never below the paper's model scaled by the residuals' own spread.
-      const Matrix6d floor = res.residual_scale * res.residual_scale * H_inv;
+      const double k2 = res.residual_scale * res.residual_scale;
+      const Matrix6d floor = k2 * H_inv;
       for (int i = 0; i < 6; ++i)
         if (!(res.covariance(i, i) >= floor(i, i))) {
           res.covariance = floor;
+          if (n_scale) res.stereo_scale_variance = k2 * H_inv_full(6, 6);
           break;
         }
+      if (n_scale) {  // the common biases move the scale too
+        const Eigen::RowVector2d h = -(H_inv_full.row(6) * JtD);
+        res.stereo_scale_variance += std::pow(s.model_sigma_disparity_px * h[0], 2) +
+                                     std::pow(s.model_sigma_range_m * h[1], 2);
+      }
       res.covariance_statistical = res.covariance;
       // Model error that more data does not average away (calibrated on generated drives, see
       // the README): common biases through this window's sensitivity to them, and a floor per axis.
@@ -486,6 +495,7 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   const Matrix6d constrained = k * constrainedCovariance(*full, s);
   full->covariance *= k;
   full->covariance_statistical *= k;
+  full->stereo_scale_variance *= k;
   if (!trustFlags(constrained, s, full->observable) && full->converged) {
     full->converged = false;
     char buf[200];

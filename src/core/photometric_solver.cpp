@@ -39,6 +39,78 @@ struct Level {
   CameraIntrinsics left_cam, right_cam;
 };
 
+/// A used key point's residual and the row D with d(log depth) = D d[phi; tau] of T_cam_lidar.
+struct DepthLink {
+  PhotometricResidual residual;
+  int keyframe;
+  Eigen::Matrix<double, 1, 6> D;
+};
+
+/// How the depth of the point X (left camera frame) on face `f` follows a perturbation
+/// [phi; tau] of T_cam_lidar (R = Exp(phi) R, t = t + tau): the face moves by
+/// phi x (X - t) + tau, along its normal n by n.(...), and the ray's depth by that over n.X
+/// (relative: d log Z = (phi.((X - t) x n) + tau.n) / n.X).
+Eigen::Matrix<double, 1, 6> depthRow(const MeshFace& f, const Eigen::Isometry3d& T_cam_lidar,
+                                     const Eigen::Vector3d& X) {
+  const Eigen::Vector3d n =
+      T_cam_lidar.linear() * (f.b - f.a).cross(f.c - f.a).cast<double>().normalized();
+  const double nx = n.dot(X);
+  Eigen::Matrix<double, 1, 6> D = Eigen::Matrix<double, 1, 6>::Zero();
+  if (std::fabs(nx) < 1e-9) return D;
+  D.head<3>() = (X - T_cam_lidar.translation()).cross(n).transpose() / nx;
+  D.tail<3>() = n.transpose() / nx;
+  return D;
+}
+
+/// First-order sensitivity of the solution to the LiDAR extrinsic (implicit function theorem on
+/// the Gauss-Newton normal equations with the Huber weights at the solution):
+///   d x / d xi = -H^-1 sum_i w_i J_x,i^T J_rho,i D_i,   H = sum_i w_i J_x,i^T J_x,i (+ prior),
+/// x = [delta; per-keyframe (a, b)], rho = a key point's log depth; the pose rows are returned.
+Matrix6d lidarSensitivity(const std::vector<DepthLink>& links, const double* delta,
+                          const std::vector<std::array<double, 2>>& ab, double huber,
+                          const Eigen::Isometry3d* fixed_length_at) {
+  const int n = 6 + 2 * static_cast<int>(ab.size());
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n, n), B = Eigen::MatrixXd::Zero(n, 6);
+  double r[kPatternSize], jd[kPatternSize * 6], jab[kPatternSize * 2], jr[kPatternSize];
+  const double rho0 = 0.0;
+  for (const DepthLink& l : links) {
+    std::unique_ptr<ceres::CostFunction> cost(PhotometricDepthResidual::Create(l.residual));
+    const double* params[3] = {delta, ab[l.keyframe].data(), &rho0};
+    double* jac[3] = {jd, jab, jr};
+    if (!cost->Evaluate(params, r, jac)) continue;
+    double s2 = 0;
+    for (double x : r) s2 += x * x;
+    const double w = s2 <= huber * huber ? 1.0 : huber / std::sqrt(s2);
+    // The residual depends on the pose and its keyframe's (a, b) only: columns 0-5 and c, c + 1.
+    Eigen::Matrix<double, kPatternSize, 8> J;
+    for (int p = 0; p < kPatternSize; ++p) {
+      for (int j = 0; j < 6; ++j) J(p, j) = jd[p * 6 + j];
+      J(p, 6) = jab[p * 2], J(p, 7) = jab[p * 2 + 1];
+    }
+    const Eigen::Map<const Eigen::Matrix<double, kPatternSize, 1>> Jr(jr);
+    const Eigen::Matrix<double, 8, 8> h = w * J.transpose() * J;
+    const Eigen::Matrix<double, 8, 6> b = w * (J.transpose() * Jr) * l.D;
+    const int c = 6 + 2 * l.keyframe;
+    H.topLeftCorner<6, 6>() += h.topLeftCorner<6, 6>();
+    H.block<6, 2>(0, c) += h.topRightCorner<6, 2>();
+    H.block<2, 6>(c, 0) += h.bottomLeftCorner<2, 6>();
+    H.block<2, 2>(c, c) += h.bottomRightCorner<2, 2>();
+    B.topRows<6>() += b.topRows<6>();
+    B.middleRows<2>(c) += b.bottomRows<2>();
+  }
+  if (fixed_length_at) {  // the stiff length prior (BaselineLengthPrior) at the solution
+    const Eigen::Vector3d t = fixed_length_at->translation();
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+    g.segment<3>(3) = 1e4 * t.normalized();
+    H += g * g.transpose();
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(H);
+  if (ldlt.info() != Eigen::Success) return Matrix6d::Zero();
+  const Eigen::MatrixXd S = -ldlt.solve(B);
+  if (!S.allFinite()) return Matrix6d::Zero();
+  return S.topRows<6>();
+}
+
 CameraIntrinsics scaled(const CameraIntrinsics& c, int level, int w, int h) {
   const double s = std::ldexp(1.0, -level);
   CameraIntrinsics o = c;
@@ -166,6 +238,10 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
       for (size_t k = 0; k < window.size(); ++k) n += (L > 0 ? kps_all[k] : kps[k]).size();
       rho.reserve(n);
     }
+    // Full resolution, LiDAR depth: each used key point's residual and how its depth follows the
+    // LiDAR extrinsic, for the sensitivity below.
+    const bool sensitivity = L == 0 && !free_depth;
+    std::vector<DepthLink> links;
     for (size_t k = 0; k < window.size(); ++k) {
       const Level& lv = pyr[k][L];
       // Visibility in the right camera under the current estimate.
@@ -206,6 +282,7 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
                                                                    kPatternSize, 6, 2>(
                                        new PhotometricResidual(r)),
                                    &huber, delta, ab[k].data());
+          if (sensitivity) links.push_back({r, static_cast<int>(k), depthRow(f, T_cam_lidar, X)});
         }
         ++used;
       }
@@ -255,6 +332,9 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
             std::max(1, n - 6 - 2 * int(window.size()) - 2 * int(rho.size()));
         for (int i = 0; i < 36; ++i) res.covariance(i / 6, i % 6) = C[i] * sigma2;
       }
+      if (sensitivity)
+        res.lidar_sensitivity = lidarSensitivity(links, delta, ab, s.huber,
+                                                 s.fix_baseline_length ? &T : nullptr);
     }
   }
   res.T_right_left = T;
@@ -279,6 +359,12 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     res.converged = true;
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;
+}
+
+void addLidarUncertainty(PhotometricResult* result, const Matrix6d& cov_cam_lidar) {
+  const Matrix6d& S = result->lidar_sensitivity;
+  Matrix6d add = S * cov_cam_lidar * S.transpose();
+  result->covariance += 0.5 * (add + add.transpose());
 }
 
 }  // namespace tescalib

@@ -47,6 +47,9 @@ struct Args {
   int cov_cells_x = -1, cov_cells_y = -1;  ///< -1: the solver default
   int smooth_keypoints_px = -1;  ///< photometric smooth_depth_radius_px; -1: the solver default
   double depth_prior = -1;       ///< photometric depth_prior_sigma; < 0: the solver default
+  /// stereo mode: 1-sigma per axis of the given LiDAR extrinsic (deg, m), propagated into the
+  /// left-right covariance (addLidarUncertainty); 0: taken as exact.
+  double lidar_sigma_deg = 0, lidar_sigma_m = 0;
   int free_depth_rounds = -1;    ///< co: CoCalibrationSettings::free_depth_rounds; < 0: default
   double rematch_deg = 0;        ///< co: CoCalibrationSettings::rematch_deg; 0: the default
   double co_model_scale = -1;  ///< scales CoCalibrationSettings::model_sigma_*; -1: as is
@@ -66,7 +69,7 @@ void usage() {
          "         [--windows first|disjoint] [--cov-cells XxY] [--cov-model-scale K] "
          "[--first-trial K]\n"
          "         [--co-model-scale K] [--smooth-keypoints PX] [--stereo-yaw 0|1]\n"
-         "         [--check-halves 0|1]\n"
+         "         [--check-halves 0|1] [--lidar-sigma DEG,M]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
@@ -92,7 +95,9 @@ void usage() {
          "to the clouds' rectification (a disparity offset; LidarStereoSettings::\n"
          "estimate_stereo_yaw, co: CoCalibrationSettings::lidar_estimates_stereo_yaw).\n"
          "--check-halves 0|1: the split-window check of the LiDAR-stereo noise model after a\n"
-         "converged solve (LidarStereoSettings::check_window_halves; on by default).\n";
+         "converged solve (LidarStereoSettings::check_window_halves; on by default).\n"
+         "--lidar-sigma DEG,M: stereo mode: the given LiDAR extrinsic's 1-sigma per axis; the\n"
+         "left-right covariance adds what it does to the key points' depth (default 0: exact).\n";
 }
 
 std::vector<std::string> split(const std::string& s, char sep) {
@@ -170,6 +175,13 @@ bool parse(int argc, char** argv, Args* a) {
         a->stereo_yaw = std::stoi(v);
       else if (k == "--check-halves")
         a->check_halves = std::stoi(v);
+      else if (k == "--lidar-sigma") {
+        const auto parts = split(v, ',');
+        if (parts.size() != 2) throw std::invalid_argument(v);
+        a->lidar_sigma_deg = std::stod(parts[0]);
+        a->lidar_sigma_m = std::stod(parts[1]);
+        if (!(a->lidar_sigma_deg >= 0 && a->lidar_sigma_m >= 0)) throw std::invalid_argument(v);
+      }
       else {
         std::cerr << "tescalib_eval: unknown option " << k << "\n";
         return false;
@@ -273,6 +285,7 @@ struct Trial {
   int iterations = 0;        ///< solver iterations; co/joint: rounds
   int rematches = -1;        ///< co/joint: keyframe clouds matched again (SGBM)
   int yaw_handovers = -1;    ///< co: restarts at the LiDAR-stereo yaw (CoCalibrationResult)
+  double stereo_scale = std::nan(""), stereo_scale_sigma = std::nan("");  ///< co
   LidarStereoResult::Halves halves;  ///< the LiDAR-stereo split-window check
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< co/joint: time per solve stage
   std::vector<Eigen::Vector2d> brightness;  ///< stereo mode: per keyframe (a, b)
@@ -456,6 +469,8 @@ int main(int argc, char** argv) {
       tr.iterations = r.rounds;
       tr.rematches = r.rematches;
       tr.yaw_handovers = r.yaw_handovers;
+      tr.stereo_scale = r.lidar.stereo_scale;
+      tr.stereo_scale_sigma = std::sqrt(r.lidar.stereo_scale_variance);
       tr.halves = r.lidar.halves;
       tr.stage_seconds = {{"photometric", r.seconds_photometric},
                           {"stereo_cloud", r.seconds_stereo_cloud},
@@ -472,8 +487,14 @@ int main(int argc, char** argv) {
       PhotometricSettings ps;
       if (args.smooth_keypoints_px >= 0) ps.smooth_depth_radius_px = args.smooth_keypoints_px;
       if (args.depth_prior >= 0) ps.depth_prior_sigma = args.depth_prior;
-      const PhotometricResult r =
+      PhotometricResult r =
           solvePhotometric(window, rig, T_init, perturb(rig.T_right_left, tr.stereo.init), ps);
+      if (args.lidar_sigma_deg > 0 || args.lidar_sigma_m > 0) {
+        Matrix6d P = Matrix6d::Zero();
+        P.diagonal() << Eigen::Vector3d::Constant(std::pow(args.lidar_sigma_deg / kDegPerRad, 2)),
+            Eigen::Vector3d::Constant(std::pow(args.lidar_sigma_m, 2));
+        addLidarUncertainty(&r, P);
+      }
       tr.converged = r.converged;
       tr.iterations = r.iterations;
       tr.stereo.cov = r.covariance;
@@ -674,6 +695,9 @@ int main(int argc, char** argv) {
          << ", \"iterations\": " << tr.iterations;
       if (tr.rematches >= 0) js << ", \"rematches\": " << tr.rematches;
       if (tr.yaw_handovers >= 0) js << ", \"yaw_handovers\": " << tr.yaw_handovers;
+      if (std::isfinite(tr.stereo_scale))
+        js << ", \"stereo_scale\": " << tr.stereo_scale
+           << ", \"stereo_scale_sigma\": " << tr.stereo_scale_sigma;
       if (tr.halves.tested)
         js << ", \"halves\": {\"chi2\": " << tr.halves.chi2
            << ", \"covariance_scale\": " << tr.halves.covariance_scale

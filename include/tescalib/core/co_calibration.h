@@ -93,15 +93,20 @@ struct CoCalibrationSettings {
   /// covariance is conditional on the other extrinsic being exact, and in the alternation the
   /// stereo baseline length and yaw follow the LiDAR depth. Calibrated like the solvers' own terms
   /// (README, "Co-calibration"); the observability flags do not use it (they stay the solvers').
+  /// The stereo terms are what remains beyond the stereo scale's variance and the LiDAR
+  /// covariance propagated through the key points' depth (session 10: the rotation needs none).
   std::array<double, 3> model_sigma_lidar_rot_deg = {0.0187, 0.0063, 0.0186};
   std::array<double, 3> model_sigma_lidar_trans_m = {0.0019, 0.0019, 0.00275};
-  std::array<double, 3> model_sigma_stereo_rot_deg = {0.0, 0.0010, 0.0};
-  std::array<double, 3> model_sigma_stereo_trans_m = {0.0007, 0.00013, 0.00047};
+  std::array<double, 3> model_sigma_stereo_rot_deg = {0.0, 0.0, 0.0};
+  std::array<double, 3> model_sigma_stereo_trans_m = {0.0007, 0.00027, 0.00019};
 };
 
 struct CoCalibrationResult {
   LidarStereoResult lidar;   ///< last LiDAR-stereo solve (T_cam_lidar, covariance, ...)
-  PhotometricResult stereo;  ///< last left-right solve (T_right_left, covariance, ...)
+  /// Last left-right solve (T_right_left, covariance, ...). Its covariance includes the baseline
+  /// length's variance from the stereo scale and, through `lidar_sensitivity` (here without its
+  /// length component), the final LiDAR covariance, besides the model error below.
+  PhotometricResult stereo;
   int rounds = 0;
   int rectifications = 0;           ///< rounds in which stereo clouds were recomputed
   int rematches = 0;                ///< keyframe clouds matched again (SGBM), not re-triangulated

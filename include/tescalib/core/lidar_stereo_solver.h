@@ -105,6 +105,11 @@ struct LidarStereoResult {
   /// Each keyframe's share of `information` (window order): what it constrains.
   std::vector<Matrix6d> keyframe_information;
   double stereo_scale = 1.0;    ///< estimated stereo scale (1 unless estimate_stereo_scale)
+  /// Variance of `stereo_scale` (0 unless estimated): the same cluster-robust sandwich as
+  /// `covariance_statistical` plus the common biases' share, scaled with the covariances by the
+  /// split-window check. Co-calibration takes the baseline length from the scale and gives the
+  /// left-right covariance this variance along the baseline.
+  double stereo_scale_variance = 0.0;
   double stereo_yaw_rad = 0.0;  ///< estimated right-camera yaw (0 unless estimate_stereo_yaw)
   double residual_scale = 1.0;  ///< robust std of the normalised residuals (1 if the model fits)
   /// Published covariance over [phi; tau] (rad, m): cluster-robust sandwich (see the solver).

@@ -79,6 +79,12 @@ struct PhotometricResult {
   int inliers = 0;                          ///< key points used at the last level
   std::vector<Eigen::Vector2d> brightness;  ///< per keyframe (a, b): I_r = e^a I_l + b
   Matrix6d covariance = Matrix6d::Identity();
+  /// How the LiDAR extrinsic that gave the key points' depth moves this estimate: d[phi; tau] of
+  /// T_right_left per d[phi; tau] of T_cam_lidar (the brightness parameters marginalised; first
+  /// order, from the full-resolution problem). `covariance` is conditional on T_cam_lidar being
+  /// exact; with its covariance P the marginal one adds S P S^T (addLidarUncertainty). Zero with
+  /// free key point depth.
+  Matrix6d lidar_sensitivity = Matrix6d::Zero();
   bool observable[6] = {false, false, false, false, false, false};
   double seconds = 0;
   std::string message;
@@ -91,5 +97,9 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
                                    const Eigen::Isometry3d& T_cam_lidar,
                                    const Eigen::Isometry3d& T_init,
                                    const PhotometricSettings& settings = {});
+
+/// Adds what the LiDAR extrinsic's uncertainty `cov_cam_lidar` ([phi; tau], rad, m) does to the
+/// estimate, S P S^T with S = `result->lidar_sensitivity`, to `result->covariance`.
+void addLidarUncertainty(PhotometricResult* result, const Matrix6d& cov_cam_lidar);
 
 }  // namespace tescalib
