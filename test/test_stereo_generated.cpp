@@ -60,12 +60,15 @@ Simulator noiseFreeFrame() {
   return Simulator(o);
 }
 
-std::vector<Keyframe> generatedWindow(Scenario scenario, int keyframes, uint64_t seed) {
+/// Keyframes 0.5 s apart of a generated drive with exact ground truth (its rig in `*rig`).
+std::vector<Keyframe> generatedWindow(Scenario scenario, int keyframes, uint64_t seed,
+                                      StereoRig* rig = nullptr) {
   SimOptions o;
   o.scenario = scenario;
   o.frames = 5 * (keyframes - 1) + 1;
   o.seed = seed;
   const Simulator sim(o);
+  if (rig) *rig = sim.rig();
   std::vector<Keyframe> kfs;
   for (int i = 0; i < o.frames; i += 5)
     kfs.push_back(
@@ -269,16 +272,11 @@ TEST(LidarStereoGenerated, StereoScaleAndItsVarianceFindABaselineError) {
   // co-calibration runs the solver) the scale comes out 1 / 1.01 within its own sigma, which the
   // result reports (co-calibration puts it into the left-right covariance along the baseline);
   // with the scale held at 1 the variance is 0.
-  SimOptions o;
-  o.frames = 26;
-  o.seed = 3;
-  const Simulator sim(o);
-  const StereoRig& rig = sim.rig();
-  std::vector<Keyframe> kfs;
-  for (int i = 0; i < o.frames; i += 5) {
-    kfs.push_back(makeKeyframe(sim.renderFrame(i), rig, rig.T_cam_lidar, rig.T_right_left));
-    for (StereoPoint& p : kfs.back().stereo.points) p.p *= 1.01f;
-    kfs.back().stereo.baseline *= 1.01;
+  StereoRig rig;
+  std::vector<Keyframe> kfs = generatedWindow(Scenario::kUrban, 6, 3, &rig);
+  for (Keyframe& kf : kfs) {
+    for (StereoPoint& p : kf.stereo.points) p.p *= 1.01f;
+    kf.stereo.baseline *= 1.01;
   }
   std::vector<const Keyframe*> window;
   for (const auto& kf : kfs) window.push_back(&kf);
@@ -335,14 +333,8 @@ TEST(PhotometricGenerated, LidarSensitivityPredictsHowALidarErrorMovesTheEstimat
   // extrinsic. The first-order sensitivity the solver reports must predict how the estimate moves
   // when the LiDAR extrinsic is off by a small known amount (the same images, so the difference
   // of the two solves is deterministic), with and without the fixed baseline length.
-  SimOptions o;
-  o.frames = 16;
-  o.seed = 4;
-  const Simulator sim(o);
-  const StereoRig& rig = sim.rig();
-  std::vector<Keyframe> kfs;
-  for (int i = 0; i < o.frames; i += 5)
-    kfs.push_back(makeKeyframe(sim.renderFrame(i), rig, rig.T_cam_lidar, rig.T_right_left));
+  StereoRig rig;
+  const std::vector<Keyframe> kfs = generatedWindow(Scenario::kUrban, 4, 4, &rig);
   std::vector<const Keyframe*> window;
   for (const auto& kf : kfs) window.push_back(&kf);
   Vector6d xi;
