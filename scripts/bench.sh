@@ -102,6 +102,11 @@ run "kitti_0930_stereo_1deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo
   --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
 run "kitti_1003_stereo_1deg" --sequences "$K/00,$K/02" --mode stereo \
   --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
+# The same with KITTI's stated LiDAR calibration accuracy propagated into the stereo covariance.
+run "kitti_0930_stereo_1deg_lidar_sigma" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo \
+  --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20 --lidar-sigma 0.1,0.02
+run "kitti_1003_stereo_1deg_lidar_sigma" --sequences "$K/00,$K/02" --mode stereo \
+  --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20 --lidar-sigma 0.1,0.02
 run "kitti_0930_stereo_1deg_lidar_off" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo \
   --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 --lidar-trans-m 0.1 \
   --seed 5 --window 20
