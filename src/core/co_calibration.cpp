@@ -365,24 +365,21 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     checkWindowHalves(cwin, ls_last, &res.lidar);
     res.seconds_lidar += secondsSince(t_h);
   }
+  addAxisVariances(&res.lidar.covariance, s.model_sigma_lidar_rot_deg, s.model_sigma_lidar_trans_m);
   // The baseline length is the LiDAR-stereo solve's stereo scale times the length the clouds
   // were computed with (the photometric solves keep the length they are given): its variance
-  // lies along the baseline.
+  // lies along the baseline, and only the rotation and the baseline direction come from the
+  // photometric solve, so the length component of its LiDAR sensitivity is dropped.
   if (s.photometric_fixed_length) {
-    const Eigen::Vector3d t = res.stereo.T_right_left.translation();
+    const Eigen::Vector3d t = res.stereo.T_right_left.translation(), u = t.normalized();
     res.stereo.covariance.bottomRightCorner<3, 3>() +=
         res.lidar.stereo_scale_variance * t * t.transpose();
-  }
-  addAxisVariances(&res.lidar.covariance, s.model_sigma_lidar_rot_deg, s.model_sigma_lidar_trans_m);
-  // The left-right solve took the LiDAR extrinsic as exact: what its uncertainty does to the
-  // key points' depth moves the left-right estimate (first order, PhotometricResult::
-  // lidar_sensitivity). With the length taken from the stereo scale (above) only the rotation and
-  // the baseline direction come from the photometric solve: its length component is dropped.
-  if (s.photometric_fixed_length) {
-    const Eigen::Vector3d u = res.stereo.T_right_left.translation().normalized();
     res.stereo.lidar_sensitivity.bottomRows<3>() -=
         u * (u.transpose() * res.stereo.lidar_sensitivity.bottomRows<3>());
   }
+  // The left-right solve took the LiDAR extrinsic as exact: what its uncertainty does to the
+  // key points' depth moves the left-right estimate (first order, PhotometricResult::
+  // lidar_sensitivity).
   addLidarUncertainty(&res.stereo, res.lidar.covariance);
   addAxisVariances(&res.stereo.covariance, s.model_sigma_stereo_rot_deg,
                    s.model_sigma_stereo_trans_m);

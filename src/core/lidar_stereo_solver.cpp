@@ -392,7 +392,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       const Matrix6d H_inv = H_inv_full.topLeftCorner<6, 6>();
       res.information = H_inv.inverse();  // the pose's marginal information
       res.covariance_model = H_inv;
-      res.bias_sensitivity = -(H_inv_full * JtD).topRows<6>();
+      const Eigen::MatrixXd bias_moves = -(H_inv_full * JtD);  // pose, scale, yaw per bias
+      res.bias_sensitivity = bias_moves.topRows<6>();
       Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n);
       int used = 0;
       for (const Eigen::VectorXd& g : scores)
@@ -412,9 +413,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
           break;
         }
       if (n_scale) {  // the common biases move the scale too
-        const Eigen::RowVector2d h = -(H_inv_full.row(6) * JtD);
-        res.stereo_scale_variance += std::pow(s.model_sigma_disparity_px * h[0], 2) +
-                                     std::pow(s.model_sigma_range_m * h[1], 2);
+        res.stereo_scale_variance += std::pow(s.model_sigma_disparity_px * bias_moves(6, 0), 2) +
+                                     std::pow(s.model_sigma_range_m * bias_moves(6, 1), 2);
       }
       res.covariance_statistical = res.covariance;
       // Model error that more data does not average away (calibrated on generated drives, see

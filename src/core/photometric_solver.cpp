@@ -15,6 +15,9 @@
 namespace tescalib {
 namespace {
 
+/// Weight of the stiff baseline-length prior: residual units per metre (1 per 0.1 mm).
+constexpr double kBaselineLengthWeight = 1e4;
+
 /// Stiff prior |t_ref + tau| = length (units: 0.1 mm).
 struct BaselineLengthPrior {
   BaselineLengthPrior(const Eigen::Vector3d& t_ref, double length)
@@ -23,7 +26,7 @@ struct BaselineLengthPrior {
   bool operator()(const T* const delta, T* residual) const {
     T n2 = T(0);
     for (int i = 0; i < 3; ++i) n2 += (T(t_ref_[i]) + delta[3 + i]) * (T(t_ref_[i]) + delta[3 + i]);
-    residual[0] = (ceres::sqrt(n2) - T(length_)) * T(1e4);
+    residual[0] = (ceres::sqrt(n2) - T(length_)) * T(kBaselineLengthWeight);
     return true;
   }
   Eigen::Vector3d t_ref_;
@@ -101,7 +104,7 @@ Matrix6d lidarSensitivity(const std::vector<DepthLink>& links, const double* del
   if (fixed_length_at) {  // the stiff length prior (BaselineLengthPrior) at the solution
     const Eigen::Vector3d t = fixed_length_at->translation();
     Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
-    g.segment<3>(3) = 1e4 * t.normalized();
+    g.segment<3>(3) = kBaselineLengthWeight * t.normalized();
     H += g * g.transpose();
   }
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(H);

@@ -491,8 +491,8 @@ int main(int argc, char** argv) {
           solvePhotometric(window, rig, T_init, perturb(rig.T_right_left, tr.stereo.init), ps);
       if (args.lidar_sigma_deg > 0 || args.lidar_sigma_m > 0) {
         Matrix6d P = Matrix6d::Zero();
-        P.diagonal() << Eigen::Vector3d::Constant(std::pow(args.lidar_sigma_deg / kDegPerRad, 2)),
-            Eigen::Vector3d::Constant(std::pow(args.lidar_sigma_m, 2));
+        addAxisVariances(&P, {args.lidar_sigma_deg, args.lidar_sigma_deg, args.lidar_sigma_deg},
+                         {args.lidar_sigma_m, args.lidar_sigma_m, args.lidar_sigma_m});
         addLidarUncertainty(&r, P);
       }
       tr.converged = r.converged;
