@@ -101,6 +101,44 @@ TEST(CoCalibration, RerectificationOnlyWhenTheRotationOrDirectionChanges) {
   EXPECT_TRUE(needsRerectification(a, perturb(a, d), 0.005, 0.05, 0.03));
 }
 
+
+// The left-right covariance of a co-calibration carries the LiDAR's uncertainty, and so do the
+// left-right trust flags: a LiDAR extrinsic loose along its optical axis makes the stereo
+// translation along z untrustworthy, which the photometric solve alone (LiDAR taken as exact)
+// could not see. The length component of the sensitivity is not the photometric solve's (the
+// stereo scale gives the length) and must not count.
+TEST(CoCalibration, StereoTrustFlagsIncludeTheLidarUncertainty) {
+  CoCalibrationSettings s;
+  PhotometricResult stereo;
+  stereo.T_right_left.translation() = Eigen::Vector3d(-0.54, 0, 0);
+  stereo.covariance = Matrix6d::Zero();
+  addAxisVariances(&stereo.covariance, {0.002, 0.002, 0.002}, {0.0003, 0.0003, 0.0003});
+  stereo.converged = true;
+  std::fill(stereo.observable, stereo.observable + 6, true);
+  stereo.lidar_sensitivity(5, 5) = 0.3;  // stereo tz per LiDAR tz
+  stereo.lidar_sensitivity(3, 5) = 0.5;  // baseline length per LiDAR tz: the scale's business
+  LidarStereoResult lidar;
+  lidar.stereo_scale_variance = 0.001 * 0.001;
+  lidar.covariance = Matrix6d::Zero();
+  addAxisVariances(&lidar.covariance, {0.01, 0.01, 0.01}, {0.002, 0.002, 0.01});
+
+  PhotometricResult tight = stereo;  // LiDAR tz sigma 1 cm: stereo tz sigma 3 mm
+  EXPECT_TRUE(coStereoCovariance(lidar, s, &tight));
+  EXPECT_TRUE(tight.converged);
+  const double mm2 = 1e-6;
+  EXPECT_NEAR(tight.covariance(5, 5), (0.09 + 9.0 + 0.19 * 0.19) * mm2, 1e-9);
+  // Along the baseline: the statistical part, the scale's variance times |t|^2 (0.54 mm) and
+  // the model error (0.7 mm), not the 5 mm the sensitivity's length component would add.
+  EXPECT_NEAR(tight.covariance(3, 3), (0.09 + 0.54 * 0.54 + 0.7 * 0.7) * mm2, 1e-9);
+
+  addAxisVariances(&lidar.covariance, {0, 0, 0}, {0, 0, 0.05});  // LiDAR tz sigma 5 cm
+  PhotometricResult loose = stereo;                              // stereo tz sigma 1.5 cm
+  EXPECT_FALSE(coStereoCovariance(lidar, s, &loose));
+  EXPECT_FALSE(loose.converged);
+  EXPECT_FALSE(loose.observable[5]);
+  for (int i = 0; i < 5; ++i) EXPECT_TRUE(loose.observable[i]) << "axis " << i;
+  EXPECT_NE(loose.message.find("LiDAR"), std::string::npos) << loose.message;
+}
 TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
   std::mt19937_64 rng(3);
   const auto [truth, T_cl_init] = lidarStart(rng);

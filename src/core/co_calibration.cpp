@@ -132,6 +132,47 @@ int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
   return n;
 }
 
+LidarStereoSettings coLidarStereoSettings(const CoCalibrationSettings& s) {
+  LidarStereoSettings ls = s.lidar;
+  ls.disparity_sigma = s.stereo_cloud.disparity_sigma;
+  ls.estimate_stereo_scale = true;
+  // The clouds' rectification yaw is a nuisance here: a yaw error of the right camera shifts
+  // every disparity, which the LiDAR would otherwise absorb along the optical axis; the yaw
+  // itself stays the photometric solver's (with a good LiDAR it is far more precise).
+  ls.estimate_stereo_yaw = s.lidar_estimates_stereo_yaw;
+  return ls;
+}
+
+bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& s,
+                        PhotometricResult* stereo) {
+  // The baseline length is the LiDAR-stereo solve's stereo scale times the length the clouds
+  // were computed with (the photometric solves keep the length they are given): its variance
+  // lies along the baseline, and only the rotation and the baseline direction come from the
+  // photometric solve, so the length component of its LiDAR sensitivity is dropped.
+  if (s.photometric_fixed_length) {
+    const Eigen::Vector3d t = stereo->T_right_left.translation(), u = t.normalized();
+    stereo->covariance.bottomRightCorner<3, 3>() += lidar.stereo_scale_variance * t * t.transpose();
+    stereo->lidar_sensitivity.bottomRows<3>() -=
+        u * (u.transpose() * stereo->lidar_sensitivity.bottomRows<3>());
+  }
+  // The left-right solve took the LiDAR extrinsic as exact: what its uncertainty does to the
+  // key points' depth moves the left-right estimate (first order, PhotometricResult::
+  // lidar_sensitivity).
+  addLidarUncertainty(stereo, lidar.covariance);
+  // The photometric trust flags took the LiDAR extrinsic as exact too: judge them again with
+  // what the length and the LiDAR add (the model error below stays out, as for the LiDAR flags).
+  const bool all = trustFlags(stereo->covariance, s.stereo, stereo->observable);
+  if (!all && stereo->converged) {
+    stereo->converged = false;
+    stereo->message =
+        "the window does not constrain every axis once the LiDAR extrinsic's uncertainty is "
+        "included";
+  }
+  addAxisVariances(&stereo->covariance, s.model_sigma_stereo_rot_deg,
+                   s.model_sigma_stereo_trans_m);
+  return all;
+}
+
 CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const StereoRig& rig,
                                 const Eigen::Isometry3d& T_cam_lidar_init,
                                 const Eigen::Isometry3d& T_right_left_init,
@@ -217,14 +258,8 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     const double b_used = window.front()->T_right_left_used.translation().norm();
     // 3. LiDAR-stereo with the stereo scale: the LiDAR is metric, so the scale corrects the
     // baseline length (rectification does not depend on it, the clouds simply scale).
-    LidarStereoSettings ls = s.lidar;
-    ls.disparity_sigma = s.stereo_cloud.disparity_sigma;
-    ls.estimate_stereo_scale = true;
+    LidarStereoSettings ls = coLidarStereoSettings(s);
     ls.check_window_halves = false;  // once, on the final estimate
-    // The clouds' rectification yaw is a nuisance here: a yaw error of the right camera shifts
-    // every disparity, which the LiDAR would otherwise absorb along the optical axis; the yaw
-    // itself stays the photometric solver's (with a good LiDAR it is far more precise).
-    ls.estimate_stereo_yaw = s.lidar_estimates_stereo_yaw;
     // The inner solve only needs to settle well below the outer tolerance (its defaults, 2e-4 deg
     // and 0.02 mm, are below what re-association noise allows with the scale free).
     ls.converge_rot_deg = std::max(ls.converge_rot_deg, s.inner_settle_fraction * s.stable_rot_deg);
@@ -366,23 +401,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     res.seconds_lidar += secondsSince(t_h);
   }
   addAxisVariances(&res.lidar.covariance, s.model_sigma_lidar_rot_deg, s.model_sigma_lidar_trans_m);
-  // The baseline length is the LiDAR-stereo solve's stereo scale times the length the clouds
-  // were computed with (the photometric solves keep the length they are given): its variance
-  // lies along the baseline, and only the rotation and the baseline direction come from the
-  // photometric solve, so the length component of its LiDAR sensitivity is dropped.
-  if (s.photometric_fixed_length) {
-    const Eigen::Vector3d t = res.stereo.T_right_left.translation(), u = t.normalized();
-    res.stereo.covariance.bottomRightCorner<3, 3>() +=
-        res.lidar.stereo_scale_variance * t * t.transpose();
-    res.stereo.lidar_sensitivity.bottomRows<3>() -=
-        u * (u.transpose() * res.stereo.lidar_sensitivity.bottomRows<3>());
-  }
-  // The left-right solve took the LiDAR extrinsic as exact: what its uncertainty does to the
-  // key points' depth moves the left-right estimate (first order, PhotometricResult::
-  // lidar_sensitivity).
-  addLidarUncertainty(&res.stereo, res.lidar.covariance);
-  addAxisVariances(&res.stereo.covariance, s.model_sigma_stereo_rot_deg,
-                   s.model_sigma_stereo_trans_m);
+  coStereoCovariance(res.lidar, s, &res.stereo);
   res.converged = res.stable && res.lidar.converged && res.stereo.converged;
   if (!res.stable)
     res.message = "estimates still moving after " + std::to_string(s.max_rounds) + " rounds" +

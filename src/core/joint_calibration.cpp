@@ -325,11 +325,7 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   res.stereo.T_right_left = T_rl;
   for (size_t k = 0; k < window.size(); ++k) res.stereo.brightness[k] = {ab[k][0], ab[k][1]};
   bool all = trustFlags(res.lidar.covariance, ls, res.lidar.observable);
-  for (int i = 0; i < 6; ++i) {
-    res.stereo.observable[i] = std::sqrt(res.stereo.covariance(i, i)) <
-                               (i < 3 ? ps.max_sigma_rot_deg / kDegPerRad : ps.max_sigma_trans_m);
-    all = all && res.stereo.observable[i];
-  }
+  all = trustFlags(res.stereo.covariance, ps, res.stereo.observable) && all;
   const Vector6d corr_l = poseError(T_cl, T_cam_lidar_init);
   const Vector6d corr_s = poseError(T_rl, T_right_left_init);
   const bool diverged = corr_l.head<3>().norm() * kDegPerRad > ls.max_correction_rot_deg ||

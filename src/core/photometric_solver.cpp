@@ -342,12 +342,7 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
   }
   res.T_right_left = T;
   for (size_t k = 0; k < window.size(); ++k) res.brightness[k] = {ab[k][0], ab[k][1]};
-  bool all = true;
-  for (int i = 0; i < 6; ++i) {
-    const double lim = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
-    res.observable[i] = std::sqrt(res.covariance(i, i)) < lim;
-    all = all && res.observable[i];
-  }
+  const bool all = trustFlags(res.covariance, s, res.observable);
   // Ceres' covariance assumes independent pixels; neighbouring key points share interpolation,
   // LiDAR-depth and exposure errors. A per-axis model error, calibrated like the LiDAR one (mean
   // NEES over independent generated windows), is added; the flags above use the statistical part.
@@ -362,6 +357,16 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     res.converged = true;
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;
+}
+
+bool trustFlags(const Matrix6d& covariance, const PhotometricSettings& s, bool observable[6]) {
+  bool all = true;
+  for (int i = 0; i < 6; ++i) {
+    const double limit = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
+    observable[i] = std::sqrt(covariance(i, i)) < limit;
+    all = all && observable[i];
+  }
+  return all;
 }
 
 void addLidarUncertainty(PhotometricResult* result, const Matrix6d& cov_cam_lidar) {

@@ -152,6 +152,20 @@ int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
                   const Eigen::Isometry3d& T_right_left, const StereoSettings& settings,
                   const RectifyTolerances& tolerances, double* seconds, int* rematched = nullptr);
 
+/// The LiDAR-stereo settings of a co-calibration's solves: `settings.lidar` with the clouds'
+/// disparity noise, the stereo scale free and the clouds' yaw as a nuisance (when
+/// `lidar_estimates_stereo_yaw`).
+LidarStereoSettings coLidarStereoSettings(const CoCalibrationSettings& settings);
+
+/// The left-right covariance of a co-calibration, from the last photometric solve `stereo`
+/// (conditional on the LiDAR extrinsic) and the final LiDAR-stereo solve `lidar`: adds the
+/// baseline length's variance from the stereo scale (with `photometric_fixed_length`), the LiDAR
+/// covariance through `stereo->lidar_sensitivity` (without its length component), evaluates the
+/// trust flags again with both (a stereo result that loses an axis is no longer converged) and
+/// adds the model error. Returns whether every axis is still trusted.
+bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& settings,
+                        PhotometricResult* stereo);
+
 /// Runs the alternation over `window` (stereo clouds are recomputed in place). The stereo solver
 /// goes first: it tolerates a bad LiDAR extrinsic (paper, "Sensitivity Analysis").
 CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const StereoRig& rig,

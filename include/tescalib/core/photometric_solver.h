@@ -98,6 +98,11 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
                                    const Eigen::Isometry3d& T_init,
                                    const PhotometricSettings& settings = {});
 
+/// Per-axis trust flags (PhotometricResult::observable) from a covariance over [phi; tau]: an
+/// axis is trusted when its sigma is within settings.max_sigma_*; true when every axis is.
+bool trustFlags(const Matrix6d& covariance, const PhotometricSettings& settings,
+                bool observable[6]);
+
 /// Adds what the LiDAR extrinsic's uncertainty `cov_cam_lidar` ([phi; tau], rad, m) does to the
 /// estimate, S P S^T with S = `result->lidar_sensitivity`, to `result->covariance`.
 void addLidarUncertainty(PhotometricResult* result, const Matrix6d& cov_cam_lidar);
