@@ -12,6 +12,7 @@
 
 #include "tescalib/core/co_calibration.h"
 #include "tescalib/core/geometry.h"
+#include "tescalib/core/joint_calibration.h"
 #include "tescalib/core/keyframe.h"
 #include "tescalib/core/simulator.h"
 
@@ -188,6 +189,38 @@ TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
   EXPECT_GE(t.dot(r.stereo.covariance.bottomRightCorner<3, 3>() * t) / t.squaredNorm(),
             r.lidar.stereo_scale_variance * t.squaredNorm() +
                 std::pow(s.model_sigma_stereo_trans_m[0], 2) * 0.99);
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_LT(std::fabs(el[i]), 3 * std::sqrt(r.lidar.covariance(i, i))) << "LiDAR axis " << i;
+    EXPECT_LT(std::fabs(es[i]), 3 * std::sqrt(r.stereo.covariance(i, i))) << "stereo axis " << i;
+  }
+}
+
+// The joint problem (--mode joint) from the same start: both extrinsics within the issue's
+// tolerances, and covariances that hold the joint model error and the error within 3 sigma.
+TEST(JointCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
+  std::mt19937_64 rng(3);
+  const auto [truth, T_cl_init] = lidarStart(rng);
+  const Eigen::Isometry3d T_rl_init =
+      perturb(truth.T_right_left, randomPerturbation(1.0 / kDegPerRad, 0.1, rng));
+  GeneratedWindow w = generatedWindow(8, 1, &T_cl_init);
+  const std::vector<Keyframe*> window = w.window();
+  const JointCalibrationSettings js;
+  const CoCalibrationResult r = jointCalibrate(window, w.rig, T_cl_init, T_rl_init, js);
+  const Vector6d el = poseError(r.lidar.T_cam_lidar, truth.T_cam_lidar);
+  const Vector6d es = poseError(r.stereo.T_right_left, truth.T_right_left);
+  std::cout << "[ joint    ] " << r.rounds << " outer iterations, " << r.seconds << " s; LiDAR "
+            << el.head<3>().norm() * kDegPerRad << " deg " << el.tail<3>().norm() * 100
+            << " cm; stereo " << es.head<3>().norm() * kDegPerRad << " deg "
+            << es.tail<3>().norm() * 1000 << " mm; " << r.message << "\n";
+  EXPECT_TRUE(r.converged) << r.message;
+  EXPECT_LT(el.head<3>().norm() * kDegPerRad, 0.2);
+  EXPECT_LT(el.tail<3>().norm(), 0.03);
+  EXPECT_LT(es.head<3>().norm() * kDegPerRad, 0.2);
+  EXPECT_LT(es.tail<3>().norm(), 0.03);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_GE(r.lidar.covariance(3 + i, 3 + i), std::pow(js.model_sigma_lidar_trans_m[i], 2));
+    EXPECT_GE(r.stereo.covariance(3 + i, 3 + i), std::pow(js.model_sigma_stereo_trans_m[i], 2));
+  }
   for (int i = 0; i < 6; ++i) {
     EXPECT_LT(std::fabs(el[i]), 3 * std::sqrt(r.lidar.covariance(i, i))) << "LiDAR axis " << i;
     EXPECT_LT(std::fabs(es[i]), 3 * std::sqrt(r.stereo.covariance(i, i))) << "stereo axis " << i;
