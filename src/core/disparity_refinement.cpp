@@ -2,25 +2,28 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 
 namespace tescalib {
 namespace {
 
-/// Window sum (unnormalised box filter, zero outside the image), in double precision.
+/// Window sum (unnormalised box filter, zero outside the image), in single precision: the sums
+/// are of grey values and of small integers, exact enough.
 cv::Mat windowSum(const cv::Mat& x, int r) {
   cv::Mat out;
-  cv::boxFilter(x, out, CV_64F, cv::Size(2 * r + 1, 2 * r + 1), cv::Point(-1, -1), false,
+  cv::boxFilter(x, out, CV_32F, cv::Size(2 * r + 1, 2 * r + 1), cv::Point(-1, -1), false,
                 cv::BORDER_CONSTANT);
   return out;
 }
 
-/// The same in single precision (for sums of grey values, where it is exact enough and faster).
-cv::Mat windowSumF(const cv::Mat& x, int r) {
+/// Centred window moment sum_{window} x(u', v') kx(u' - u) ky(v' - v) (zero outside the image):
+/// a separable filter, so the plane fit needs no absolute-coordinate moments (whose differences
+/// cancel badly in single precision).
+cv::Mat windowMoment(const cv::Mat& x, const cv::Mat& kx, const cv::Mat& ky) {
   cv::Mat out;
-  cv::boxFilter(x, out, CV_32F, cv::Size(2 * r + 1, 2 * r + 1), cv::Point(-1, -1), false,
-                cv::BORDER_CONSTANT);
+  cv::sepFilter2D(x, out, CV_32F, kx, ky, cv::Point(-1, -1), 0, cv::BORDER_CONSTANT);
   return out;
 }
 
@@ -54,23 +57,33 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
   const int rows = disparity->rows, cols = disparity->cols, r = s.window_radius;
   const double n_window = (2.0 * r + 1) * (2.0 * r + 1);
   cv::Mat& d = *disparity;
+  // Kernels of the centred window moments: 1, (u' - u) and (u' - u)^2 along one axis.
+  cv::Mat ones(2 * r + 1, 1, CV_32F), lin(2 * r + 1, 1, CV_32F), sq(2 * r + 1, 1, CV_32F);
+  for (int k = -r; k <= r; ++k) {
+    ones.at<float>(k + r) = 1.f;
+    lin.at<float>(k + r) = static_cast<float>(k);
+    sq.at<float>(k + r) = static_cast<float>(k * k);
+  }
   // Valid pixels: a disparity that lands inside the right image. The refinement never invalidates
   // a pixel, so the mask and the plane-fit moments that depend only on it are computed once.
-  cv::Mat valid(d.size(), CV_32F), map_y(d.size(), CV_32F), U(d.size(), CV_32F),
-      V(d.size(), CV_32F);
+  cv::Mat valid(d.size(), CV_32F), map_y(d.size(), CV_32F);
   for (int v = 0; v < rows; ++v) {
     const float* dv = d.ptr<float>(v);
+    float* m = valid.ptr<float>(v);
+    float* my = map_y.ptr<float>(v);
     for (int u = 0; u < cols; ++u) {
-      valid.at<float>(v, u) = std::isfinite(dv[u]) && u - dv[u] >= 1.f ? 1.f : 0.f;
-      map_y.at<float>(v, u) = V.at<float>(v, u) = static_cast<float>(v);
-      U.at<float>(v, u) = static_cast<float>(u);
+      m[u] = std::isfinite(dv[u]) && u - dv[u] >= 1.f ? 1.f : 0.f;
+      my[u] = static_cast<float>(v);
     }
   }
-  const cv::Mat Um = U.mul(valid), Vm = V.mul(valid);
-  const cv::Mat s1 = windowSum(valid, r), sU = windowSum(Um, r), sV = windowSum(Vm, r),
-                sUU = windowSum(Um.mul(U), r), sVV = windowSum(Vm.mul(V), r),
-                sUV = windowSum(Um.mul(V), r);
+  const cv::Mat s1 = windowSum(valid, r), mx = windowMoment(valid, lin, ones),
+                my = windowMoment(valid, ones, lin), mxx = windowMoment(valid, sq, ones),
+                myy = windowMoment(valid, ones, sq), mxy = windowMoment(valid, lin, lin);
 
+  // Per-pixel products of the photometric normal equations (masked by `valid`).
+  enum { kGG, kGL, kG, kLL, kL, kGW, kLW, kW, kTerms };
+  std::vector<cv::Mat> terms(kTerms);
+  for (auto& t : terms) t.create(d.size(), CV_32F);
   for (int it = 0; it < s.iterations; ++it) {
     const bool last = it + 1 == s.iterations;
     cv::Mat d0(d.size(), CV_32F), map_x(d.size(), CV_32F);
@@ -78,10 +91,10 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
       const float* dv = d.ptr<float>(v);
       const float* m = valid.ptr<float>(v);
       float* z = d0.ptr<float>(v);
-      float* mx = map_x.ptr<float>(v);
+      float* mxp = map_x.ptr<float>(v);
       for (int u = 0; u < cols; ++u) {
         z[u] = m[u] > 0.f ? dv[u] : 0.f;
-        mx[u] = static_cast<float>(u) - z[u];
+        mxp[u] = static_cast<float>(u) - z[u];
       }
     }
     cv::Mat W, G;
@@ -89,44 +102,56 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
     cv::remap(GR, G, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
     // Photometric normal equations of W = G delta + alpha L + beta over the valid pixels
     // (single precision suffices: grey values, 81-pixel windows).
-    const cv::Mat Gm = G.mul(valid), Lm = L.mul(valid);
-    const cv::Mat sGG = windowSumF(Gm.mul(G), r), sGL = windowSumF(Gm.mul(L), r),
-                  sG = windowSumF(Gm, r), sLL = windowSumF(Lm.mul(L), r), sL = windowSumF(Lm, r),
-                  sGW = windowSumF(Gm.mul(W), r), sLW = windowSumF(Lm.mul(W), r),
-                  sW = windowSumF(W.mul(valid), r);
+    cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
+      for (int v = range.start; v < range.end; ++v) {
+        const float *m = valid.ptr<float>(v), *g = G.ptr<float>(v), *l = L.ptr<float>(v),
+                    *w = W.ptr<float>(v);
+        float* out[kTerms];
+        for (int k = 0; k < kTerms; ++k) out[k] = terms[k].ptr<float>(v);
+        for (int u = 0; u < cols; ++u) {
+          const float gm = g[u] * m[u], lm = l[u] * m[u];
+          out[kGG][u] = gm * g[u];
+          out[kGL][u] = gm * l[u];
+          out[kG][u] = gm;
+          out[kLL][u] = lm * l[u];
+          out[kL][u] = lm;
+          out[kGW][u] = gm * w[u];
+          out[kLW][u] = lm * w[u];
+          out[kW][u] = w[u] * m[u];
+        }
+      }
+    });
+    std::vector<cv::Mat> sums(kTerms);
+    for (int k = 0; k < kTerms; ++k) sums[k] = windowSum(terms[k], r);
     // In the last round, the centre value comes from the local plane fit
     // d = c + a (u' - u) + b (v' - v) over the window: unbiased also where the window is only
     // partly valid, and it averages out SGBM's per-pixel noise. Earlier rounds keep d + delta.
-    cv::Mat sD, sUD, sVD;
-    if (last) sD = windowSum(d0, r), sUD = windowSum(d0.mul(U), r), sVD = windowSum(d0.mul(V), r);
+    cv::Mat sD, xD, yD;
+    if (last) sD = windowSum(d0, r), xD = windowMoment(d0, lin, ones), yD = windowMoment(d0, ones, lin);
     cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
       for (int v = range.start; v < range.end; ++v) {
         float* dv = d.ptr<float>(v);
         for (int u = 0; u < cols; ++u) {
           if (!std::isfinite(dv[u])) continue;
-          const double n = s1.at<double>(v, u);
+          const double n = s1.at<float>(v, u);
           if (n < s.min_valid_fraction * n_window) continue;
-          const double gg = sGG.at<float>(v, u), g = sG.at<float>(v, u);
+          const double gg = sums[kGG].at<float>(v, u), g = sums[kG].at<float>(v, u);
           // Texture along x after removing the window's mean gradient.
           if (gg / n - (g / n) * (g / n) < s.min_gradient * s.min_gradient) continue;
           double delta = 0;
-          if (!solveFirst(gg, sGL.at<float>(v, u), g, sLL.at<float>(v, u), sL.at<float>(v, u), n,
-                          sGW.at<float>(v, u), sLW.at<float>(v, u), sW.at<float>(v, u), &delta))
+          if (!solveFirst(gg, sums[kGL].at<float>(v, u), g, sums[kLL].at<float>(v, u),
+                          sums[kL].at<float>(v, u), n, sums[kGW].at<float>(v, u),
+                          sums[kLW].at<float>(v, u), sums[kW].at<float>(v, u), &delta))
             continue;
           delta = std::clamp(delta, -s.max_step, s.max_step);
           if (!last) {
             dv[u] = static_cast<float>(dv[u] + delta);
             continue;
           }
-          const double su = sU.at<double>(v, u), sv = sV.at<double>(v, u);
-          const double sd = sD.at<double>(v, u);
-          const double xx = sUU.at<double>(v, u) - 2.0 * u * su + n * u * u;
-          const double yy = sVV.at<double>(v, u) - 2.0 * v * sv + n * v * v;
-          const double xy = sUV.at<double>(v, u) - u * sv - v * su + n * u * v;
-          const double x = su - n * u, y = sv - n * v;
-          const double xd = sUD.at<double>(v, u) - u * sd, yd = sVD.at<double>(v, u) - v * sd;
           double c = 0;
-          if (solveFirst(n, x, y, xx, xy, yy, sd, xd, yd, &c))
+          if (solveFirst(n, mx.at<float>(v, u), my.at<float>(v, u), mxx.at<float>(v, u),
+                         mxy.at<float>(v, u), myy.at<float>(v, u), sD.at<float>(v, u),
+                         xD.at<float>(v, u), yD.at<float>(v, u), &c))
             dv[u] = static_cast<float>(c + delta);
         }
       }
