@@ -67,6 +67,26 @@ GeneratedWindow generatedWindow(int n, uint64_t seed, const Eigen::Isometry3d* T
   return w;
 }
 
+/// A co-calibration case: the LiDAR start of lidarStart (rng seed 3), then a stereo start
+/// `stereo_rot_deg` / `stereo_trans_m` off the truth, and `n` keyframes of drive 1 view-filtered
+/// with the LiDAR start.
+struct CoCase {
+  StereoRig truth;
+  Eigen::Isometry3d T_cl_init, T_rl_init;
+  GeneratedWindow w;
+};
+CoCase coCase(int n, double stereo_rot_deg, double stereo_trans_m) {
+  std::mt19937_64 rng(3);
+  CoCase c;
+  const CoStart start = lidarStart(rng);
+  c.truth = start.truth;
+  c.T_cl_init = start.T_cl_init;
+  c.T_rl_init = perturb(c.truth.T_right_left,
+                        randomPerturbation(stereo_rot_deg / kDegPerRad, stereo_trans_m, rng));
+  c.w = generatedWindow(n, 1, &c.T_cl_init);
+  return c;
+}
+
 }  // namespace
 
 TEST(CoCalibration, RerectificationOnlyWhenTheRotationOrDirectionChanges) {
@@ -198,16 +218,11 @@ TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
 // The joint problem (--mode joint) from the same start: both extrinsics within the issue's
 // tolerances, and covariances that hold the joint model error and the error within 3 sigma.
 TEST(JointCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
-  std::mt19937_64 rng(3);
-  const auto [truth, T_cl_init] = lidarStart(rng);
-  const Eigen::Isometry3d T_rl_init =
-      perturb(truth.T_right_left, randomPerturbation(1.0 / kDegPerRad, 0.1, rng));
-  GeneratedWindow w = generatedWindow(8, 1, &T_cl_init);
-  const std::vector<Keyframe*> window = w.window();
+  CoCase c = coCase(8, 1.0, 0.1);
   const JointCalibrationSettings js;
-  const CoCalibrationResult r = jointCalibrate(window, w.rig, T_cl_init, T_rl_init, js);
-  const Vector6d el = poseError(r.lidar.T_cam_lidar, truth.T_cam_lidar);
-  const Vector6d es = poseError(r.stereo.T_right_left, truth.T_right_left);
+  const CoCalibrationResult r = jointCalibrate(c.w.window(), c.w.rig, c.T_cl_init, c.T_rl_init, js);
+  const Vector6d el = poseError(r.lidar.T_cam_lidar, c.truth.T_cam_lidar);
+  const Vector6d es = poseError(r.stereo.T_right_left, c.truth.T_right_left);
   std::cout << "[ joint    ] " << r.rounds << " outer iterations, " << r.seconds << " s; LiDAR "
             << el.head<3>().norm() * kDegPerRad << " deg " << el.tail<3>().norm() * 100
             << " cm; stereo " << es.head<3>().norm() * kDegPerRad << " deg "
@@ -231,12 +246,9 @@ TEST(CoCalibration, RunawayLidarEstimatesAreNotTaken) {
   // The runaway rule, made to fire: with divergence bounds of 1 deg / 5 cm, every LiDAR-stereo
   // solve from a start 3 deg / 0.3 m off ends beyond them. No such estimate may be taken, and the
   // result keeps the initial guesses (never worse than the last good estimate) and says why.
-  std::mt19937_64 rng(3);
-  const auto [truth, T_cl_init] = lidarStart(rng);
-  const Eigen::Isometry3d T_rl_init =
-      perturb(truth.T_right_left, randomPerturbation(0.2 / kDegPerRad, 0.01, rng));
-  GeneratedWindow w = generatedWindow(5, 1, &T_cl_init);
-  const std::vector<Keyframe*> window = w.window();
+  CoCase c = coCase(5, 0.2, 0.01);
+  const auto& [truth, T_cl_init, T_rl_init, w] = c;
+  const std::vector<Keyframe*> window = c.w.window();
   CoCalibrationSettings s;
   s.max_rounds = 2;
   s.lidar.max_correction_rot_deg = 1.0;

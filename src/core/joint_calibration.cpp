@@ -338,15 +338,11 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     coStereoCovariance(lr, s, &ph);
     addAxisVariances(&lr.covariance, js.model_sigma_lidar_rot_deg, js.model_sigma_lidar_trans_m);
     addAxisVariances(&ph.covariance, js.model_sigma_stereo_rot_deg, js.model_sigma_stereo_trans_m);
-    res.lidar.covariance = lr.covariance;
-    res.lidar.covariance_statistical = lr.covariance_statistical;
-    res.lidar.covariance_model = lr.covariance_model;
-    res.lidar.information = lr.information;
-    res.lidar.keyframe_information = lr.keyframe_information;
-    res.lidar.bias_sensitivity = lr.bias_sensitivity;
-    res.lidar.stereo_scale_variance = lr.stereo_scale_variance;
-    res.lidar.halves = lr.halves;
-    std::copy(lr.observable, lr.observable + 6, res.lidar.observable);
+    // The LiDAR result is that solve's (covariances, information, flags, split-window check) with
+    // the joint estimate and the joint problem's association count.
+    const int joint_inliers = res.lidar.fine_inliers;
+    res.lidar = lr;
+    res.lidar.fine_inliers = joint_inliers;
     res.stereo.covariance = ph.covariance;
     res.stereo.lidar_sensitivity = ph.lidar_sensitivity;
     std::copy(ph.observable, ph.observable + 6, res.stereo.observable);
