@@ -65,6 +65,14 @@ if [ "$BENCH" != kitti ]; then
   run "sim_urban_co_nees_held_out" --sequences "$CO_HELD_OUT" --mode co --trials 54 \
     --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
     --seed 61 --window 10 --windows disjoint
+  # The joint problem (--mode joint) on the same starts: its model error is fitted on the first
+  # run's converged starts, the second is held out (README, "Co-calibration").
+  run "sim_urban_joint_3deg" --sequences "$CO_SEQS" --mode joint --trials "$SIM_TRIALS" \
+    --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
+    --seed 1 --window 10 --windows disjoint
+  run "sim_urban_joint_nees_held_out" --sequences "$CO_HELD_OUT" --mode joint --trials 54 \
+    --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
+    --seed 61 --window 10 --windows disjoint
   # The LiDAR-stereo model error by scene type (README, "Uncertainty"): one start per window on the
   # windows it was fitted on (urban: 20 drives, residential 41-46, highway 1-5), then held out.
   nees_scene() {  # name scenario seed-list seed
