@@ -33,6 +33,13 @@ if [ "$BENCH" != kitti ]; then
   done
   run "sim_urban_tescalib_10deg" --sequences "$URBAN" --mode lidar_stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
+  # The same with the clouds' scale and yaw as nuisances (README, "Benchmarks").
+  run "sim_urban_tescalib_3deg_scale_yaw" --sequences "$URBAN" --mode lidar_stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 \
+    --stereo-scale 1 --stereo-yaw 1
+  run "sim_urban_tescalib_10deg_scale_yaw" --sequences "$URBAN" --mode lidar_stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20 \
+    --stereo-scale 1 --stereo-yaw 1
   # Issue 5: left-right from 1 deg / 0.1 m, with the LiDAR at the truth and 1 deg / 0.1 m off.
   run "sim_urban_stereo_1deg" --sequences "$URBAN" --mode stereo --trials "$SIM_TRIALS" \
     --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
@@ -102,6 +109,12 @@ run "kitti_0930_tescalib_3deg_stereo_yaw" --sequences "$K/04,$K/05,$K/06,$K/07" 
   --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --stereo-yaw 1
 run "kitti_1003_tescalib_3deg_stereo_yaw" --sequences "$K/00,$K/02" --mode lidar_stereo \
   --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --stereo-yaw 1
+run "kitti_0930_tescalib_3deg_scale_yaw" --sequences "$K/04,$K/05,$K/06,$K/07" \
+  --mode lidar_stereo --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 \
+  --stereo-scale 1 --stereo-yaw 1
+run "kitti_1003_tescalib_3deg_scale_yaw" --sequences "$K/00,$K/02" --mode lidar_stereo \
+  --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --stereo-scale 1 \
+  --stereo-yaw 1
 run "kitti_0930_tescalib_10deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
   --trials "$TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
 run "kitti_0930_tescalib_from_gt" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \

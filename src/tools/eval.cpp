@@ -54,6 +54,7 @@ struct Args {
   double rematch_deg = 0;        ///< co: CoCalibrationSettings::rematch_deg; 0: the default
   double co_model_scale = -1;  ///< scales CoCalibrationSettings::model_sigma_*; -1: as is
   int stereo_yaw = -1;  ///< LiDAR-stereo estimates the right camera's yaw: 0/1; -1: the default
+  int stereo_scale = -1;  ///< LiDAR-stereo mode estimates the clouds' scale: 0/1; -1: the default
   int check_halves = -1;  ///< LidarStereoSettings::check_window_halves: 0/1; -1: the default
   double cov_model_scale = -1;             ///< scales the solver's model-error sigmas (0: none)
   std::string windows = "first";  ///< first: the first W keyframes; disjoint: every W in turn
@@ -69,7 +70,7 @@ void usage() {
          "         [--windows first|disjoint] [--cov-cells XxY] [--cov-model-scale K] "
          "[--first-trial K]\n"
          "         [--co-model-scale K] [--smooth-keypoints PX] [--stereo-yaw 0|1]\n"
-         "         [--check-halves 0|1] [--lidar-sigma DEG,M]\n"
+         "         [--stereo-scale 0|1] [--check-halves 0|1] [--lidar-sigma DEG,M]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
@@ -94,6 +95,8 @@ void usage() {
          "--stereo-yaw 0|1: the LiDAR-stereo solve also estimates the right camera's yaw relative\n"
          "to the clouds' rectification (a disparity offset; LidarStereoSettings::\n"
          "estimate_stereo_yaw, co: CoCalibrationSettings::lidar_estimates_stereo_yaw).\n"
+         "--stereo-scale 0|1: lidar_stereo mode: the solve also estimates a scale of the stereo\n"
+         "clouds (LidarStereoSettings::estimate_stereo_scale; always on in co).\n"
          "--check-halves 0|1: the split-window check of the LiDAR-stereo noise model after a\n"
          "converged solve (LidarStereoSettings::check_window_halves; on by default).\n"
          "--lidar-sigma DEG,M: stereo mode: the given LiDAR extrinsic's 1-sigma per axis; the\n"
@@ -173,6 +176,8 @@ bool parse(int argc, char** argv, Args* a) {
         a->co_model_scale = std::stod(v);
       else if (k == "--stereo-yaw")
         a->stereo_yaw = std::stoi(v);
+      else if (k == "--stereo-scale")
+        a->stereo_scale = std::stoi(v);
       else if (k == "--check-halves")
         a->check_halves = std::stoi(v);
       else if (k == "--lidar-sigma") {
@@ -378,6 +383,7 @@ int main(int argc, char** argv) {
   solver_settings.run_fine = args.stages.find("fine") != std::string::npos;
   if (args.cov_cells_x > 0) solver_settings.cov_cells_x = args.cov_cells_x;
   if (args.stereo_yaw >= 0) solver_settings.estimate_stereo_yaw = args.stereo_yaw > 0;
+  if (args.stereo_scale >= 0) solver_settings.estimate_stereo_scale = args.stereo_scale > 0;
   if (args.check_halves >= 0) solver_settings.check_window_halves = args.check_halves > 0;
   if (args.cov_cells_y > 0) solver_settings.cov_cells_y = args.cov_cells_y;
   if (args.cov_model_scale >= 0) {
