@@ -122,7 +122,6 @@ TEST(CoCalibration, RerectificationOnlyWhenTheRotationOrDirectionChanges) {
   EXPECT_TRUE(needsRerectification(a, perturb(a, d), 0.005, 0.05, 0.03));
 }
 
-
 // The left-right covariance of a co-calibration carries the LiDAR's uncertainty, and so do the
 // left-right trust flags: a LiDAR extrinsic loose along its optical axis makes the stereo
 // translation along z untrustworthy, which the photometric solve alone (LiDAR taken as exact)

@@ -168,8 +168,7 @@ bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSetti
         "the window does not constrain every axis once the LiDAR extrinsic's uncertainty is "
         "included";
   }
-  addAxisVariances(&stereo->covariance, s.model_sigma_stereo_rot_deg,
-                   s.model_sigma_stereo_trans_m);
+  addAxisVariances(&stereo->covariance, s.model_sigma_stereo_rot_deg, s.model_sigma_stereo_trans_m);
   return all;
 }
 

@@ -127,7 +127,8 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
     // d = c + a (u' - u) + b (v' - v) over the window: unbiased also where the window is only
     // partly valid, and it averages out SGBM's per-pixel noise. Earlier rounds keep d + delta.
     cv::Mat sD, xD, yD;
-    if (last) sD = windowSum(d0, r), xD = windowMoment(d0, lin, ones), yD = windowMoment(d0, ones, lin);
+    if (last)
+      sD = windowSum(d0, r), xD = windowMoment(d0, lin, ones), yD = windowMoment(d0, ones, lin);
     cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
       for (int v = range.start; v < range.end; ++v) {
         float* dv = d.ptr<float>(v);

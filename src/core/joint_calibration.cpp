@@ -354,10 +354,9 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   for (size_t k = 0; k < window.size(); ++k) res.stereo.brightness[k] = {ab[k][0], ab[k][1]};
   // The flags are those of the covariance solves (LiDAR: statistical part and common biases;
   // left-right: with the LiDAR's uncertainty), as in coCalibrate.
-  const bool all = std::all_of(res.lidar.observable, res.lidar.observable + 6,
-                               [](bool b) { return b; }) &&
-                   std::all_of(res.stereo.observable, res.stereo.observable + 6,
-                               [](bool b) { return b; });
+  const bool all =
+      std::all_of(res.lidar.observable, res.lidar.observable + 6, [](bool b) { return b; }) &&
+      std::all_of(res.stereo.observable, res.stereo.observable + 6, [](bool b) { return b; });
   const Vector6d corr_l = poseError(T_cl, T_cam_lidar_init);
   const Vector6d corr_s = poseError(T_rl, T_right_left_init);
   const bool diverged = corr_l.head<3>().norm() * kDegPerRad > ls.max_correction_rot_deg ||
