@@ -143,6 +143,16 @@ LidarStereoSettings coLidarStereoSettings(const CoCalibrationSettings& s) {
   return ls;
 }
 
+PhotometricSettings coPhotometricSettings(const CoCalibrationSettings& s, bool warm) {
+  PhotometricSettings ps = s.stereo;
+  ps.fix_baseline_length = s.photometric_fixed_length;
+  if (warm) {
+    ps.pyramid_levels = std::min(ps.pyramid_levels, s.warm_pyramid_levels);
+    ps.iterations_per_level = s.warm_iterations;
+  }
+  return ps;
+}
+
 bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& s,
                         PhotometricResult* stereo) {
   // The baseline length is the LiDAR-stereo solve's stereo scale times the length the clouds
@@ -218,14 +228,10 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     Eigen::Isometry3d T_rl_new = T_rl;
     // 1. Left-right from the LiDAR depth.
     {
-      PhotometricSettings ps = s.stereo;
-      ps.fix_baseline_length = s.photometric_fixed_length;
+      PhotometricSettings ps =
+          coPhotometricSettings(s, warm && (photometric_done || s.warm_first_round));
       free_depth = res.rounds <= s.free_depth_rounds && !lidar_converged && !free_depth_done;
       if (free_depth) ps.depth_prior_sigma = s.free_depth_prior_sigma;
-      if (warm && (photometric_done || s.warm_first_round)) {
-        ps.pyramid_levels = std::min(ps.pyramid_levels, s.warm_pyramid_levels);
-        ps.iterations_per_level = s.warm_iterations;
-      }
       const auto t_ph = Clock::now();
       res.stereo = solvePhotometric(cwin, rig, T_cl, T_rl, ps);
       res.seconds_photometric += secondsSince(t_ph);

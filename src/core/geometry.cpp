@@ -36,6 +36,17 @@ void addAxisVariances(Matrix6d* covariance, const std::array<double, 3>& sigma_r
   }
 }
 
+bool axesWithin(const Matrix6d& covariance, double max_sigma_rot_deg, double max_sigma_trans_m,
+                bool trusted[6]) {
+  bool all = true;
+  for (int i = 0; i < 6; ++i) {
+    const double limit = i < 3 ? max_sigma_rot_deg / kDegPerRad : max_sigma_trans_m;
+    trusted[i] = std::sqrt(covariance(i, i)) < limit;
+    all = all && trusted[i];
+  }
+  return all;
+}
+
 Vector6d poseError(const Eigen::Isometry3d& T_est, const Eigen::Isometry3d& T_gt) {
   Vector6d e;
   e.head<3>() = logSO3(T_est.linear() * T_gt.linear().transpose());

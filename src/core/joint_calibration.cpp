@@ -311,12 +311,8 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     // their estimates are not (the estimate stays the joint one).
     rectifyWindow(window, rig, T_rl, s.stereo_cloud, rectifyTolerances(s),
                   &res.seconds_stereo_cloud, &res.rematches);
-    PhotometricSettings pw = ps;
-    pw.fix_baseline_length = s.photometric_fixed_length;
-    pw.pyramid_levels = std::min(pw.pyramid_levels, s.warm_pyramid_levels);
-    pw.iterations_per_level = s.warm_iterations;
     const auto t_ph = Clock::now();
-    PhotometricResult ph = solvePhotometric(cwin, rig, T_cl, T_rl, pw);
+    PhotometricResult ph = solvePhotometric(cwin, rig, T_cl, T_rl, coPhotometricSettings(s, true));
     res.seconds_photometric += secondsSince(t_ph);
     LidarStereoSettings lw = coLidarStereoSettings(s);
     lw.run_coarse = false;

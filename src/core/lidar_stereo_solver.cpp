@@ -137,14 +137,7 @@ bool smallUpdate(const Vector6d& d, const LidarStereoSettings& s) {
 }  // namespace
 
 bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& s, bool observable[6]) {
-  bool all = true;
-  for (int i = 0; i < 6; ++i) {
-    const double sigma = std::sqrt(covariance(i, i));
-    const double limit = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
-    observable[i] = sigma < limit;
-    all = all && observable[i];
-  }
-  return all;
+  return axesWithin(covariance, s.max_sigma_rot_deg, s.max_sigma_trans_m, observable);
 }
 
 // Variance of a LiDAR point along unit normal n (camera frame), eq. lidar_noise projected:

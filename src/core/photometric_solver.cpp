@@ -360,13 +360,7 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
 }
 
 bool trustFlags(const Matrix6d& covariance, const PhotometricSettings& s, bool observable[6]) {
-  bool all = true;
-  for (int i = 0; i < 6; ++i) {
-    const double limit = i < 3 ? s.max_sigma_rot_deg / kDegPerRad : s.max_sigma_trans_m;
-    observable[i] = std::sqrt(covariance(i, i)) < limit;
-    all = all && observable[i];
-  }
-  return all;
+  return axesWithin(covariance, s.max_sigma_rot_deg, s.max_sigma_trans_m, observable);
 }
 
 void addLidarUncertainty(PhotometricResult* result, const Matrix6d& cov_cam_lidar) {

@@ -157,6 +157,11 @@ int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
 /// `lidar_estimates_stereo_yaw`).
 LidarStereoSettings coLidarStereoSettings(const CoCalibrationSettings& settings);
 
+/// The left-right settings of a co-calibration's photometric solves: `settings.stereo` with the
+/// baseline length kept (`photometric_fixed_length`) and, `warm`, only the finest
+/// `warm_pyramid_levels` levels with `warm_iterations` iterations each.
+PhotometricSettings coPhotometricSettings(const CoCalibrationSettings& settings, bool warm);
+
 /// The left-right covariance of a co-calibration, from the last photometric solve `stereo`
 /// (conditional on the LiDAR extrinsic) and the final LiDAR-stereo solve `lidar`: adds the
 /// baseline length's variance from the stereo scale (with `photometric_fixed_length`), the LiDAR

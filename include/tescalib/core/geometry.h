@@ -33,6 +33,12 @@ Vector6d poseError(const Eigen::Isometry3d& T_est, const Eigen::Isometry3d& T_gt
 void addAxisVariances(Matrix6d* covariance, const std::array<double, 3>& sigma_rot_deg,
                       const std::array<double, 3>& sigma_trans_m);
 
+/// Per-axis trust flags from a covariance over [phi; tau] (rad, m): an axis is trusted when its
+/// sigma is below `max_sigma_rot_deg` (rotation) or `max_sigma_trans_m` (translation); returns
+/// true when every axis is.
+bool axesWithin(const Matrix6d& covariance, double max_sigma_rot_deg, double max_sigma_trans_m,
+                bool trusted[6]);
+
 /// A perturbation whose rotation has exactly `rot_rad` about a uniformly random axis and whose
 /// translation has exactly `trans_m` in a uniformly random direction.
 Vector6d randomPerturbation(double rot_rad, double trans_m, std::mt19937_64& rng);
