@@ -22,6 +22,12 @@ simulate() {  # scenario seed frames [noise] -> prints the folder (generated onc
     --frames "$3" --noise "${4:-default}" --out "$dir" > /dev/null || exit 1
   echo "$dir"
 }
+simulate_swept() {  # scenario seed frames: raw (swept, motion-skewed) scans, default noise
+  local dir="$OUT/sim_$1_s$2_f$3_default_sweep"
+  [ -f "$dir/sim_info.txt" ] || rosrun tescalib tescalib_simulate --scenario "$1" --seed "$2" \
+    --frames "$3" --noise default --lidar-sweep 1 --out "$dir" > /dev/null || exit 1
+  echo "$dir"
+}
 if [ "$BENCH" != kitti ]; then
   echo "=== tescalib_simulate speed"
   bash "$ROOT/scripts/bench_simulate.sh"
@@ -40,6 +46,13 @@ if [ "$BENCH" != kitti ]; then
   run "sim_urban_tescalib_10deg_scale_yaw" --sequences "$URBAN" --mode lidar_stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20 \
     --stereo-scale 1 --stereo-yaw 1
+  # Raw swept scans (the same drive, each scan swept over its revolution): de-skewed (the
+  # default for such data) and as they are (README, "Motion compensation").
+  SWEPT=$(simulate_swept urban 1 100)
+  run "sim_urban_swept_tescalib_3deg_deskew" --sequences "$SWEPT" --mode lidar_stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
+  run "sim_urban_swept_tescalib_3deg_raw" --sequences "$SWEPT" --mode lidar_stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --deskew 0
   # Issue 5: left-right from 1 deg / 0.1 m, with the LiDAR at the truth and 1 deg / 0.1 m off.
   run "sim_urban_stereo_1deg" --sequences "$URBAN" --mode stereo --trials "$SIM_TRIALS" \
     --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20

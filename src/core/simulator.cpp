@@ -173,8 +173,10 @@ Simulator::Simulator(const SimOptions& options)
 
 Simulator::~Simulator() = default;
 
-Eigen::Isometry3d Simulator::worldFromLidar(int i) const {
-  return impl_->trajectory->worldFromLidar(stamp(i));
+Eigen::Isometry3d Simulator::worldFromLidar(int i) const { return worldFromLidarAt(stamp(i)); }
+
+Eigen::Isometry3d Simulator::worldFromLidarAt(double t) const {
+  return impl_->trajectory->worldFromLidar(t);
 }
 
 Eigen::Isometry3d Simulator::cam0Pose(int i) const {
@@ -185,8 +187,15 @@ Eigen::Isometry3d Simulator::cam0Pose(int i) const {
 
 LidarScan Simulator::renderScan(int i, int threads) const {
   const int t = sim::resolveThreads(threads > 0 ? threads : options_.threads);
-  return sim::simulateLidarScan(*world_, worldFromLidar(i), impl_->lidar, impl_->lidar_noise,
-                                sim::subSeed(options_.seed, 4 * uint64_t(i) + 3), t);
+  const uint64_t seed = sim::subSeed(options_.seed, 4 * uint64_t(i) + 3);
+  if (options_.lidar_sweep) {
+    const double t0 = stamp(i);
+    return sim::simulateSweptLidarScan(
+        *world_, [&](double dt) { return worldFromLidarAt(t0 + dt); }, impl_->lidar,
+        impl_->lidar_noise, seed, t);
+  }
+  return sim::simulateLidarScan(*world_, worldFromLidar(i), impl_->lidar, impl_->lidar_noise, seed,
+                                t);
 }
 
 Frame Simulator::renderFrame(int i, int threads) const {
@@ -259,6 +268,9 @@ void Simulator::writeSequence(const std::string& dir) const {
          << "lidar_points_per_ring: " << impl_->lidar.points_per_ring << "\n"
          << "lidar_max_range_m: " << impl_->lidar.max_range << "\n"
          << "lidar_height_m: " << kLidarHeight << "\n"
+         << "# 1: each scan swept over its revolution (clockwise, 10 Hz, forward at the frame's\n"
+         << "# stamp) as a raw driver delivers it; 0: every beam from the pose at the stamp\n"
+         << "lidar_sweep: " << (options_.lidar_sweep ? 1 : 0) << "\n"
          << "lidar_range_sigma_m: " << n.lidar_range_sigma_m << "\n"
          << "lidar_direction_sigma_deg: " << n.lidar_direction_sigma_deg << "\n"
          << "lidar_intensity_sigma: " << n.lidar_intensity_sigma << "\n"

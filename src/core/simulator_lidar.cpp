@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "tescalib/core/scan_motion.h"
 #include "tescalib/core/scene_culling.h"
 #include "tescalib/core/scene_surface.h"
 #include "tescalib/core/simulator_parallel.h"
@@ -26,13 +27,20 @@ LidarModel LidarModel::hdl64e() {
   return m;
 }
 
-LidarScan simulateLidarScan(const SceneWorld& world, const Eigen::Isometry3d& T_world_lidar,
-                            const LidarModel& model, const LidarNoise& noise, uint64_t seed,
-                            int threads) {
-  const Eigen::Matrix3f R = T_world_lidar.linear().cast<float>();
-  const Eigen::Vector3f origin = T_world_lidar.translation().cast<float>();
-  const TileCandidates sectors = cullSpinning(
-      world.prims, R.transpose(), origin, static_cast<float>(model.max_range) + 1.f, kAzimuthBins);
+namespace {
+constexpr int kSweepChunks = 90;  // culling poses per revolution (4 deg, 1.1 ms each)
+
+/// One revolution; beam k (azimuth step) is fired from `pose(k)` and traced among the candidates
+/// culled from `cull_pose(chunk(k))`.
+template <class PoseOf, class ChunkOf>
+LidarScan spin(const SceneWorld& world, const std::vector<Eigen::Isometry3d>& cull_poses,
+               const PoseOf& pose, const ChunkOf& chunk, const LidarModel& model,
+               const LidarNoise& noise, uint64_t seed, int threads) {
+  std::vector<TileCandidates> sectors;
+  for (const Eigen::Isometry3d& T : cull_poses)
+    sectors.push_back(cullSpinning(world.prims, T.linear().cast<float>().transpose(),
+                                   T.translation().cast<float>(),
+                                   static_cast<float>(model.max_range) + 1.f, kAzimuthBins));
   const int rings = static_cast<int>(model.elevation_deg.size());
   const int n = model.points_per_ring;
   const uint32_t seed32 = static_cast<uint32_t>(seed ^ (seed >> 32));
@@ -53,10 +61,14 @@ LidarScan simulateLidarScan(const SceneWorld& world, const Eigen::Isometry3d& T_
       const double w1 = noise.direction_sigma_rad * gaussianFromHash(hash32(seed32, id, 0u));
       const double w2 = noise.direction_sigma_rad * gaussianFromHash(hash32(seed32, id, 1u));
       const Eigen::Vector3f beam = (omega + w1 * n1 + w2 * n2).normalized().cast<float>();
-      const Eigen::Vector3f d = R * beam;
-      const int bin = azimuthBin(beam, kAzimuthBins);
-      const TraceResult hit = traceRay(world.prims, sectors.begin(bin, 0), sectors.end(bin, 0),
-                                       origin, d, static_cast<float>(model.max_range) + 1.f);
+      const Eigen::Isometry3d& T = pose(k);
+      const Eigen::Vector3f origin = T.translation().cast<float>();
+      const Eigen::Vector3f d = T.linear().cast<float>() * beam;
+      const int c = chunk(k);
+      const int bin = azimuthBin(beam, kAzimuthBins);  // the sensor turns little within a chunk
+      const TraceResult hit =
+          traceRay(world.prims, sectors[c].begin(bin, 0), sectors[c].end(bin, 0), origin, d,
+                   static_cast<float>(model.max_range) + 1.f);
       if (hit.prim == TraceResult::kNoHit) continue;
       const double range = hit.t + noise.range_sigma * gaussianFromHash(hash32(seed32, id, 2u));
       if (range > model.max_range || range < model.min_range) continue;
@@ -85,6 +97,34 @@ LidarScan simulateLidarScan(const SceneWorld& world, const Eigen::Isometry3d& T_
   scan.reserve(total);
   for (const auto& r : per_ring) scan.insert(scan.end(), r.begin(), r.end());
   return scan;
+}
+}  // namespace
+
+LidarScan simulateLidarScan(const SceneWorld& world, const Eigen::Isometry3d& T_world_lidar,
+                            const LidarModel& model, const LidarNoise& noise, uint64_t seed,
+                            int threads) {
+  return spin(
+      world, {T_world_lidar}, [&](int) -> const Eigen::Isometry3d& { return T_world_lidar; },
+      [](int) { return 0; }, model, noise, seed, threads);
+}
+
+LidarScan simulateSweptLidarScan(const SceneWorld& world,
+                                 const std::function<Eigen::Isometry3d(double)>& world_from_lidar,
+                                 const LidarModel& model, const LidarNoise& noise, uint64_t seed,
+                                 int threads) {
+  const ScanSweep sweep;
+  const int n = model.points_per_ring;
+  auto azimuth = [n](double k) { return 2 * M_PI * (k + 0.5) / n; };
+  std::vector<Eigen::Isometry3d> poses(n), cull(kSweepChunks);
+  for (int k = 0; k < n; ++k) poses[k] = world_from_lidar(sweepTime(azimuth(k), sweep));
+  // Candidates are culled per chunk of azimuth from the chunk's middle pose: within a chunk the
+  // sensor moves by at most a few cm, inside culling's one-sector margin beyond a few metres.
+  const int per_chunk = (n + kSweepChunks - 1) / kSweepChunks;
+  for (int c = 0; c < kSweepChunks; ++c)
+    cull[c] = world_from_lidar(sweepTime(azimuth(c * per_chunk + 0.5 * per_chunk - 0.5), sweep));
+  return spin(
+      world, cull, [&](int k) -> const Eigen::Isometry3d& { return poses[k]; },
+      [per_chunk](int k) { return k / per_chunk; }, model, noise, seed, threads);
 }
 
 }  // namespace sim

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numeric>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -25,9 +26,12 @@
 #include "tescalib/core/kitti_reader.h"
 #include "tescalib/core/lidar_stereo_solver.h"
 #include "tescalib/core/photometric_solver.h"
+#include "tescalib/core/scan_motion.h"
 
 using namespace tescalib;
 using Clock = std::chrono::steady_clock;
+
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -56,9 +60,25 @@ struct Args {
   int stereo_yaw = -1;  ///< LiDAR-stereo estimates the right camera's yaw: 0/1; -1: the default
   int stereo_scale = -1;  ///< LiDAR-stereo mode estimates the clouds' scale: 0/1; -1: the default
   int check_halves = -1;  ///< LidarStereoSettings::check_window_halves: 0/1; -1: the default
+  /// De-skew the scans with the motion registered against a neighbouring frame: 0/1; -1: when
+  /// the sequence's scans are swept (sweptScans).
+  int deskew = -1;
   double cov_model_scale = -1;             ///< scales the solver's model-error sigmas (0: none)
   std::string windows = "first";  ///< first: the first W keyframes; disjoint: every W in turn
 };
+
+/// Whether a sequence's scans are raw sweeps that need de-skewing: KITTI raw recordings (their
+/// readme: the points must be "untwisted"), tescalib_simulate output written with --lidar-sweep 1.
+/// Not KITTI odometry sequences: KITTI compensated their scans for the ego-motion (odometry
+/// readme), nor the generator's default output (every beam from the pose at the stamp).
+bool sweptScans(const KittiSequence& seq) {
+  std::ifstream info(fs::path(seq.dir()) / "sim_info.txt");
+  if (!info) return seq.layout() == KittiLayout::kRaw;
+  std::string line;
+  while (std::getline(info, line))
+    if (line.rfind("lidar_sweep:", 0) == 0) return std::stoi(line.substr(12)) == 1;
+  return false;
+}
 
 void usage() {
   std::cout
@@ -97,6 +117,10 @@ void usage() {
          "estimate_stereo_yaw, co: CoCalibrationSettings::lidar_estimates_stereo_yaw).\n"
          "--stereo-scale 0|1: lidar_stereo mode: the solve also estimates a scale of the stereo\n"
          "clouds (LidarStereoSettings::estimate_stereo_scale; always on in co).\n"
+         "--deskew 0|1: motion-compensate each keyframe's scan to the camera trigger with the\n"
+         "velocity registered against the sequence's next frame (default: on for KITTI raw\n"
+         "recordings and tescalib_simulate --lidar-sweep 1 output; off for KITTI odometry\n"
+         "sequences, which KITTI compensated, and the generator's default output).\n"
          "--check-halves 0|1: the split-window check of the LiDAR-stereo noise model after a\n"
          "converged solve (LidarStereoSettings::check_window_halves; on by default).\n"
          "--lidar-sigma DEG,M: stereo mode: the given LiDAR extrinsic's 1-sigma per axis; the\n"
@@ -178,6 +202,8 @@ bool parse(int argc, char** argv, Args* a) {
         a->stereo_yaw = std::stoi(v);
       else if (k == "--stereo-scale")
         a->stereo_scale = std::stoi(v);
+      else if (k == "--deskew")
+        a->deskew = std::stoi(v);
       else if (k == "--check-halves")
         a->check_halves = std::stoi(v);
       else if (k == "--lidar-sigma") {
@@ -352,6 +378,27 @@ int main(int argc, char** argv) {
   try {
     for (const auto& [si, fi] : keyframes) {
       frames.push_back(seqs[si]->load(fi));
+      if (args.deskew > 0 || (args.deskew < 0 && sweptScans(*seqs[si]))) {
+        // Constant velocity from this scan to the next frame's (or from the previous one's).
+        const KittiSequence& seq = *seqs[si];
+        if (seq.size() < 2) throw DataError(seq.dir() + ": --deskew needs two frames");
+        const size_t j = fi + 1 < seq.size() ? fi + 1 : fi - 1;
+        const LidarScan other = seq.loadScan(j);
+        const auto t_dk = std::chrono::steady_clock::now();
+        const ScanMotion m =
+            j > fi ? estimateScanMotion(frames.back().scan, other, seq.stamp(j) - seq.stamp(fi))
+                   : estimateScanMotion(other, frames.back().scan, seq.stamp(fi) - seq.stamp(j));
+        const double s_dk =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t_dk).count();
+        if (m.valid)
+          std::printf("  keyframe %zu: de-skewed, %.2f m/s, %.2f deg/s (registered with frame %d, "
+                      "RMS %.3f m, %.2f s)\n",
+                      frames.size() - 1, m.velocity.norm(), m.angular_velocity.norm() * kDegPerRad,
+                      seq.frameId(j), m.rms_m, s_dk);
+        else
+          std::printf("  keyframe %zu: not de-skewed: %s\n", frames.size() - 1, m.message.c_str());
+        deskewScan(&frames.back().scan, m);
+      }
       Keyframe kf;
       kf.stamp = frames.back().stamp;
       kf.scan = frames.back().scan;

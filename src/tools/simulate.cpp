@@ -14,7 +14,7 @@ void usage() {
   std::cout
       << "usage: rosrun tescalib tescalib_simulate --scenario urban|residential|highway\n"
          "         --frames N --seed S --out DIR [--calib FILE] [--noise default|none|high]\n"
-         "         [--size WxH] [--threads T]\n"
+         "         [--size WxH] [--threads T] [--lidar-sweep 0|1]\n"
          "  Writes a KITTI odometry sequence to DIR: calib.txt (P0-P3, Tr: the ground truth),\n"
          "  times.txt (10 Hz), image_2/ image_3/ (8-bit RGB PNG), velodyne/*.bin (HDL-64E-like,\n"
          "  KITTI ring order), poses.txt (cam0 poses, KITTI convention), sim_info.txt.\n"
@@ -24,6 +24,9 @@ void usage() {
          "                image sigma 2 grey levels; high: 5 cm, 0.1 deg, 6; none)\n"
          "  --size WxH    image size (default 1241x376)\n"
          "  --threads T   worker threads (default: all cores); the output does not depend on it\n"
+         "  --lidar-sweep 1  sweep each scan over its 0.1 s revolution (clockwise, forward at the\n"
+         "                frame's stamp) as a raw driver delivers it: motion-skewed scans to\n"
+         "                de-skew (default 0: every beam from the pose at the stamp)\n"
          "  The same arguments give the same bytes.\n";
 }
 
@@ -76,6 +79,10 @@ int main(int argc, char** argv) {
         options.height = static_cast<int>(integer(v.substr(x + 1)));
       } else if (a == "--threads") {
         options.threads = static_cast<int>(integer(next()));
+      } else if (a == "--lidar-sweep") {
+        const long long v = integer(next());
+        if (v != 0 && v != 1) throw std::invalid_argument("--lidar-sweep must be 0 or 1");
+        options.lidar_sweep = v == 1;
       } else if (a == "-h" || a == "--help") {
         usage();
         return 0;

@@ -60,6 +60,10 @@ struct SimOptions {
   double right_gain = 0.9;                       ///< right camera gain
   double right_offset = 8.0;                     ///< right camera offset (grey levels)
   int threads = 0;                               ///< worker threads, 0 = all cores
+  /// Sweep each scan over its 0.1 s revolution as a real spinning LiDAR does (clockwise, the
+  /// cameras triggered when it faces forward): a raw, motion-skewed scan. Off: every beam fires
+  /// from the pose of the camera trigger (a perfectly motion-compensated scan).
+  bool lidar_sweep = false;
 };
 
 /// A generated sequence: the world is built once; frames are rendered on demand.
@@ -79,6 +83,9 @@ class Simulator {
   double stamp(int i) const { return 0.1 * i; }
   /// Pose of the LiDAR in the world at frame i.
   Eigen::Isometry3d worldFromLidar(int i) const;
+  /// Pose of the LiDAR in the world at time t (s; the trajectory is continuous: a swept scan's
+  /// beams fire from the poses around their frame's stamp).
+  Eigen::Isometry3d worldFromLidarAt(double t) const;
   /// Pose of cam0 at frame i in the cam0 frame of frame 0 (what poses.txt holds).
   Eigen::Isometry3d cam0Pose(int i) const;
   /// The noise parameters in use.

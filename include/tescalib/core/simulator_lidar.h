@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include <Eigen/Geometry>
@@ -41,6 +42,15 @@ struct LidarNoise {
 LidarScan simulateLidarScan(const SceneWorld& world, const Eigen::Isometry3d& T_world_lidar,
                             const LidarModel& model, const LidarNoise& noise, uint64_t seed,
                             int threads = 1);
+
+/// The same swept over one revolution as a real spinning sensor is: the beam at azimuth az fires
+/// at time `sweepTime(az, sweep)` (scan_motion.h; clockwise at 10 Hz, forward at 0 by default)
+/// from the pose `world_from_lidar(t)` and is reported in the sensor frame of that moment, so
+/// a moving sensor's scan is skewed as a raw driver delivers it.
+LidarScan simulateSweptLidarScan(const SceneWorld& world,
+                                 const std::function<Eigen::Isometry3d(double)>& world_from_lidar,
+                                 const LidarModel& model, const LidarNoise& noise, uint64_t seed,
+                                 int threads = 1);
 
 }  // namespace sim
 }  // namespace tescalib

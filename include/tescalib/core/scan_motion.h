@@ -1,0 +1,51 @@
+// Motion compensation of spinning-LiDAR scans ("de-skewing"). A scan is swept over one rotation
+// (0.1 s at 10 Hz) while the vehicle moves: at 12.6 m/s the points at the edges of KITTI's camera
+// view (+-40 deg of azimuth, +-11 ms from the camera trigger) are 14 cm from where they were when
+// the image was taken. Each point is brought to the trigger instant with the sensor's velocity,
+// estimated by registering the scan to a neighbouring one (constant velocity over the pair).
+#pragma once
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "tescalib/core/types.h"
+
+namespace tescalib {
+
+/// The sweep of the sensor: when each point was measured relative to the reference instant.
+struct ScanSweep {
+  double rate_hz = 10.0;  ///< rotations per second (KITTI's HDL-64E: 10 Hz)
+  /// Sense of rotation seen from above (sensor z up): true for Velodyne sensors (azimuth
+  /// atan2(y, x) decreasing with time).
+  bool clockwise = true;
+  /// Azimuth (rad, sensor frame) at the reference instant: KITTI triggers the cameras when the
+  /// LiDAR faces forward (0). The sweep's seam is opposite to it.
+  double reference_azimuth_rad = 0.0;
+};
+
+/// Constant sensor velocity over a scan, in the sensor frame of the reference instant.
+struct ScanMotion {
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();          ///< m/s
+  Eigen::Vector3d angular_velocity = Eigen::Vector3d::Zero();  ///< rad/s (rotation vector rate)
+  bool valid = false;
+  double rms_m = 0;  ///< RMS point-to-point distance of the registration's inliers
+  int inliers = 0;
+  std::string message;  ///< why it is not valid
+};
+
+/// Time (s) of a point at azimuth `azimuth_rad` relative to the sweep's reference instant, in
+/// [-0.5, 0.5) / rate.
+double sweepTime(double azimuth_rad, const ScanSweep& sweep = {});
+
+/// The sensor's motion between scan `a` (time 0) and scan `b` (time `dt` > 0) from a GICP
+/// registration of `b` to `a` (points beyond 3 m, 0.3 m voxels; started at the forward offset that
+/// overlaps the scans best, up to 70 m/s), as a constant velocity. `valid` is false with a message
+/// when the scans are too small, dt is not positive, or the registration does not fit.
+ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt);
+
+/// Moves every point of `scan` to where it was at the sweep's reference instant, for a sensor
+/// moving with `motion` (no-op when it is not valid).
+void deskewScan(LidarScan* scan, const ScanMotion& motion, const ScanSweep& sweep = {});
+
+}  // namespace tescalib

@@ -1,0 +1,142 @@
+#include "tescalib/core/scan_motion.h"
+
+#include <cmath>
+#include <limits>
+
+#include <pcl/filters/voxel_grid.h>
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/point_types.h>
+#include <pcl/registration/gicp.h>
+
+#include "tescalib/core/geometry.h"
+
+namespace tescalib {
+
+namespace {
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+
+constexpr double kMinRange = 3.0;           // m: the vehicle's own returns and the nearest ring
+constexpr float kVoxel = 0.3f;              // m
+constexpr double kInlierDistance = 0.5;     // m, after registration
+constexpr double kMaxRms = 0.25;            // m: a registration that fits worse is not trusted
+constexpr double kMinInlierFraction = 0.3;  // of the registered scan's voxels
+constexpr double kMaxSpeed = 70.0;          // m/s
+constexpr double kMaxTurnRate = 1.5;        // rad/s
+
+Cloud::Ptr voxelised(const LidarScan& scan) {
+  Cloud::Ptr raw(new Cloud), out(new Cloud);
+  raw->reserve(scan.size());
+  for (const LidarPoint& p : scan)
+    if (std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
+        std::hypot(p.x, p.y) > kMinRange)
+      raw->push_back(pcl::PointXYZ(p.x, p.y, p.z));
+  if (raw->empty()) return out;
+  pcl::VoxelGrid<pcl::PointXYZ> vg;
+  vg.setInputCloud(raw);
+  vg.setLeafSize(kVoxel, kVoxel, kVoxel);
+  vg.filter(*out);
+  return out;
+}
+
+Eigen::Matrix4f registerScans(const Cloud::Ptr& source, const Cloud::Ptr& target,
+                              const Eigen::Matrix4f& init, double max_distance, int iterations,
+                              double* fitness) {
+  pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> gicp;
+  gicp.setInputSource(source);
+  gicp.setInputTarget(target);
+  gicp.setMaxCorrespondenceDistance(max_distance);
+  gicp.setMaximumIterations(iterations);
+  Cloud aligned;
+  gicp.align(aligned, init);
+  *fitness = gicp.hasConverged() ? gicp.getFitnessScore(max_distance)
+                                 : std::numeric_limits<double>::infinity();
+  return gicp.getFinalTransformation();
+}
+}  // namespace
+
+double sweepTime(double azimuth_rad, const ScanSweep& sweep) {
+  // Azimuth swept since the reference instant, wrapped to [-pi, pi): the seam is behind.
+  double a = (sweep.clockwise ? -1.0 : 1.0) * (azimuth_rad - sweep.reference_azimuth_rad);
+  a = std::fmod(a + M_PI, 2.0 * M_PI);
+  if (a < 0) a += 2.0 * M_PI;
+  return (a - M_PI) / (2.0 * M_PI * sweep.rate_hz);
+}
+
+ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt) {
+  ScanMotion m;
+  if (!(dt > 0)) {
+    m.message = "the scans' stamps are not increasing (dt " + std::to_string(dt) + " s)";
+    return m;
+  }
+  const Cloud::Ptr ca = voxelised(a), cb = voxelised(b);
+  if (ca->size() < 200 || cb->size() < 200) {
+    m.message = "too few LiDAR points beyond " + std::to_string(int(kMinRange)) + " m to register";
+    return m;
+  }
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  tree.setInputCloud(ca);
+  std::vector<int> idx(1);
+  std::vector<float> d2(1);
+  // Forward motion can be metres between the scans, beyond GICP's basin on a road whose
+  // structure runs along it: GICP starts at the forward offset (0.25 m steps up to kMaxSpeed dt,
+  // and backwards a fifth of that) that puts most of a sample of `b` near `a`.
+  const double reach = kMaxSpeed * dt;
+  double best_x = 0;
+  int best_count = -1;
+  for (double x = -0.2 * reach; x <= reach; x += 0.25) {
+    int count = 0;
+    for (size_t i = 0; i < cb->size(); i += 7) {
+      const auto& p = (*cb)[i];
+      if (tree.nearestKSearch(pcl::PointXYZ(p.x + float(x), p.y, p.z), 1, idx, d2) == 1 &&
+          d2[0] < kInlierDistance * kInlierDistance)
+        ++count;
+    }
+    if (count > best_count) best_count = count, best_x = x;
+  }
+  Eigen::Matrix4f T = Eigen::Matrix4f::Identity();
+  T(0, 3) = float(best_x);
+  double fit;
+  T = registerScans(cb, ca, T, 1.5, 30, &fit);
+  T = registerScans(cb, ca, T, kInlierDistance, 60, &fit);
+
+  // Inliers and their RMS, measured independently of GICP's own score.
+  double sum = 0;
+  for (const auto& p : cb->points) {
+    const Eigen::Vector4f q = T * Eigen::Vector4f(p.x, p.y, p.z, 1.f);
+    if (tree.nearestKSearch(pcl::PointXYZ(q.x(), q.y(), q.z()), 1, idx, d2) == 1 &&
+        d2[0] < kInlierDistance * kInlierDistance) {
+      sum += d2[0];
+      ++m.inliers;
+    }
+  }
+  m.rms_m = m.inliers > 0 ? std::sqrt(sum / m.inliers) : std::numeric_limits<double>::infinity();
+  const Eigen::Matrix4d Td = T.cast<double>();
+  m.velocity = Td.topRightCorner<3, 1>() / dt;
+  m.angular_velocity = logSO3(Td.topLeftCorner<3, 3>()) / dt;
+  if (m.inliers < kMinInlierFraction * cb->size())
+    m.message = "the scans do not overlap after registration (" + std::to_string(m.inliers) +
+                " of " + std::to_string(cb->size()) + " voxels within 0.5 m)";
+  else if (m.rms_m > kMaxRms)
+    m.message = "the scan registration fits poorly (RMS " + std::to_string(m.rms_m) + " m)";
+  else if (m.velocity.norm() > kMaxSpeed || m.angular_velocity.norm() > kMaxTurnRate)
+    m.message =
+        "implausible motion between the scans (" + std::to_string(m.velocity.norm()) + " m/s)";
+  else
+    m.valid = true;
+  return m;
+}
+
+void deskewScan(LidarScan* scan, const ScanMotion& motion, const ScanSweep& sweep) {
+  if (!motion.valid) return;
+  for (LidarPoint& p : *scan) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    // The sensor at time t is at exp(w t), v t in the reference frame: a point it measured then
+    // is exp(w t) p + v t there.
+    const double t = sweepTime(std::atan2(p.y, p.x), sweep);
+    const Eigen::Vector3d q =
+        expSO3(motion.angular_velocity * t) * Eigen::Vector3d(p.x, p.y, p.z) + motion.velocity * t;
+    p.x = float(q.x()), p.y = float(q.y()), p.z = float(q.z());
+  }
+}
+
+}  // namespace tescalib
