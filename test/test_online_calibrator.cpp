@@ -289,3 +289,42 @@ TEST(OnlineCalibratorGenerated, CoCalibrationContinuesWarmAfterTheFirstEstimate)
   check("warm update, 6 keyframes");
   EXPECT_EQ(cal.estimate()->co_rounds, settings.warm_co_rounds);
 }
+
+TEST(OnlineCalibratorGenerated, DeskewsKeyframeScansWithThePreviousScansMotion) {
+  // Raw (swept) scans at 8-14 m/s: a keyframe's scan is de-skewed with the velocity registered
+  // against the previous scan; without a previous scan, or with one too old, the frame is not
+  // taken as a keyframe (the next one can be).
+  SimOptions o;
+  o.frames = 12;
+  o.seed = 3;
+  o.lidar_sweep = true;
+  const Simulator sim(o);
+  OnlineSettings s;
+  s.deskew = true;
+  s.estimate_stereo = false;
+  OnlineCalibrator cal(sim.rig(), s);
+  std::string msg;
+  std::shared_ptr<const Keyframe> kf;
+  const Frame f0 = sim.renderFrame(0), f1 = sim.renderFrame(1), f8 = sim.renderFrame(8),
+              f9 = sim.renderFrame(9);
+  EXPECT_EQ(cal.addFrame(f0, f0.stamp, &msg), FrameResult::kRejected);
+  EXPECT_NE(msg.find("no previous scan"), std::string::npos) << msg;
+  ASSERT_EQ(cal.addFrame(f1, f1.stamp, &msg, &kf), FrameResult::kKeyframe) << msg;
+  // The keyframe holds the de-skewed scan: points moved by up to v x 50 ms (behind the car).
+  ASSERT_EQ(kf->scan.size(), f1.scan.size());
+  double moved = 0;
+  for (size_t i = 0; i < f1.scan.size(); ++i)
+    moved = std::max(
+        moved, double(std::hypot(kf->scan[i].x - f1.scan[i].x, kf->scan[i].y - f1.scan[i].y)));
+  const double v = (sim.worldFromLidar(0).inverse() * sim.worldFromLidar(1)).translation().norm() /
+                   (f1.stamp - f0.stamp);
+  std::cout << "[ deskew   ] speed " << v << " m/s, largest correction " << moved << " m, "
+            << kf->seconds_deskew << " s\n";
+  EXPECT_NEAR(moved, 0.05 * v, 0.1 * 0.05 * v);
+  EXPECT_GT(kf->seconds_deskew, 0.0);
+  // Frame 8 comes 0.7 s after frame 1: a keyframe by time, but its previous scan is too old.
+  EXPECT_EQ(cal.addFrame(f8, f8.stamp, &msg), FrameResult::kRejected);
+  EXPECT_NE(msg.find("s old"), std::string::npos) << msg;
+  EXPECT_EQ(cal.addFrame(f9, f9.stamp, &msg), FrameResult::kKeyframe) << msg;
+  EXPECT_EQ(cal.windowFill(), 2u);
+}

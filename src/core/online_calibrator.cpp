@@ -35,6 +35,8 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
     return FrameResult::kRejected;
   }
   Eigen::Isometry3d T_cl, T_rl;
+  std::shared_ptr<const LidarScan> previous;
+  double previous_stamp = -1e300, deskew_seconds = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (frame.stamp < last_stamp_ - settings_.max_time_jump_back) {
@@ -42,21 +44,53 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
              " s (looping bag?): window cleared";
       window_.clear();
       keyframe_information_.clear();
+      previous_scan_.reset();
       last_stamp_ = frame.stamp;
       last_keyframe_stamp_ = -1e300;
       new_keyframes_ = 0;
       return FrameResult::kReset;
     }
     last_stamp_ = frame.stamp;
+    if (settings_.deskew) {
+      previous = previous_scan_;
+      previous_stamp = previous_scan_stamp_;
+      previous_scan_ = std::make_shared<const LidarScan>(frame.scan);
+      previous_scan_stamp_ = frame.stamp;
+    }
     if (frame.stamp - last_keyframe_stamp_ < settings_.keyframe_min_dt - 1e-3)
       return FrameResult::kTooClose;
     last_keyframe_stamp_ = frame.stamp;
     T_cl = estimate_ ? estimate_->T_cam_lidar : rig_.T_cam_lidar;
     T_rl = estimate_ ? estimate_->T_right_left : rig_.T_right_left;
   }
+  // De-skewing: the velocity from the previous scan. Without it the keyframe is not taken (a
+  // skewed scan would bias the calibration by centimetres at speed); the next frame can be one.
+  Frame deskewed;
+  const Frame* use = &frame;
+  if (settings_.deskew) {
+    auto refuse = [&](const std::string& why) {
+      *msg = "keyframe not de-skewed: " + why;
+      std::lock_guard<std::mutex> lock(mutex_);
+      last_keyframe_stamp_ = -1e300;
+      return FrameResult::kRejected;
+    };
+    const double dt = frame.stamp - previous_stamp;
+    if (!previous) return refuse("no previous scan yet");
+    if (dt > settings_.deskew_max_dt)
+      return refuse("the previous scan is " + std::to_string(dt) + " s old (deskew_max_dt " +
+                    std::to_string(settings_.deskew_max_dt) + " s)");
+    const auto t0 = std::chrono::steady_clock::now();
+    const ScanMotion m = estimateScanMotion(*previous, frame.scan, dt);
+    if (!m.valid) return refuse(m.message);
+    deskewed = frame;
+    deskewScan(&deskewed.scan, m, settings_.sweep);
+    use = &deskewed;
+    deskew_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
   std::shared_ptr<Keyframe> kf;
   try {
-    kf = std::make_shared<Keyframe>(makeKeyframe(frame, rig_, T_cl, T_rl, settings_.keyframe));
+    kf = std::make_shared<Keyframe>(makeKeyframe(*use, rig_, T_cl, T_rl, settings_.keyframe));
+    kf->seconds_deskew = deskew_seconds;
   } catch (const DataError& e) {
     *msg = e.what();
     return FrameResult::kRejected;
@@ -255,6 +289,7 @@ void OnlineCalibrator::reset() {
   window_.clear();
   keyframe_information_.clear();
   estimate_.reset();
+  previous_scan_.reset();
   last_stamp_ = -1e300;
   last_keyframe_stamp_ = -1e300;
   new_keyframes_ = 0;

@@ -25,6 +25,10 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "window/max_trace_growth", &p->online.max_trace_growth);
   get(pnh, "window/warm_start_fine_only", &p->online.warm_start_fine_only);
   get(pnh, "window/keyframe_selection", &p->online.keyframe_selection);
+  get(pnh, "deskew/enabled", &p->online.deskew);
+  get(pnh, "deskew/max_dt", &p->online.deskew_max_dt);
+  get(pnh, "deskew/rate_hz", &p->online.sweep.rate_hz);
+  get(pnh, "deskew/clockwise", &p->online.sweep.clockwise);
   get(pnh, "co_calibration/estimate_stereo", &p->online.estimate_stereo);
   get(pnh, "co_calibration/max_rounds", &p->online.co.max_rounds);
   get(pnh, "co_calibration/warm_co_rounds", &p->online.warm_co_rounds);
@@ -73,6 +77,8 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
     e << "window/keyframe_selection must be information or fifo (got '" << o.keyframe_selection
       << "'); ";
   if (o.max_sync_skew <= 0) e << "sync/max_skew must be > 0; ";
+  if (o.deskew_max_dt <= 0) e << "deskew/max_dt must be > 0 (got " << o.deskew_max_dt << "); ";
+  if (o.sweep.rate_hz <= 0) e << "deskew/rate_hz must be > 0 (got " << o.sweep.rate_hz << "); ";
   if (p.sync_queue < 1) e << "sync/queue_size must be >= 1; ";
   if (o.keyframe.stereo.num_disparities < 16 || o.keyframe.stereo.num_disparities % 16)
     e << "stereo/num_disparities must be a positive multiple of 16 (got "

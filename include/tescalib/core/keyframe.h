@@ -30,6 +30,7 @@ struct Keyframe {
   Eigen::Isometry3d T_right_left_matched = Eigen::Isometry3d::Identity();
   cv::Mat left_gray, right_gray;  ///< CV_8U, as delivered (the photometric solver rectifies)
   double seconds_mesh = 0;
+  double seconds_deskew = 0;  ///< motion estimate + de-skewing of the scan (0: not de-skewed)
 };
 
 /// Mesh settings restricted to what the left camera can see under `T_cam_lidar_guess`: its optical

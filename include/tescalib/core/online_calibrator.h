@@ -15,6 +15,7 @@
 
 #include "tescalib/core/co_calibration.h"
 #include "tescalib/core/keyframe.h"
+#include "tescalib/core/scan_motion.h"
 #include "tescalib/core/types.h"
 
 namespace tescalib {
@@ -56,6 +57,13 @@ struct OnlineSettings {
   /// so that keyframes adding nothing there (a highway after a town) do not push out the ones that
   /// constrain it (paper: reject bad driving scenarios); "fifo" drops the oldest.
   std::string keyframe_selection = "information";
+  /// Motion-compensate each keyframe's scan to the camera trigger (scan_motion.h): its velocity
+  /// comes from registering it to the previous scan, which must be at most `deskew_max_dt` older
+  /// (at 12 m/s a raw scan's points at the edges of the camera view are 14 cm off). Off for
+  /// scans the driver already compensated (KITTI odometry) or that are taken at one instant.
+  bool deskew = false;
+  double deskew_max_dt = 0.25;  ///< s
+  ScanSweep sweep;
   KeyframeSettings keyframe;
   CoCalibrationSettings co;
 };
@@ -117,6 +125,9 @@ class OnlineCalibrator {
   double last_stamp_ = -1e300;                    ///< GUARDED_BY(mutex_)
   double last_keyframe_stamp_ = -1e300;           ///< GUARDED_BY(mutex_)
   int new_keyframes_ = 0;                         ///< GUARDED_BY(mutex_) since the last solve
+  /// The last frame's scan, for the next keyframe's de-skewing (OnlineSettings::deskew).
+  std::shared_ptr<const LidarScan> previous_scan_;  ///< GUARDED_BY(mutex_)
+  double previous_scan_stamp_ = -1e300;             ///< GUARDED_BY(mutex_)
   /// Per-keyframe LiDAR-stereo information from the last solve that used it, by stamp.
   std::map<double, Matrix6d> keyframe_information_;  ///< GUARDED_BY(mutex_)
   /// Index in window_ of the keyframe to drop when the window is over-full.
