@@ -16,6 +16,9 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_DOUBLE_EQ(p.online.co.yaw_handover_deg, 0.2);
   EXPECT_TRUE(p.online.co.lidar.check_window_halves);
   EXPECT_DOUBLE_EQ(p.online.co.lidar.halves_chi2_limit, 22.46);
+  EXPECT_FALSE(p.online.deskew);  // KITTI odometry scans are compensated already
+  EXPECT_DOUBLE_EQ(p.online.deskew_max_dt, 0.25);
+  EXPECT_TRUE(p.online.sweep.clockwise);
 }
 
 TEST(Params, InvalidValuesAreNamed) {
@@ -25,6 +28,8 @@ TEST(Params, InvalidValuesAreNamed) {
   pnh.setParam("initial/T_cam_lidar", std::vector<double>{1, 2, 3});
   pnh.setParam("co_calibration/yaw_handover_deg", 0.0);
   pnh.setParam("lidar_stereo/halves_chi2_limit", -1.0);
+  pnh.setParam("deskew/max_dt", 0.0);
+  pnh.setParam("deskew/rate_hz", -10.0);
   tescalib::NodeParams p;
   std::string error;
   EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
@@ -32,6 +37,8 @@ TEST(Params, InvalidValuesAreNamed) {
   EXPECT_NE(error.find("window/size"), std::string::npos) << error;
   EXPECT_NE(error.find("co_calibration/yaw_handover_deg"), std::string::npos) << error;
   EXPECT_NE(error.find("lidar_stereo/halves_chi2_limit"), std::string::npos) << error;
+  EXPECT_NE(error.find("deskew/max_dt must be > 0"), std::string::npos) << error;
+  EXPECT_NE(error.find("deskew/rate_hz must be > 0"), std::string::npos) << error;
   EXPECT_NE(error.find("initial/T_cam_lidar must be [x, y, z, qx, qy, qz, qw] (7 values, got 3)"),
             std::string::npos)
       << error;

@@ -91,6 +91,7 @@ void usage() {
          "[--first-trial K]\n"
          "         [--co-model-scale K] [--smooth-keypoints PX] [--stereo-yaw 0|1]\n"
          "         [--stereo-scale 0|1] [--check-halves 0|1] [--lidar-sigma DEG,M]\n"
+         "         [--deskew 0|1]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
@@ -397,7 +398,7 @@ int main(int argc, char** argv) {
                       seq.frameId(j), m.rms_m, s_dk);
         else
           std::printf("  keyframe %zu: not de-skewed: %s\n", frames.size() - 1, m.message.c_str());
-        deskewScan(&frames.back().scan, m);
+        deskewScan(&frames.back().scan, m);  // Velodyne: clockwise, 10 Hz, triggered forward
       }
       Keyframe kf;
       kf.stamp = frames.back().stamp;
