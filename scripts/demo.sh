@@ -13,7 +13,9 @@
 # RVIZ=1 opens rviz on part 2 and keeps it open.
 # Settings: DEMO_FRAMES (100), DEMO_SEED (1), DEMO_SCENARIO (urban), DEMO_NOISE (default),
 # DEMO_STEREO (0: LiDAR-stereo only; 1: co-calibration, both extrinsics),
-# DEMO_KITTI (1: run part 3 when the data exists; 0: skip it).
+# DEMO_KITTI (1: run part 3 when the data exists; 0: skip it),
+# DEMO_SWEEP (0; 1: raw swept scans, tescalib_simulate --lidar-sweep 1, de-skewed online unless
+# DEMO_DESKEW=0).
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 # shellcheck source=scripts/ros_env.sh
@@ -40,7 +42,14 @@ stop_launch() {
 trap stop_launch EXIT
 
 # --- 1. the drive ------------------------------------------------------------------------------
+SWEEP_ARGS=()
+DESKEW=false
 KEY=${SCENARIO}_f${FRAMES}_s${SEED}_${NOISE}
+if [ "${DEMO_SWEEP:-0}" = "1" ]; then
+  SWEEP_ARGS=(--lidar-sweep 1)
+  KEY=${KEY}_sweep
+  [ "${DEMO_DESKEW:-1}" = "1" ] && DESKEW=true
+fi
 DRIVE=$OUT/$KEY
 BAG=$OUT/$KEY.bag
 if [ -f "$BAG" ] && [ -f "$DRIVE/sim_info.txt" ]; then
@@ -48,9 +57,9 @@ if [ -f "$BAG" ] && [ -f "$DRIVE/sim_info.txt" ]; then
 else
   rm -rf "$DRIVE" "$BAG"
   start=$SECONDS
-  echo "[demo] rosrun tescalib tescalib_simulate --scenario $SCENARIO --frames $FRAMES --seed $SEED --noise $NOISE --out $DRIVE"
+  echo "[demo] rosrun tescalib tescalib_simulate --scenario $SCENARIO --frames $FRAMES --seed $SEED --noise $NOISE ${SWEEP_ARGS[*]} --out $DRIVE"
   rosrun tescalib tescalib_simulate --scenario "$SCENARIO" --frames "$FRAMES" --seed "$SEED" \
-    --noise "$NOISE" --out "$DRIVE" | grep wrote || exit 1
+    --noise "$NOISE" "${SWEEP_ARGS[@]}" --out "$DRIVE" | grep wrote || exit 1
   echo "[demo] rosrun tescalib kitti_to_bag --in $DRIVE --out $BAG"
   rosrun tescalib kitti_to_bag --in "$DRIVE" --out "$BAG.tmp" | tail -1 && mv "$BAG.tmp" "$BAG" || exit 1
   # The bag holds everything the demo plays; keep only the calibration and the ground truth.
@@ -62,13 +71,13 @@ fi
 echo
 STEREO=false
 [ "${DEMO_STEREO:-0}" = "1" ] && STEREO=true
-echo "[demo] roslaunch tescalib demo.launch bag:=$BAG perturb_rot_deg:=$ROT perturb_trans_m:=$TRANS estimate_stereo:=$STEREO rviz:=$RVIZ_ARG"
+echo "[demo] roslaunch tescalib demo.launch bag:=$BAG perturb_rot_deg:=$ROT perturb_trans_m:=$TRANS estimate_stereo:=$STEREO deskew:=$DESKEW rviz:=$RVIZ_ARG"
 if [ "$STEREO" = false ]; then
   echo "[demo] LiDAR-stereo only (the default; DEMO_STEREO=1 for co-calibration), so T_right_left"
   echo "       stays at the camera_info baseline"
 fi
 roslaunch tescalib demo.launch bag:="$BAG" perturb_rot_deg:=$ROT perturb_trans_m:=$TRANS \
-  estimate_stereo:=$STEREO rviz:=$RVIZ_ARG > "$OUT/roslaunch_sim.log" 2>&1 &
+  estimate_stereo:=$STEREO deskew:=$DESKEW rviz:=$RVIZ_ARG > "$OUT/roslaunch_sim.log" 2>&1 &
 LAUNCH=$!
 wait_master
 /usr/bin/python3 "$ROOT/scripts/demo_report.py" --ground-truth "$DRIVE/sim_info.txt" \

@@ -37,6 +37,8 @@ class OnlineEndToEnd(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('test_online_e2e')
         cls.estimate_stereo = rospy.get_param('~estimate_stereo', False)
+        # Raw swept scans (tescalib_simulate --lidar-sweep 1), de-skewed by the node.
+        cls.sweep = rospy.get_param('~sweep', False)
         cls.lock = threading.Lock()
         cls.est = {'lidar_to_left': [], 'left_to_right': []}
         cls.tf = []
@@ -57,7 +59,8 @@ class OnlineEndToEnd(unittest.TestCase):
         drive, cls.bag = os.path.join(cls.tmp, 'urban'), os.path.join(cls.tmp, 'urban.bag')
         t0 = time.time()
         subprocess.run(['rosrun', 'tescalib', 'tescalib_simulate', '--scenario', 'urban',
-                        '--frames', str(FRAMES), '--seed', str(SEED), '--out', drive],
+                        '--frames', str(FRAMES), '--seed', str(SEED), '--out', drive]
+                       + (['--lidar-sweep', '1'] if cls.sweep else []),
                        check=True, stdout=subprocess.DEVNULL)
         subprocess.run(['rosrun', 'tescalib', 'kitti_to_bag', '--in', drive, '--out', cls.bag],
                        check=True, stdout=subprocess.DEVNULL)
@@ -206,8 +209,14 @@ class OnlineEndToEnd(unittest.TestCase):
         self.assertIsNotNone(d, 'no /diagnostics from tescalib')
         rospy.loginfo('e2e: played %d frames in %.1f s; diagnostics %s', FRAMES, self.play_seconds, d)
         # Timing (drops, latency) depends on the machine's load: reported, not asserted.
-        self.assertEqual(d['rejected frames'], '0')
-        self.assertGreaterEqual(int(d['keyframes']), 6)  # 8 at 0.5 s spacing over 4 s
+        if self.sweep:
+            # The first candidate has no scan before it to register to; de-skewing takes about
+            # 0.6 s more per keyframe, so some candidates are dropped while it runs.
+            self.assertLessEqual(int(d['rejected frames']), 1)
+            self.assertGreaterEqual(int(d['keyframes']), 3)
+        else:
+            self.assertEqual(d['rejected frames'], '0')
+            self.assertGreaterEqual(int(d['keyframes']), 6)  # 8 at 0.5 s spacing over 4 s
         self.assertGreaterEqual(int(d['solves']), 1)
 
     def test_6_keyframe_cloud_and_mesh_for_rviz(self):

@@ -284,6 +284,12 @@ bool OnlineCalibrator::solve(std::string* msg) {
   return true;
 }
 
+void OnlineCalibrator::setPreviousScan(std::shared_ptr<const LidarScan> scan, double stamp) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  previous_scan_ = std::move(scan);
+  previous_scan_stamp_ = stamp;
+}
+
 void OnlineCalibrator::reset() {
   std::lock_guard<std::mutex> lock(mutex_);
   window_.clear();

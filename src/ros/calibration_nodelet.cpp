@@ -175,16 +175,25 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
   const double stamp = left->header.stamp.toSec();
   publishTf(left->header.stamp);  // every set, so tf lookups at any image stamp interpolate
   // Cheap keyframe pre-selection here; time going backwards is passed on (the window resets).
-  if (stamp >= last_enqueued_stamp_ &&
-      stamp - last_enqueued_stamp_ < params_.online.keyframe_min_dt - 1e-3)
-    return;
+  const bool candidate = !(stamp >= last_enqueued_stamp_ &&
+                           stamp - last_enqueued_stamp_ < params_.online.keyframe_min_dt - 1e-3);
+  // De-skewing registers a keyframe's scan to the set before it: keep every set's scan.
+  if (!candidate && !params_.online.deskew) return;
   PendingFrame pf;
   std::string error;
   bool ring_recovered = false;
   if (!ros_conv::fromPointCloud2(*cloud, &pf.frame.scan, &error, &ring_recovered)) {
+    if (!candidate) return;
     ++rejected_;
     NODELET_WARN_THROTTLE(5.0, "tescalib: point cloud rejected: %s", error.c_str());
     return;
+  }
+  if (params_.online.deskew) {
+    pf.previous_scan = last_scan_;
+    pf.previous_stamp = last_scan_stamp_;
+    last_scan_ = std::make_shared<const LidarScan>(pf.frame.scan);
+    last_scan_stamp_ = stamp;
+    if (!candidate) return;
   }
   if (ring_recovered)
     NODELET_WARN_THROTTLE(30.0,
@@ -229,6 +238,7 @@ void CalibrationNodelet::preprocessLoop() {
     std::string msg;
     const ros::WallTime t0 = ros::WallTime::now();
     std::shared_ptr<const Keyframe> kf;
+    if (pf.previous_scan) calibrator()->setPreviousScan(pf.previous_scan, pf.previous_stamp);
     const FrameResult r = calibrator()->addFrame(pf.frame, pf.lidar_stamp, &msg, &kf);
     if (r == FrameResult::kKeyframe) {
       const double build_s = (ros::WallTime::now() - t0).toSec();

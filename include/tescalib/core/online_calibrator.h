@@ -100,6 +100,10 @@ class OnlineCalibrator {
   FrameResult addFrame(const Frame& frame, double lidar_stamp, std::string* message,
                        std::shared_ptr<const Keyframe>* built = nullptr);
 
+  /// With OnlineSettings::deskew: the scan the next frame's motion is registered to, when the
+  /// caller passes only keyframe candidates to addFrame (addFrame itself keeps each frame's scan).
+  void setPreviousScan(std::shared_ptr<const LidarScan> scan, double stamp);
+
   /// Runs co-calibration on a snapshot of the window. Returns true when the published estimate
   /// changed. Thread-safe; the window keeps filling while it runs.
   bool solve(std::string* message);

@@ -52,6 +52,9 @@ class CalibrationNodelet : public nodelet::Nodelet {
     double lidar_stamp = 0;
     std_msgs::Header header;
     ros::WallTime received;  ///< when the synchronized set arrived
+    /// With deskew/enabled: the set before's scan, which the keyframe's motion is registered to.
+    std::shared_ptr<const LidarScan> previous_scan;
+    double previous_stamp = 0;
   };
 
   /// Wall-clock durations of one kind (keyframe builds, solves, update latencies), for
@@ -127,6 +130,9 @@ class CalibrationNodelet : public nodelet::Nodelet {
   double first_estimate_wall_s_ = -1;  ///< wall s from the first synchronized set to it
   double first_estimate_sim_s_ = -1;   ///< same in sensor (bag) time
   std::atomic<double> last_enqueued_stamp_{-1e300};
+  /// deskew/enabled: the last set's scan (callback thread only) and its stamp.
+  std::shared_ptr<const LidarScan> last_scan_;
+  double last_scan_stamp_ = -1e300;
   ros::Time last_tf_stamp_;         ///< GUARDED_BY(mutex_), of the newest tf sent
   std::string last_problem_;        ///< GUARDED_BY(mutex_)
   std::string last_solve_message_;  ///< GUARDED_BY(mutex_)
