@@ -161,6 +161,12 @@ TEST(Conversions, CloudWithoutRingNaNsAndEmpty) {
   for (const auto& p : out) rings.insert(p.ring);
   EXPECT_EQ(rings.size(), 64u);
 
+  // No per-point time in our clouds; a raw driver's "time" field is recognised.
+  EXPECT_EQ(ros_conv::perPointTimeField(msg), "");
+  sensor_msgs::PointCloud2 timed = msg;
+  timed.fields.back().name = "time";
+  EXPECT_EQ(ros_conv::perPointTimeField(timed), "time");
+
   sensor_msgs::PointCloud2 empty = ros_conv::toPointCloud2(LidarScan{}, h);
   EXPECT_FALSE(ros_conv::fromPointCloud2(empty, &out, &err));
   EXPECT_NE(err.find("empty"), std::string::npos) << err;

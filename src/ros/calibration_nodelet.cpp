@@ -195,6 +195,15 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     last_scan_stamp_ = stamp;
     if (!candidate) return;
   }
+  if (!params_.online.deskew) {
+    const std::string time_field = ros_conv::perPointTimeField(*cloud);
+    if (!time_field.empty())
+      NODELET_WARN_ONCE(
+          "tescalib: the point cloud has a per-point time field ('%s'): a raw sweep, whose "
+          "points the vehicle's motion skews (14 cm at the image edges at 12 m/s). Set "
+          "deskew/enabled (launch argument deskew:=true) unless the driver compensated them.",
+          time_field.c_str());
+  }
   if (ring_recovered)
     NODELET_WARN_THROTTLE(30.0,
                           "tescalib: point cloud has no 'ring' field; rings recovered from "

@@ -148,6 +148,12 @@ double readScalar(const uint8_t* data, uint8_t datatype) {
 }
 }  // namespace
 
+std::string perPointTimeField(const sensor_msgs::PointCloud2& msg) {
+  for (const char* name : {"time", "t", "timestamp", "time_stamp"})
+    if (findField(msg, name)) return name;
+  return "";
+}
+
 bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::string* error,
                      bool* ring_recovered) {
   scan->clear();

@@ -31,6 +31,11 @@ sensor_msgs::PointCloud2 toPointCloud2(const LidarScan& scan, const std_msgs::He
 bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::string* error,
                      bool* ring_recovered = nullptr);
 
+/// The name of a per-point time field ("time": velodyne_pointcloud, "t": Ouster, "timestamp":
+/// Hesai, "time_stamp"), or "" when there is none. Such a field marks a raw sweep, whose points
+/// the vehicle's motion skews (deskew/enabled).
+std::string perPointTimeField(const sensor_msgs::PointCloud2& msg);
+
 /// Rectified camera intrinsics -> CameraInfo. `Tx` is P[0,3] (= -fx * baseline for the right
 /// camera of a rectified pair, 0 for the left).
 sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, double Tx,
