@@ -194,8 +194,7 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     last_scan_ = std::make_shared<const LidarScan>(pf.frame.scan);
     last_scan_stamp_ = stamp;
     if (!candidate) return;
-  }
-  if (!params_.online.deskew) {
+  } else {
     const std::string time_field = ros_conv::perPointTimeField(*cloud);
     if (!time_field.empty())
       NODELET_WARN_ONCE(
