@@ -161,11 +161,36 @@ TEST(Conversions, CloudWithoutRingNaNsAndEmpty) {
   for (const auto& p : out) rings.insert(p.ring);
   EXPECT_EQ(rings.size(), 64u);
 
-  // No per-point time in our clouds; a raw driver's "time" field is recognised.
+  // No per-point time in our clouds (NaN: unknown); a raw driver's time field is read as seconds
+  // from the cloud's stamp: velodyne_pointcloud's float "time", Ouster's uint32 "t" (ns).
   EXPECT_EQ(ros_conv::perPointTimeField(msg), "");
-  sensor_msgs::PointCloud2 timed = msg;
-  timed.fields.back().name = "time";
-  EXPECT_EQ(ros_conv::perPointTimeField(timed), "time");
+  EXPECT_TRUE(std::isnan(out[0].time));
+  for (const std::string name : {"time", "t"}) {
+    sensor_msgs::PointCloud2 timed;
+    timed.header.stamp = ros::Time(100.0);
+    sensor_msgs::PointCloud2Modifier mod(timed);
+    mod.setPointCloud2Fields(
+        4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32, "z",
+        1, sensor_msgs::PointField::FLOAT32, name.c_str(), 1,
+        name == "t" ? sensor_msgs::PointField::UINT32 : sensor_msgs::PointField::FLOAT32);
+    mod.resize(scan.size());
+    sensor_msgs::PointCloud2Iterator<float> x(timed, "x"), y(timed, "y"), z(timed, "z");
+    for (size_t k = 0; k < scan.size(); ++k, ++x, ++y, ++z) {
+      *x = scan[k].x, *y = scan[k].y, *z = scan[k].z;
+      uint8_t* t = &timed.data[k * timed.point_step + timed.fields[3].offset];
+      if (name == "t") {
+        const uint32_t ns = static_cast<uint32_t>(k) * 1000u;  // 1 us apart
+        std::memcpy(t, &ns, 4);
+      } else {
+        const float s = -0.05f + 1e-6f * k;
+        std::memcpy(t, &s, 4);
+      }
+    }
+    EXPECT_EQ(ros_conv::perPointTimeField(timed), name);
+    ASSERT_TRUE(ros_conv::fromPointCloud2(timed, &out, &err)) << err;
+    ASSERT_EQ(out.size(), scan.size());
+    EXPECT_NEAR(out[10].time, name == "t" ? 10e-6 : -0.05 + 10e-6, 1e-7) << name;
+  }
 
   sensor_msgs::PointCloud2 empty = ros_conv::toPointCloud2(LidarScan{}, h);
   EXPECT_FALSE(ros_conv::fromPointCloud2(empty, &out, &err));

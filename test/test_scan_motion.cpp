@@ -84,6 +84,17 @@ TEST(ScanMotion, DeskewPutsASweptScanBackOnItsWalls) {
   for (const LidarPoint& p : fixed) after = std::max(after, distanceToRoom({p.x, p.y, p.z}));
   EXPECT_GT(before, 0.5);  // 12 m/s x 0.05 s at the seam
   EXPECT_LT(after, 2e-4);  // float precision
+  // Per-point times from the driver (here stamped 20 ms before the reference instant) take the
+  // place of the sweep model, even a wrong one.
+  LidarScan timed = scan;
+  for (LidarPoint& p : timed) p.time = float(sweepTime(std::atan2(p.y, p.x), sweep) + 0.02);
+  ScanSweep wrong;
+  wrong.clockwise = false;
+  deskewScan(&timed, m, wrong, -0.02);
+  double after_timed = 0;
+  for (const LidarPoint& p : timed)
+    after_timed = std::max(after_timed, distanceToRoom({p.x, p.y, p.z}));
+  EXPECT_LT(after_timed, 2e-4);
   // An invalid motion leaves the scan as it is.
   LidarScan same = scan;
   m.valid = false;

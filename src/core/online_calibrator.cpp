@@ -83,7 +83,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
     const ScanMotion m = estimateScanMotion(*previous, frame.scan, dt);
     if (!m.valid) return refuse(m.message);
     deskewed = frame;
-    deskewScan(&deskewed.scan, m, settings_.sweep);
+    deskewScan(&deskewed.scan, m, settings_.sweep, lidar_stamp - frame.stamp);
     use = &deskewed;
     deskew_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }

@@ -126,13 +126,15 @@ ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt)
   return m;
 }
 
-void deskewScan(LidarScan* scan, const ScanMotion& motion, const ScanSweep& sweep) {
+void deskewScan(LidarScan* scan, const ScanMotion& motion, const ScanSweep& sweep,
+                double time_offset) {
   if (!motion.valid) return;
   for (LidarPoint& p : *scan) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
     // The sensor at time t is at exp(w t), v t in the reference frame: a point it measured then
     // is exp(w t) p + v t there.
-    const double t = sweepTime(std::atan2(p.y, p.x), sweep);
+    const double t =
+        std::isfinite(p.time) ? p.time + time_offset : sweepTime(std::atan2(p.y, p.x), sweep);
     const Eigen::Vector3d q =
         expSO3(motion.angular_velocity * t) * Eigen::Vector3d(p.x, p.y, p.z) + motion.velocity * t;
     p.x = float(q.x()), p.y = float(q.y()), p.z = float(q.z());

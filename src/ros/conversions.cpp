@@ -146,6 +146,15 @@ double readScalar(const uint8_t* data, uint8_t datatype) {
       return std::nan("");
   }
 }
+/// A per-point time as seconds from the cloud's stamp: integer "t" (Ouster) is nanoseconds,
+/// values beyond 1e6 are absolute stamps (Hesai, Livox), others seconds from the stamp
+/// (velodyne_pointcloud's "time").
+double secondsFromStamp(double v, const sensor_msgs::PointField& f, double stamp) {
+  if (f.name == "t" && f.datatype != sensor_msgs::PointField::FLOAT32 &&
+      f.datatype != sensor_msgs::PointField::FLOAT64)
+    return v * 1e-9;
+  return v > 1e6 ? v - stamp : v;
+}
 }  // namespace
 
 std::string perPointTimeField(const sensor_msgs::PointCloud2& msg) {
@@ -180,6 +189,9 @@ bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::
   }
   const auto* fi = findField(msg, "intensity");
   const auto* fr = findField(msg, "ring");
+  const std::string time_name = perPointTimeField(msg);
+  const auto* ft = time_name.empty() ? nullptr : findField(msg, time_name);
+  const double stamp = msg.header.stamp.toSec();
   scan->reserve(n);
   size_t dropped = 0;
   for (size_t k = 0; k < n; ++k) {
@@ -195,6 +207,9 @@ bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::
     }
     q.intensity = fi ? static_cast<float>(readScalar(p + fi->offset, fi->datatype)) : 0.f;
     q.ring = fr ? static_cast<uint16_t>(readScalar(p + fr->offset, fr->datatype)) : 0;
+    if (ft)
+      q.time = static_cast<float>(
+          secondsFromStamp(readScalar(p + ft->offset, ft->datatype), *ft, stamp));
     scan->push_back(q);
   }
   if (scan->empty()) {

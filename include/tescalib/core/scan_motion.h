@@ -45,7 +45,10 @@ double sweepTime(double azimuth_rad, const ScanSweep& sweep = {});
 ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt);
 
 /// Moves every point of `scan` to where it was at the sweep's reference instant, for a sensor
-/// moving with `motion` (no-op when it is not valid).
-void deskewScan(LidarScan* scan, const ScanMotion& motion, const ScanSweep& sweep = {});
+/// moving with `motion` (no-op when it is not valid). A point's time is its own `time` plus
+/// `time_offset` (the scan's stamp minus the reference instant, e.g. the image's) when the driver
+/// gave one, else sweepTime of its azimuth.
+void deskewScan(LidarScan* scan, const ScanMotion& motion, const ScanSweep& sweep = {},
+                double time_offset = 0.0);
 
 }  // namespace tescalib

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,10 @@ struct LidarPoint {
   float z = 0.f;          ///< metres
   float intensity = 0.f;  ///< reflectance as delivered by the sensor (KITTI: 0..1)
   uint16_t ring = 0;      ///< laser index, 0 = lowest beam
+  /// When the point was measured, s from its scan's stamp, as a raw driver reports it (a
+  /// PointCloud2 time field); NaN when unknown (KITTI files, the generator): de-skewing then
+  /// derives it from the azimuth (scan_motion.h).
+  float time = std::numeric_limits<float>::quiet_NaN();
 };
 using LidarScan = std::vector<LidarPoint>;
 
