@@ -38,18 +38,22 @@ Cloud::Ptr voxelised(const LidarScan& scan) {
   return out;
 }
 
+/// GICP of `source` to `target` from `init`: a wide stage (1.5 m correspondences, 30 iterations)
+/// and a tight one (kInlierDistance, 60) on one registration object, so the points' covariances
+/// are computed once.
 Eigen::Matrix4f registerScans(const Cloud::Ptr& source, const Cloud::Ptr& target,
-                              const Eigen::Matrix4f& init, double max_distance, int iterations,
-                              double* fitness) {
+                              const Eigen::Matrix4f& init) {
   pcl::GeneralizedIterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> gicp;
   gicp.setInputSource(source);
   gicp.setInputTarget(target);
-  gicp.setMaxCorrespondenceDistance(max_distance);
-  gicp.setMaximumIterations(iterations);
   Cloud aligned;
+  gicp.setMaxCorrespondenceDistance(1.5);
+  gicp.setMaximumIterations(30);
   gicp.align(aligned, init);
-  *fitness = gicp.hasConverged() ? gicp.getFitnessScore(max_distance)
-                                 : std::numeric_limits<double>::infinity();
+  const Eigen::Matrix4f wide = gicp.getFinalTransformation();
+  gicp.setMaxCorrespondenceDistance(kInlierDistance);
+  gicp.setMaximumIterations(60);
+  gicp.align(aligned, wide);
   return gicp.getFinalTransformation();
 }
 }  // namespace
@@ -95,9 +99,7 @@ ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt)
   }
   Eigen::Matrix4f T = Eigen::Matrix4f::Identity();
   T(0, 3) = float(best_x);
-  double fit;
-  T = registerScans(cb, ca, T, 1.5, 30, &fit);
-  T = registerScans(cb, ca, T, kInlierDistance, 60, &fit);
+  T = registerScans(cb, ca, T);
 
   // Inliers and their RMS, measured independently of GICP's own score.
   double sum = 0;
