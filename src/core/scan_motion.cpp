@@ -81,6 +81,11 @@ ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt)
   tree.setInputCloud(ca);
   std::vector<int> idx(1);
   std::vector<float> d2(1);
+  // Whether `a` has a point within kInlierDistance of (x, y, z); its squared distance in d2[0].
+  auto nearA = [&](float x, float y, float z) {
+    return tree.nearestKSearch(pcl::PointXYZ(x, y, z), 1, idx, d2) == 1 &&
+           d2[0] < kInlierDistance * kInlierDistance;
+  };
   // Forward motion can be metres between the scans, beyond GICP's basin on a road whose
   // structure runs along it: GICP starts at the forward offset (0.25 m steps up to kMaxSpeed dt,
   // and backwards a fifth of that) that puts most of a sample of `b` near `a`.
@@ -91,9 +96,7 @@ ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt)
     int count = 0;
     for (size_t i = 0; i < cb->size(); i += 7) {
       const auto& p = (*cb)[i];
-      if (tree.nearestKSearch(pcl::PointXYZ(p.x + float(x), p.y, p.z), 1, idx, d2) == 1 &&
-          d2[0] < kInlierDistance * kInlierDistance)
-        ++count;
+      if (nearA(p.x + float(x), p.y, p.z)) ++count;
     }
     if (count > best_count) best_count = count, best_x = x;
   }
@@ -105,8 +108,7 @@ ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt)
   double sum = 0;
   for (const auto& p : cb->points) {
     const Eigen::Vector4f q = T * Eigen::Vector4f(p.x, p.y, p.z, 1.f);
-    if (tree.nearestKSearch(pcl::PointXYZ(q.x(), q.y(), q.z()), 1, idx, d2) == 1 &&
-        d2[0] < kInlierDistance * kInlierDistance) {
+    if (nearA(q.x(), q.y(), q.z())) {
       sum += d2[0];
       ++m.inliers;
     }

@@ -30,6 +30,9 @@ LidarModel LidarModel::hdl64e() {
 namespace {
 constexpr int kSweepChunks = 90;  // culling poses per revolution (4 deg, 1.1 ms each)
 
+/// Azimuth of azimuth step k of n (rad, counter-clockwise from the front; k may be fractional).
+double beamAzimuth(double k, int n) { return 2 * M_PI * (k + 0.5) / n; }
+
 /// One revolution; beam k (azimuth step) is fired from `pose(k)` and traced among the candidates
 /// culled from `cull_pose(chunk(k))`.
 template <class PoseOf, class ChunkOf>
@@ -51,7 +54,7 @@ LidarScan spin(const SceneWorld& world, const std::vector<Eigen::Isometry3d>& cu
     LidarScan& out = per_ring[order];
     out.reserve(n);
     for (int k = 0; k < n; ++k) {
-      const double az = 2 * M_PI * (k + 0.5) / n;  // counter-clockwise from the front
+      const double az = beamAzimuth(k, n);
       const Eigen::Vector3d omega(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
                                   std::sin(el));
       // Tangent basis N(omega) = [N1 N2]: azimuth and elevation directions.
@@ -114,14 +117,14 @@ LidarScan simulateSweptLidarScan(const SceneWorld& world,
                                  int threads) {
   const ScanSweep sweep;
   const int n = model.points_per_ring;
-  auto azimuth = [n](double k) { return 2 * M_PI * (k + 0.5) / n; };
   std::vector<Eigen::Isometry3d> poses(n), cull(kSweepChunks);
-  for (int k = 0; k < n; ++k) poses[k] = world_from_lidar(sweepTime(azimuth(k), sweep));
+  for (int k = 0; k < n; ++k) poses[k] = world_from_lidar(sweepTime(beamAzimuth(k, n), sweep));
   // Candidates are culled per chunk of azimuth from the chunk's middle pose: within a chunk the
   // sensor moves by at most a few cm, inside culling's one-sector margin beyond a few metres.
   const int per_chunk = (n + kSweepChunks - 1) / kSweepChunks;
   for (int c = 0; c < kSweepChunks; ++c)
-    cull[c] = world_from_lidar(sweepTime(azimuth(c * per_chunk + 0.5 * per_chunk - 0.5), sweep));
+    cull[c] =
+        world_from_lidar(sweepTime(beamAzimuth(c * per_chunk + 0.5 * per_chunk - 0.5, n), sweep));
   return spin(
       world, cull, [&](int k) -> const Eigen::Isometry3d& { return poses[k]; },
       [per_chunk](int k) { return k / per_chunk; }, model, noise, seed, threads);

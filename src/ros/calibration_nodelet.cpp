@@ -191,9 +191,12 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
   if (params_.online.deskew) {
     pf.previous_scan = last_scan_;
     pf.previous_stamp = last_scan_stamp_;
-    last_scan_ = std::make_shared<const LidarScan>(pf.frame.scan);
     last_scan_stamp_ = stamp;
-    if (!candidate) return;
+    if (!candidate) {  // kept only as the next candidate's previous scan: no copy
+      last_scan_ = std::make_shared<const LidarScan>(std::move(pf.frame.scan));
+      return;
+    }
+    last_scan_ = std::make_shared<const LidarScan>(pf.frame.scan);
   } else {
     const std::string time_field = ros_conv::perPointTimeField(*cloud);
     if (!time_field.empty())
