@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "tescalib/core/co_calibration.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/keyframe.h"
 #include "tescalib/core/lidar_stereo_solver.h"
@@ -465,4 +466,57 @@ TEST(PhotometricGenerated, FreeDepthFreesTheBaselineDirectionFromAWrongLidarDept
   EXPECT_LT(std::fabs(e_free[5]), 0.5 * std::fabs(e_fixed[5]));
   EXPECT_LT(std::fabs(e_free[4]), 0.002);
   EXPECT_LT(e_free.head<3>().norm() * kDegPerRad, 0.05);
+}
+
+TEST(StereoGenerated, MeshAndWindowCloudsDoNotDependOnTheThreadCount) {
+  // The mesh's normal fits and a window's clouds run on several threads: each writes only its
+  // own output, so the result must be the same, bit for bit, on one thread and on several.
+  const Simulator sim = noiseFreeFrame();
+  const LidarScan scan = sim.renderScan(0);
+  LidarMeshSettings one, many;
+  one.threads = 1;
+  many.threads = 3;
+  const LidarMesh a = buildLidarMesh(scan, one), b = buildLidarMesh(scan, many);
+  ASSERT_GT(a.faces.size(), 50000u);
+  ASSERT_EQ(a.faces.size(), b.faces.size());
+  size_t differing = 0, fitted = 0;
+  for (size_t f = 0; f < a.faces.size(); ++f) {
+    differing += a.faces[f].normal != b.faces[f].normal || a.faces[f].centroid != b.faces[f].centroid;
+    const Eigen::Vector3f raw =
+        (a.faces[f].b - a.faces[f].a).cross(a.faces[f].c - a.faces[f].a).normalized();
+    fitted += std::fabs(std::fabs(raw.dot(a.faces[f].normal)) - 1.f) > 1e-6f;
+  }
+  EXPECT_EQ(differing, 0u);
+  // The fits ran: noise-free planes fit their faces exactly, curved and small surfaces do not.
+  EXPECT_GT(fitted, a.faces.size() / 20);
+
+  const StereoRig& rig = sim.rig();
+  const Frame f = sim.renderFrame(0);
+  Vector6d d;
+  d << 0.05 / kDegPerRad, 0.02 / kDegPerRad, 0, 0, 0, 0;  // beyond the re-matching tolerance
+  const Eigen::Isometry3d T_rl = perturb(rig.T_right_left, d);
+  std::vector<Keyframe> kfs(3);
+  for (Keyframe& kf : kfs) {
+    cv::cvtColor(f.left, kf.left_gray, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(f.right, kf.right_gray, cv::COLOR_BGR2GRAY);
+  }
+  std::vector<Keyframe*> window = {&kfs[0], &kfs[1], &kfs[2]};
+  StereoSettings ss;
+  ss.threads = 2;
+  RectifyTolerances tol;
+  tol.rematch_rot_deg = 0.02;
+  double seconds = 0;
+  int rematched = 0;
+  EXPECT_EQ(rectifyWindow(window, rig, T_rl, ss, tol, &seconds, &rematched), 3);
+  EXPECT_EQ(rematched, 3);
+  for (const Keyframe& kf : kfs) {
+    ASSERT_GT(kf.stereo.points.size(), 5000u);
+    ASSERT_EQ(kf.stereo.points.size(), kfs[0].stereo.points.size());
+    for (size_t i = 0; i < kf.stereo.points.size(); ++i)
+      ASSERT_EQ(kf.stereo.points[i].p, kfs[0].stereo.points[i].p) << "point " << i;
+    EXPECT_TRUE(kf.T_right_left_used.isApprox(T_rl, 1e-12));
+  }
+  // Nothing moved: nothing is recomputed.
+  EXPECT_EQ(rectifyWindow(window, rig, T_rl, ss, tol, &seconds, &rematched), 0);
+  EXPECT_EQ(rematched, 3);
 }

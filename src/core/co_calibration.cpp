@@ -8,6 +8,8 @@
 #include <deque>
 #include <limits>
 
+#include "tescalib/core/parallel.h"
+
 namespace tescalib {
 
 namespace {
@@ -98,8 +100,12 @@ int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
                   const RectifyTolerances& tol, double* seconds, int* rematched) {
   if (window.empty()) return 0;
   const auto t0 = Clock::now();
-  int n = 0;
-  for (Keyframe* kf : window) {
+  // What each keyframe needs, decided first; the clouds are then computed in parallel (each
+  // keyframe writes only its own).
+  enum Work { kKeep, kRetriangulate, kRematch };
+  std::vector<Work> work(window.size(), kKeep);
+  for (size_t k = 0; k < window.size(); ++k) {
+    const Keyframe* kf = window[k];
     // The yaw does not change what SGBM matches (only the disparity offset): not a reason to
     // match again. Matches made too far from the estimate are redone even when the cloud was
     // re-triangulated close to it, so that the final clouds come from matches near the estimate.
@@ -114,14 +120,15 @@ int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
     if (!needed && !matches_off) continue;
     const bool rematch =
         matches_off || tol.rematch_rot_deg < 0 || kf->stereo_matched.disparity.empty();
-    if (rematch) {
-      recomputeStereo(kf, rig, T_right_left, settings);
-      if (rematched) ++*rematched;
-    } else {
-      retriangulateStereo(kf, rig, T_right_left, settings);
-    }
-    ++n;
+    work[k] = rematch ? kRematch : kRetriangulate;
   }
+  parallelFor(static_cast<int>(window.size()), resolveThreads(settings.threads), [&](int k) {
+    if (work[k] == kRematch) recomputeStereo(window[k], rig, T_right_left, settings);
+    if (work[k] == kRetriangulate) retriangulateStereo(window[k], rig, T_right_left, settings);
+  });
+  const int n = static_cast<int>(std::count_if(work.begin(), work.end(),
+                                               [](Work w) { return w != kKeep; }));
+  if (rematched) *rematched += static_cast<int>(std::count(work.begin(), work.end(), kRematch));
   // The LiDAR-stereo solver estimates one scale for the window: every cloud must share one
   // baseline length. A rectified cloud is linear in the baseline (Z = f b / d): rescale it.
   const double b = T_right_left.translation().norm();

@@ -5,6 +5,8 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "tescalib/core/parallel.h"
+
 namespace tescalib {
 
 LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
@@ -77,7 +79,8 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
     // by ~5 deg; averaging neighbouring faces barely helps (they share vertices).
     const float cos_max = static_cast<float>(std::cos(s.smooth_max_angle_deg * M_PI / 180.0));
     std::vector<Eigen::Vector3f> fitted(mesh.faces.size());
-    for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    const int n_faces = static_cast<int>(mesh.faces.size());
+    auto fit = [&](int f) {
       const MeshFace& face = mesh.faces[f];
       const int r0 = face_cell[f] / cols, c0 = face_cell[f] % cols;
       const float tol = 0.02f * face.range + 0.05f;
@@ -95,16 +98,20 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
           ++n;
         }
       fitted[f] = face.normal;
-      if (n < 6) continue;
+      if (n < 6) return;
       mean /= static_cast<float>(n);
       const Eigen::Matrix3f cov = second / static_cast<float>(n) - mean * mean.transpose();
       Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> eig(cov);
       // Planar: the smallest spread well below the other two (not a line of one ring's points).
-      if (!(eig.eigenvalues()(0) < 0.1f * eig.eigenvalues()(1))) continue;
+      if (!(eig.eigenvalues()(0) < 0.1f * eig.eigenvalues()(1))) return;
       Eigen::Vector3f nf = eig.eigenvectors().col(0);
       if (nf.dot(face.normal) < 0) nf = -nf;
       if (nf.dot(face.normal) > cos_max) fitted[f] = nf.normalized();
-    }
+    };
+    // Each face writes only its own fitted normal: the same mesh on any number of threads.
+    parallelForRanges(n_faces, resolveThreads(s.threads), 64, [&](int begin, int end) {
+      for (int f = begin; f < end; ++f) fit(f);
+    });
     for (size_t f = 0; f < mesh.faces.size(); ++f) mesh.faces[f].normal = fitted[f];
   }
   return mesh;

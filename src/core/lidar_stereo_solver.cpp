@@ -12,6 +12,7 @@
 #include <pcl/point_representation.h>
 #include <pcl/point_types.h>
 
+#include "tescalib/core/parallel.h"
 #include "tescalib/core/residuals/lidar_normal_residual.h"
 #include "tescalib/core/residuals/point_plane_normal_residual.h"
 
@@ -54,6 +55,19 @@ struct Association {
   double d = 1.0;   ///< the stereo point's disparity (px)
   double g = 0.0;   ///< its disparity change per rad of right-camera yaw, f (1 + x_r^2)
 };
+
+/// The lists of `parts` one after the other (they are emptied).
+std::vector<Association> joined(std::vector<std::vector<Association>>* parts) {
+  size_t n = 0;
+  for (const auto& p : *parts) n += p.size();
+  std::vector<Association> all;
+  all.reserve(n);
+  for (auto& p : *parts) {
+    all.insert(all.end(), p.begin(), p.end());
+    std::vector<Association>().swap(p);
+  }
+  return all;
+}
 
 /// Disparity change of a rectified stereo point per rad of right-camera yaw (see
 /// correctedStereoScale): f (1 + x_r^2), x_r the normalised right image coordinate.
@@ -183,15 +197,17 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       trees[k].setPointRepresentation(repr);
       trees[k].setInputCloud(cloud);
     }
-    std::vector<int> nn(1);
-    std::vector<float> nn_d2(1);
     for (double gate : s.coarse_gates) {
       for (int it = 0; it < s.coarse_reassociations; ++it) {
         ++res.iterations;
-        std::vector<Association> as;
         const Eigen::Matrix3d R = T.linear();
-        for (size_t k = 0; k < window.size(); ++k) {
-          if (tree_index[k].empty()) continue;
+        // Keyframes are associated in parallel, each into its own list (joined in window order).
+        std::vector<std::vector<Association>> per_kf(window.size());
+        parallelFor(static_cast<int>(window.size()), s.threads, [&](int k) {
+          if (tree_index[k].empty()) return;
+          std::vector<Association>& as = per_kf[k];
+          std::vector<int> nn(1);
+          std::vector<float> nn_d2(1);
           const auto& pts = window[k]->stereo.points;
           for (size_t fi : face_index[k]) {
             const MeshFace& f = window[k]->mesh.faces[fi];
@@ -228,7 +244,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
             a.inv_sigma = 1.0 / std::sqrt(var);
             as.push_back(a);
           }
-        }
+        });
+        const std::vector<Association> as = joined(&per_kf);
         res.coarse_inliers = static_cast<int>(as.size());
         if (static_cast<int>(as.size()) < s.min_inliers) break;
         const Vector6d d =
@@ -252,9 +269,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     Vector6d d_prev = Vector6d::Zero();
     for (int it = 0; it < s.fine_reassociations; ++it) {
       ++res.iterations;
-      as.clear();
       const Eigen::Matrix3d R = T.linear();
-      for (size_t kf = 0; kf < window.size(); ++kf) {
+      std::vector<std::vector<Association>> per_kf(window.size());
+      parallelFor(static_cast<int>(window.size()), s.threads, [&](int kf) {
+        std::vector<Association>& as_kf = per_kf[kf];
         const StereoCloud& st = window[kf]->stereo;
         for (size_t fi : face_index[kf]) {
           const MeshFace& f = window[kf]->mesh.faces[fi];
@@ -279,11 +297,12 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                          s.cov_cells_x - 1) +
               s.cov_cells_x * std::clamp(static_cast<int>(v * s.cov_cells_y / st.disparity.rows), 0,
                                          s.cov_cells_y - 1);
-          as.push_back({q, m, f.centroid.cast<double>(), f.normal.cast<double>(), ps,
-                        Eigen::Vector3d::Zero(), inv_sigma,
-                        static_cast<int>(kf) * s.cov_cells_x * s.cov_cells_y + cell, d, g});
+          as_kf.push_back({q, m, f.centroid.cast<double>(), f.normal.cast<double>(), ps,
+                           Eigen::Vector3d::Zero(), inv_sigma,
+                           static_cast<int>(kf) * s.cov_cells_x * s.cov_cells_y + cell, d, g});
         }
-      }
+      });
+      as = joined(&per_kf);
       res.fine_inliers = static_cast<int>(as.size());
       if (static_cast<int>(as.size()) < s.min_inliers) break;
       const Vector6d d = solveUpdate(as, T.translation(), false, s, s.fine_huber, &scale, &yaw);

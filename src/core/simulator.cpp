@@ -14,7 +14,7 @@
 #include "tescalib/core/scene_culling.h"
 #include "tescalib/core/simulator_camera.h"
 #include "tescalib/core/simulator_lidar.h"
-#include "tescalib/core/simulator_parallel.h"
+#include "tescalib/core/parallel.h"
 #include "tescalib/core/simulator_random.h"
 #include "tescalib/core/simulator_trajectory.h"
 
@@ -186,7 +186,7 @@ Eigen::Isometry3d Simulator::cam0Pose(int i) const {
 }
 
 LidarScan Simulator::renderScan(int i, int threads) const {
-  const int t = sim::resolveThreads(threads > 0 ? threads : options_.threads);
+  const int t = resolveThreads(threads > 0 ? threads : options_.threads);
   const uint64_t seed = sim::subSeed(options_.seed, 4 * uint64_t(i) + 3);
   if (options_.lidar_sweep) {
     const double t0 = stamp(i);
@@ -199,7 +199,7 @@ LidarScan Simulator::renderScan(int i, int threads) const {
 }
 
 Frame Simulator::renderFrame(int i, int threads) const {
-  const int t = sim::resolveThreads(threads > 0 ? threads : options_.threads);
+  const int t = resolveThreads(threads > 0 ? threads : options_.threads);
   const Eigen::Isometry3d T_wl = worldFromLidar(i);
   const sim::SunShadowGrid shadows(world_->prims, world_->sun, T_wl.translation().cast<float>(),
                                    kShadowRadius);
@@ -294,7 +294,7 @@ void Simulator::writeSequence(const std::string& dir) const {
   std::mutex error_mutex;
   std::string error;
   const std::vector<int> png_params = {cv::IMWRITE_PNG_COMPRESSION, 1};
-  sim::parallelFor(options_.frames, sim::resolveThreads(options_.threads), [&](int i) {
+  parallelFor(options_.frames, resolveThreads(options_.threads), [&](int i) {
     try {
       const Frame f = renderFrame(i, 1);
       const std::string name = frameName(i);

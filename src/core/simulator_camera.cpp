@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "tescalib/core/scene_surface.h"
-#include "tescalib/core/simulator_parallel.h"
+#include "tescalib/core/parallel.h"
 #include "tescalib/core/simulator_random.h"
 
 namespace tescalib {

@@ -31,6 +31,8 @@ struct LidarMeshSettings {
   /// frame); <= 0 keeps everything. Used to keep the part of the scan the cameras can see.
   double view_half_angle_deg = 0.0;
   Eigen::Vector3d view_axis = Eigen::Vector3d::UnitX();
+  /// Threads for the normal fits (0: all cores); the mesh does not depend on it.
+  int threads = 0;
 };
 
 /// One triangle of the mesh, in the LiDAR frame.

@@ -30,6 +30,9 @@ struct StereoSettings {
   int edge_dilation = 2;         ///< px removed around an edge (SGBM fattens foreground ~block/2)
   double disparity_sigma = 0.35;           ///< px; SGBM sub-pixel noise used by the noise model
   DisparityRefinementSettings refinement;  ///< slanted-window sub-pixel refinement after SGBM
+  /// Keyframes whose clouds are computed at the same time when a whole window is (re)computed
+  /// (0: one per core); one cloud uses OpenCV's own threads. The clouds do not depend on it.
+  int threads = 0;
 };
 
 /// A stereo point in the left camera frame.
