@@ -10,6 +10,7 @@
 
 #include "tescalib/core/image_sampling.h"
 #include "tescalib/core/mesh_depth.h"
+#include "tescalib/core/parallel.h"
 #include "tescalib/core/residuals/photometric_residual.h"
 
 namespace tescalib {
@@ -184,20 +185,21 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
   PhotometricSettings all_settings = s;
   all_settings.smooth_depth_radius_px = 0;
   std::vector<std::vector<KeyPoint>> kps(window.size()), kps_all(window.size());
-  for (size_t k = 0; k < window.size(); ++k) {
+  const int n_kf = static_cast<int>(window.size());
+  parallelFor(n_kf, s.threads, [&](int k) {
     const MeshDepth md = renderMeshDepth(window[k]->mesh, T_cam_lidar, rig.left);
     kps[k] = selectKeyPoints(*window[k], md, s);
     kps_all[k] = s.smooth_depth_radius_px > 0 ? selectKeyPoints(*window[k], md, all_settings)
                                               : kps[k];
-    res.keypoints += static_cast<int>(kps[k].size());
-  }
+  });
+  for (const auto& k : kps) res.keypoints += static_cast<int>(k.size());
   if (res.keypoints < s.min_keypoints) {
     res.message = "too few key points with LiDAR depth (" + std::to_string(res.keypoints) + ")";
     return res;
   }
   // Pyramids.
   std::vector<std::vector<Level>> pyr(window.size());
-  for (size_t k = 0; k < window.size(); ++k) {
+  parallelFor(n_kf, s.threads, [&](int k) {
     cv::Mat l, r;
     window[k]->left_gray.convertTo(l, CV_64F);
     window[k]->right_gray.convertTo(r, CV_64F);
@@ -218,7 +220,7 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
       lv.left_cam = scaled(rig.left, L, l.cols, l.rows);
       lv.right_cam = scaled(rig.right, L, r.cols, r.rows);
     }
-  }
+  });
 
   Eigen::Isometry3d T = T_init;
   std::vector<std::array<double, 2>> ab(window.size(), {0.0, 0.0});
@@ -245,10 +247,15 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     // LiDAR extrinsic, for the sensitivity below.
     const bool sensitivity = L == 0 && !free_depth;
     std::vector<DepthLink> links;
+    // Visibility in the right camera under the current estimate (rendered in parallel; the
+    // residuals are then added in window order).
+    std::vector<MeshDepth> right_mds(window.size());
+    parallelFor(n_kf, s.threads, [&](int k) {
+      right_mds[k] = renderMeshDepth(window[k]->mesh, T * T_cam_lidar, rig.right);
+    });
     for (size_t k = 0; k < window.size(); ++k) {
       const Level& lv = pyr[k][L];
-      // Visibility in the right camera under the current estimate.
-      const MeshDepth right_md = renderMeshDepth(window[k]->mesh, T * T_cam_lidar, rig.right);
+      const MeshDepth& right_md = right_mds[k];
       for (const KeyPoint& kp : L > 0 ? kps_all[k] : kps[k]) {
         const MeshFace& f = window[k]->mesh.faces[kp.face];
         Eigen::Vector3d X;
