@@ -156,6 +156,33 @@ TEST(LidarStereoSolver, RecoversKnownPerturbationsOnAPlaneScene) {
   }
 }
 
+TEST(LidarStereoSolver, CoarseStageKeepsToItsWindowBudget) {
+  // The coarse stage samples at most coarse_faces_per_window faces over the window (and
+  // coarse_faces_per_keyframe per keyframe): fewer associations, the same basin.
+  const StereoRig rig = kittiLikeRig();
+  std::vector<Keyframe> kfs;
+  for (int k = 0; k < 3; ++k) kfs.push_back(planeKeyframe(streetCanyon(0.7 * k), rig, 21 + k));
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : kfs) window.push_back(&kf);
+  LidarStereoSettings settings = testSettings();
+  settings.run_fine = false;
+  std::mt19937_64 rng(9);
+  const Vector6d delta = randomPerturbation(3.0 / kDegPerRad, 0.3, rng);
+  const LidarStereoResult full = solveLidarStereo(window, perturb(rig.T_cam_lidar, delta), settings);
+  settings.coarse_faces_per_window = 900;
+  const LidarStereoResult budget =
+      solveLidarStereo(window, perturb(rig.T_cam_lidar, delta), settings);
+  // 3 x 1500 faces sampled, a third of them in the image and associated; 900 with the budget.
+  EXPECT_GT(full.coarse_inliers, 1000);
+  EXPECT_LE(budget.coarse_inliers, 900);
+  EXPECT_NEAR(double(budget.coarse_inliers) / full.coarse_inliers, 900.0 / 4500.0, 0.05);
+  for (const LidarStereoResult* r : {&full, &budget}) {
+    const Vector6d e = poseError(r->T_after_coarse, rig.T_cam_lidar);
+    EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.3);
+    EXPECT_LT(e.tail<3>().norm(), 0.05);
+  }
+}
+
 TEST(LidarStereoSolver, EstimatesTheRightCameraYawOfTheClouds) {
   // Clouds rectified with a right camera 0.05 deg off in yaw (0.6 px of disparity): with the
   // yaw as a nuisance the solver finds it and the extrinsic; without, the optical axis absorbs it.

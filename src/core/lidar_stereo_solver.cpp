@@ -182,10 +182,13 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     std::vector<std::vector<size_t>> tree_index(window.size());
     std::vector<std::vector<size_t>> face_index(window.size());
     auto repr = std::make_shared<SixDRepresentation>(static_cast<float>(s.normal_weight));
+    const int coarse_faces =
+        std::min(s.coarse_faces_per_keyframe,
+                 s.coarse_faces_per_window / std::max(1, static_cast<int>(window.size())));
     for (size_t k = 0; k < window.size(); ++k) {
       const auto& pts = window[k]->stereo.points;
       tree_index[k] = strided(pts.size(), s.coarse_stereo_points_per_keyframe);
-      face_index[k] = strided(window[k]->mesh.faces.size(), s.coarse_faces_per_keyframe);
+      face_index[k] = strided(window[k]->mesh.faces.size(), coarse_faces);
       if (tree_index[k].empty()) continue;
       pcl::PointCloud<pcl::PointNormal>::Ptr cloud(new pcl::PointCloud<pcl::PointNormal>);
       for (size_t i : tree_index[k]) {

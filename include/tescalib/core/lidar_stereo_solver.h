@@ -17,6 +17,11 @@ struct LidarStereoSettings {
   // Coarse stage (eq. KD6 association, eq. point_plane_normal_obj).
   bool run_coarse = true;
   int coarse_faces_per_keyframe = 1500;          ///< LiDAR faces sampled per keyframe
+  /// ... and at most this many over the window: the coarse stage only brings the estimate into
+  /// the fine stage's basin, and 15000 faces do that as well as 30000 (a 20-keyframe generated
+  /// window: the same success from 10 deg / 1 m and the same final errors, coarse stage 1.5x
+  /// faster). Windows of up to 10 keyframes keep 1500 per keyframe.
+  int coarse_faces_per_window = 15000;
   int coarse_stereo_points_per_keyframe = 8000;  ///< stereo points in the 6-D search tree
   double normal_weight = 0.5;                    ///< w of eq. KD6 (m per unit normal difference)
   double normal_residual_weight = 0.5;           ///< w of eq. point_plane_normal_obj
