@@ -121,6 +121,22 @@ std::vector<Plane> streetCanyon(double shift) {
           {Eigen::Vector3d(-1, 0, 0), -3.5 - 0.3 * shift}};
 }
 
+/// Three views of the street canyon 0.7 m apart (noise seeds first_seed, +1, +2), clouds
+/// rectified with a right camera `right_yaw` off.
+std::vector<Keyframe> canyonKeyframes(const StereoRig& rig, uint64_t first_seed,
+                                      double right_yaw = 0.0) {
+  std::vector<Keyframe> kfs;
+  for (int k = 0; k < 3; ++k)
+    kfs.push_back(planeKeyframe(streetCanyon(0.7 * k), rig, first_seed + k, right_yaw));
+  return kfs;
+}
+
+std::vector<const Keyframe*> windowOf(const std::vector<Keyframe>& kfs) {
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : kfs) window.push_back(&kf);
+  return window;
+}
+
 LidarStereoSettings testSettings() {
   LidarStereoSettings s;
   s.disparity_sigma = 0.2;
@@ -132,10 +148,8 @@ LidarStereoSettings testSettings() {
 
 TEST(LidarStereoSolver, RecoversKnownPerturbationsOnAPlaneScene) {
   const StereoRig rig = kittiLikeRig();
-  std::vector<Keyframe> kfs;
-  for (int k = 0; k < 3; ++k) kfs.push_back(planeKeyframe(streetCanyon(0.7 * k), rig, 11 + k));
-  std::vector<const Keyframe*> window;
-  for (const auto& kf : kfs) window.push_back(&kf);
+  const std::vector<Keyframe> kfs = canyonKeyframes(rig, 11);
+  const std::vector<const Keyframe*> window = windowOf(kfs);
   // These disparities carry no common bias (truth + white noise), so the trust flags here are
   // about the residuals alone: with the default 0.05 px disparity bias, this window of three
   // nearly equal views of planes 6-32 m away lets tz move 1.2 cm and calls it untrusted.
@@ -160,10 +174,8 @@ TEST(LidarStereoSolver, CoarseStageKeepsToItsWindowBudget) {
   // The coarse stage samples at most coarse_faces_per_window faces over the window (and
   // coarse_faces_per_keyframe per keyframe): fewer associations, the same basin.
   const StereoRig rig = kittiLikeRig();
-  std::vector<Keyframe> kfs;
-  for (int k = 0; k < 3; ++k) kfs.push_back(planeKeyframe(streetCanyon(0.7 * k), rig, 21 + k));
-  std::vector<const Keyframe*> window;
-  for (const auto& kf : kfs) window.push_back(&kf);
+  const std::vector<Keyframe> kfs = canyonKeyframes(rig, 21);
+  const std::vector<const Keyframe*> window = windowOf(kfs);
   LidarStereoSettings settings = testSettings();
   settings.run_fine = false;
   std::mt19937_64 rng(9);
@@ -188,11 +200,8 @@ TEST(LidarStereoSolver, EstimatesTheRightCameraYawOfTheClouds) {
   // yaw as a nuisance the solver finds it and the extrinsic; without, the optical axis absorbs it.
   const StereoRig rig = kittiLikeRig();
   const double yaw = 0.05 / kDegPerRad;
-  std::vector<Keyframe> kfs;
-  for (int k = 0; k < 3; ++k)
-    kfs.push_back(planeKeyframe(streetCanyon(0.7 * k), rig, 31 + k, yaw));
-  std::vector<const Keyframe*> window;
-  for (const auto& kf : kfs) window.push_back(&kf);
+  const std::vector<Keyframe> kfs = canyonKeyframes(rig, 31, yaw);
+  const std::vector<const Keyframe*> window = windowOf(kfs);
   std::mt19937_64 rng(7);
   const Eigen::Isometry3d T_init =
       perturb(rig.T_cam_lidar, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
