@@ -479,8 +479,13 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   hs.fine_reassociations = 2 * s.fine_reassociations;
   const std::vector<const Keyframe*> first(window.begin(), window.begin() + half),
       second(window.begin() + half, window.end());
-  const LidarStereoResult a = solveLidarStereo(first, full->T_cam_lidar, hs);
-  const LidarStereoResult b = solveLidarStereo(second, full->T_cam_lidar, hs);
+  // The two halves are independent solves: side by side.
+  LidarStereoResult halves[2];
+  parallelFor(2, s.threads, [&](int h) {
+    halves[h] = solveLidarStereo(h == 0 ? first : second, full->T_cam_lidar, hs);
+  });
+  const LidarStereoResult& a = halves[0];
+  const LidarStereoResult& b = halves[1];
   full->halves.seconds = secondsSince(t0);
   if (a.fine_inliers < s.min_inliers || b.fine_inliers < s.min_inliers) return;
   const Vector6d e = poseError(a.T_cam_lidar, b.T_cam_lidar);
