@@ -56,16 +56,18 @@ struct Association {
   double g = 0.0;   ///< its disparity change per rad of right-camera yaw, f (1 + x_r^2)
 };
 
-/// The lists of `parts` one after the other (they are emptied).
-std::vector<Association> joined(std::vector<std::vector<Association>>* parts) {
-  size_t n = 0;
-  for (const auto& p : *parts) n += p.size();
+/// The associations of every keyframe of a window of `n`: `fill(k, &list)` collects keyframe k's,
+/// on `threads` threads, and the lists are joined in window order (the same set on any number of
+/// threads).
+template <typename Fill>
+std::vector<Association> associateKeyframes(size_t n, int threads, Fill&& fill) {
+  std::vector<std::vector<Association>> per_kf(n);
+  parallelFor(static_cast<int>(n), threads, [&](int k) { fill(k, &per_kf[k]); });
+  size_t total = 0;
+  for (const auto& p : per_kf) total += p.size();
   std::vector<Association> all;
-  all.reserve(n);
-  for (auto& p : *parts) {
-    all.insert(all.end(), p.begin(), p.end());
-    std::vector<Association>().swap(p);
-  }
+  all.reserve(total);
+  for (const auto& p : per_kf) all.insert(all.end(), p.begin(), p.end());
   return all;
 }
 
@@ -204,11 +206,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       for (int it = 0; it < s.coarse_reassociations; ++it) {
         ++res.iterations;
         const Eigen::Matrix3d R = T.linear();
-        // Keyframes are associated in parallel, each into its own list (joined in window order).
-        std::vector<std::vector<Association>> per_kf(window.size());
-        parallelFor(static_cast<int>(window.size()), s.threads, [&](int k) {
+        auto associate = [&](int k, std::vector<Association>* kf_as) {
           if (tree_index[k].empty()) return;
-          std::vector<Association>& as = per_kf[k];
           std::vector<int> nn(1);
           std::vector<float> nn_d2(1);
           const auto& pts = window[k]->stereo.points;
@@ -245,10 +244,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
             const double var = lidarVarianceAlong(m, beam, f.range, s) +
                                dFdd * dFdd * s.disparity_sigma * s.disparity_sigma;
             a.inv_sigma = 1.0 / std::sqrt(var);
-            as.push_back(a);
+            kf_as->push_back(a);
           }
-        });
-        const std::vector<Association> as = joined(&per_kf);
+        };
+        const std::vector<Association> as = associateKeyframes(window.size(), s.threads, associate);
         res.coarse_inliers = static_cast<int>(as.size());
         if (static_cast<int>(as.size()) < s.min_inliers) break;
         const Vector6d d =
@@ -273,9 +272,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     for (int it = 0; it < s.fine_reassociations; ++it) {
       ++res.iterations;
       const Eigen::Matrix3d R = T.linear();
-      std::vector<std::vector<Association>> per_kf(window.size());
-      parallelFor(static_cast<int>(window.size()), s.threads, [&](int kf) {
-        std::vector<Association>& as_kf = per_kf[kf];
+      auto associate = [&](int kf, std::vector<Association>* kf_as) {
         const StereoCloud& st = window[kf]->stereo;
         for (size_t fi : face_index[kf]) {
           const MeshFace& f = window[kf]->mesh.faces[fi];
@@ -300,12 +297,12 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                          s.cov_cells_x - 1) +
               s.cov_cells_x * std::clamp(static_cast<int>(v * s.cov_cells_y / st.disparity.rows), 0,
                                          s.cov_cells_y - 1);
-          as_kf.push_back({q, m, f.centroid.cast<double>(), f.normal.cast<double>(), ps,
-                           Eigen::Vector3d::Zero(), inv_sigma,
-                           static_cast<int>(kf) * s.cov_cells_x * s.cov_cells_y + cell, d, g});
+          kf_as->push_back({q, m, f.centroid.cast<double>(), f.normal.cast<double>(), ps,
+                            Eigen::Vector3d::Zero(), inv_sigma,
+                            static_cast<int>(kf) * s.cov_cells_x * s.cov_cells_y + cell, d, g});
         }
-      });
-      as = joined(&per_kf);
+      };
+      as = associateKeyframes(window.size(), s.threads, associate);
       res.fine_inliers = static_cast<int>(as.size());
       if (static_cast<int>(as.size()) < s.min_inliers) break;
       const Vector6d d = solveUpdate(as, T.translation(), false, s, s.fine_huber, &scale, &yaw);
