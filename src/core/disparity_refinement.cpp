@@ -11,21 +11,27 @@ namespace {
 
 /// Window sum (unnormalised box filter, zero outside the image), in single precision: the sums
 /// are of grey values and of small integers, exact enough.
-cv::Mat windowSum(const cv::Mat& x, int r) {
-  cv::Mat out;
-  cv::boxFilter(x, out, CV_32F, cv::Size(2 * r + 1, 2 * r + 1), cv::Point(-1, -1), false,
+void windowSum(const cv::Mat& x, int r, cv::Mat* out) {
+  cv::boxFilter(x, *out, CV_32F, cv::Size(2 * r + 1, 2 * r + 1), cv::Point(-1, -1), false,
                 cv::BORDER_CONSTANT);
-  return out;
 }
 
 /// Centred window moment sum_{window} x(u', v') kx(u' - u) ky(v' - v) (zero outside the image):
 /// a separable filter, so the plane fit needs no absolute-coordinate moments (whose differences
 /// cancel badly in single precision).
-cv::Mat windowMoment(const cv::Mat& x, const cv::Mat& kx, const cv::Mat& ky) {
-  cv::Mat out;
-  cv::sepFilter2D(x, out, CV_32F, kx, ky, cv::Point(-1, -1), 0, cv::BORDER_CONSTANT);
-  return out;
+void windowMoment(const cv::Mat& x, const cv::Mat& kx, const cv::Mat& ky, cv::Mat* out) {
+  cv::sepFilter2D(x, *out, CV_32F, kx, ky, cv::Point(-1, -1), 0, cv::BORDER_CONSTANT);
 }
+
+enum { kGG, kGL, kG, kLL, kL, kGW, kLW, kW, kTerms };
+
+/// The refinement's full-size images, kept per thread: a window's clouds are computed one after
+/// another on each thread, and allocating some 30 fresh image buffers per cloud cost more
+/// (zeroing new pages) than the arithmetic on them.
+struct Buffers {
+  cv::Mat L, R, GR, valid, map_y, s1, mx, my, mxx, myy, mxy, d0, map_x, W, G, sD, xD, yD;
+  cv::Mat terms[kTerms], sums[kTerms];
+};
 
 /// First unknown of the symmetric 3x3 system [a00 a01 a02; a01 a11 a12; a02 a12 a22] x = b
 /// (Cramer's rule); false when the system is (nearly) singular.
@@ -46,11 +52,11 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
   if (s.iterations <= 0 || disparity->empty()) return;
   CV_Assert(disparity->type() == CV_32F && left_gray.size() == disparity->size() &&
             right_gray.size() == disparity->size());
-  cv::Mat L, R;
+  thread_local Buffers buf;
+  cv::Mat &L = buf.L, &R = buf.R, &GR = buf.GR;
   left_gray.convertTo(L, CV_32F);
   right_gray.convertTo(R, CV_32F);
   // Central-difference x gradient of the right image (warped along with it).
-  cv::Mat GR;
   const cv::Mat kernel = (cv::Mat_<float>(1, 3) << -0.5f, 0.f, 0.5f);
   cv::filter2D(R, GR, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
 
@@ -66,7 +72,9 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
   }
   // Valid pixels: a disparity that lands inside the right image. The refinement never invalidates
   // a pixel, so the mask and the plane-fit moments that depend only on it are computed once.
-  cv::Mat valid(d.size(), CV_32F), map_y(d.size(), CV_32F);
+  cv::Mat &valid = buf.valid, &map_y = buf.map_y;
+  valid.create(d.size(), CV_32F);
+  map_y.create(d.size(), CV_32F);
   for (int v = 0; v < rows; ++v) {
     const float* dv = d.ptr<float>(v);
     float* m = valid.ptr<float>(v);
@@ -76,17 +84,23 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
       my[u] = static_cast<float>(v);
     }
   }
-  const cv::Mat s1 = windowSum(valid, r), mx = windowMoment(valid, lin, ones),
-                my = windowMoment(valid, ones, lin), mxx = windowMoment(valid, sq, ones),
-                myy = windowMoment(valid, ones, sq), mxy = windowMoment(valid, lin, lin);
+  const cv::Mat &s1 = buf.s1, &mx = buf.mx, &my = buf.my, &mxx = buf.mxx, &myy = buf.myy,
+                &mxy = buf.mxy;
+  windowSum(valid, r, &buf.s1);
+  windowMoment(valid, lin, ones, &buf.mx);
+  windowMoment(valid, ones, lin, &buf.my);
+  windowMoment(valid, sq, ones, &buf.mxx);
+  windowMoment(valid, ones, sq, &buf.myy);
+  windowMoment(valid, lin, lin, &buf.mxy);
 
   // Per-pixel products of the photometric normal equations (masked by `valid`).
-  enum { kGG, kGL, kG, kLL, kL, kGW, kLW, kW, kTerms };
-  std::vector<cv::Mat> terms(kTerms);
-  for (auto& t : terms) t.create(d.size(), CV_32F);
+  cv::Mat* terms = buf.terms;
+  for (int k = 0; k < kTerms; ++k) terms[k].create(d.size(), CV_32F);
   for (int it = 0; it < s.iterations; ++it) {
     const bool last = it + 1 == s.iterations;
-    cv::Mat d0(d.size(), CV_32F), map_x(d.size(), CV_32F);
+    cv::Mat &d0 = buf.d0, &map_x = buf.map_x;
+    d0.create(d.size(), CV_32F);
+    map_x.create(d.size(), CV_32F);
     for (int v = 0; v < rows; ++v) {
       const float* dv = d.ptr<float>(v);
       const float* m = valid.ptr<float>(v);
@@ -97,7 +111,7 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
         mxp[u] = static_cast<float>(u) - z[u];
       }
     }
-    cv::Mat W, G;
+    cv::Mat &W = buf.W, &G = buf.G;
     cv::remap(R, W, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
     cv::remap(GR, G, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
     // Photometric normal equations of W = G delta + alpha L + beta over the valid pixels
@@ -121,14 +135,17 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
         }
       }
     });
-    std::vector<cv::Mat> sums(kTerms);
-    for (int k = 0; k < kTerms; ++k) sums[k] = windowSum(terms[k], r);
+    cv::Mat* sums = buf.sums;
+    for (int k = 0; k < kTerms; ++k) windowSum(terms[k], r, &sums[k]);
     // In the last round, the centre value comes from the local plane fit
     // d = c + a (u' - u) + b (v' - v) over the window: unbiased also where the window is only
     // partly valid, and it averages out SGBM's per-pixel noise. Earlier rounds keep d + delta.
-    cv::Mat sD, xD, yD;
-    if (last)
-      sD = windowSum(d0, r), xD = windowMoment(d0, lin, ones), yD = windowMoment(d0, ones, lin);
+    const cv::Mat &sD = buf.sD, &xD = buf.xD, &yD = buf.yD;
+    if (last) {
+      windowSum(d0, r, &buf.sD);
+      windowMoment(d0, lin, ones, &buf.xD);
+      windowMoment(d0, ones, lin, &buf.yD);
+    }
     cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
       for (int v = range.start; v < range.end; ++v) {
         float* dv = d.ptr<float>(v);
