@@ -318,7 +318,8 @@ struct Trial {
   int iterations = 0;        ///< solver iterations; co/joint: rounds
   int rematches = -1;        ///< co/joint: keyframe clouds matched again (SGBM)
   int yaw_handovers = -1;    ///< co: restarts at the LiDAR-stereo yaw (CoCalibrationResult)
-  double stereo_scale = std::nan(""), stereo_scale_sigma = std::nan("");  ///< co
+  double stereo_scale = std::nan(""), stereo_scale_sigma = std::nan("");  ///< when estimated
+  double stereo_yaw_deg = std::nan("");  ///< the clouds' yaw, when LiDAR-stereo mode estimates it
   LidarStereoResult::Halves halves;  ///< the LiDAR-stereo split-window check
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< co/joint: time per solve stage
   std::vector<Eigen::Vector2d> brightness;  ///< stereo mode: per keyframe (a, b)
@@ -574,6 +575,11 @@ int main(int argc, char** argv) {
       tr.lidar_cov_model = r.covariance_model;
       tr.halves = r.halves;
       tr.message = r.message;
+      if (solver_settings.estimate_stereo_scale) {
+        tr.stereo_scale = r.stereo_scale;
+        tr.stereo_scale_sigma = std::sqrt(r.stereo_scale_variance);
+      }
+      if (solver_settings.estimate_stereo_yaw) tr.stereo_yaw_deg = r.stereo_yaw_rad * kDegPerRad;
     } else {
       const GicpBaselineResult r = solveGicpBaseline(window, T_init);
       T_est = r.T_cam_lidar;
@@ -760,6 +766,7 @@ int main(int argc, char** argv) {
       if (std::isfinite(tr.stereo_scale))
         js << ", \"stereo_scale\": " << tr.stereo_scale
            << ", \"stereo_scale_sigma\": " << tr.stereo_scale_sigma;
+      if (std::isfinite(tr.stereo_yaw_deg)) js << ", \"stereo_yaw_deg\": " << tr.stereo_yaw_deg;
       if (tr.halves.tested)
         js << ", \"halves\": {\"chi2\": " << tr.halves.chi2
            << ", \"covariance_scale\": " << tr.halves.covariance_scale
