@@ -3,14 +3,17 @@
 // of T_cam_lidar; the photometric solver recovers T_right_left and the exposure difference.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <iostream>
 #include <random>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
 #include "tescalib/core/co_calibration.h"
+#include "tescalib/core/disparity_refinement.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/keyframe.h"
 #include "tescalib/core/lidar_stereo_solver.h"
@@ -101,6 +104,56 @@ TEST(StereoGenerated, RefinementRemovesTheRoadDisparityBias) {
             << after << " px\n";
   EXPECT_LT(before, -0.1);  // SGBM flattens the slanted road (fronto-parallel bias)
   EXPECT_LT(std::fabs(after), 0.03);
+}
+
+TEST(StereoGenerated, RefinementDoesNotDependOnWhatItRefinedBefore) {
+  // refineDisparity keeps its image buffers per thread (they are reused, not reallocated): a
+  // refinement must give the same bits whatever the thread refined before, also a pair of
+  // another size, and on a fresh thread.
+  const Simulator sim = noiseFreeFrame();
+  const Frame f = sim.renderFrame(0);
+  const StereoRig& rig = sim.rig();
+  cv::Mat left, right;
+  cv::cvtColor(f.left, left, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(f.right, right, cv::COLOR_BGR2GRAY);
+  StereoSettings raw;
+  raw.refinement.iterations = 0;
+  const cv::Mat sgbm = computeStereoCloud(f.left, f.right, rig, rig.T_right_left, raw).disparity;
+  DisparityRefinementSettings two_rounds;
+  two_rounds.iterations = 2;
+  auto refined = [&](const cv::Mat& l, const cv::Mat& r, const cv::Mat& d,
+                     const DisparityRefinementSettings& rs) {
+    cv::Mat out = d.clone();
+    refineDisparity(l, r, &out, rs);
+    return out;
+  };
+  auto sameBits = [](const cv::Mat& a, const cv::Mat& b) {
+    return a.size() == b.size() && a.type() == b.type() && a.isContinuous() && b.isContinuous() &&
+           std::memcmp(a.data, b.data, a.total() * a.elemSize()) == 0;
+  };
+  const cv::Mat first = refined(left, right, sgbm, {});
+  int changed = 0;
+  for (int v = 0; v < sgbm.rows; ++v)
+    for (int u = 0; u < sgbm.cols; ++u)
+      if (std::isfinite(sgbm.at<float>(v, u)) && first.at<float>(v, u) != sgbm.at<float>(v, u))
+        ++changed;
+  EXPECT_GT(changed, 50000);  // the refinement did refine
+  // Another size and another number of rounds in between, on the same thread.
+  const cv::Rect crop(100, 50, 700, 250);
+  const cv::Mat small =
+      refined(left(crop).clone(), right(crop).clone(), sgbm(crop).clone(), two_rounds);
+  EXPECT_EQ(small.size(), crop.size());
+  EXPECT_TRUE(sameBits(refined(left, right, sgbm, {}), first));
+  // The same size with other contents in between (what a stale buffer would leak).
+  cv::Mat flipped_l, flipped_r, flipped_d;
+  cv::flip(left, flipped_l, 0);
+  cv::flip(right, flipped_r, 0);
+  cv::flip(sgbm, flipped_d, 0);
+  refined(flipped_l, flipped_r, flipped_d + 0.5, two_rounds);
+  EXPECT_TRUE(sameBits(refined(left, right, sgbm, {}), first));
+  cv::Mat on_fresh_thread;
+  std::thread([&] { on_fresh_thread = refined(left, right, sgbm, {}); }).join();
+  EXPECT_TRUE(sameBits(on_fresh_thread, first));
 }
 
 TEST(LidarStereoGenerated, RecoversKnownPerturbationsOnAnUrbanDrive) {
