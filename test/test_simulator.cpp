@@ -21,6 +21,7 @@
 #include "tescalib/core/kitti_reader.h"
 #include "tescalib/core/scan_motion.h"
 #include "tescalib/core/simulator.h"
+#include "tescalib/core/simulator_camera.h"
 #include "test_util.h"
 
 using namespace tescalib;
@@ -287,6 +288,72 @@ TEST(Simulator, GroundTruthAgreesWithSgbmAndPhotometry) {
     EXPECT_LT(err[1.0], 0.6 * err[1.1]);
     EXPECT_LT(err[1.0], 0.7 * photometricError(f, sim.rig(), 1.0, 1.0, 0.0));
   }
+}
+
+TEST(Simulator, DepthRenderIsTheGeometryTheCameraAndTheLidarSee) {
+  // sim::renderCameraDepth: the exact depth of every pixel centre, the ground truth of a stereo
+  // matcher. On the road it is the road plane's depth; where the noise-free LiDAR hits a surface
+  // away from depth edges, it is that point's depth; above the horizon's buildings it is NaN.
+  SimOptions o = options(Scenario::kUrban, 21);
+  o.noise = NoiseLevel::kNone;
+  const Simulator sim(o);
+  const StereoRig& rig = sim.rig();
+  const Eigen::Isometry3d T_world_cam = sim.worldFromLidar(0) * rig.T_cam_lidar.inverse();
+  const cv::Mat depth = sim::renderCameraDepth(sim.world(), rig.left, T_world_cam, 250.f, 2);
+  ASSERT_EQ(depth.type(), CV_32F);
+  ASSERT_EQ(depth.size(), cv::Size(rig.left.width, rig.left.height));
+  // Road: the plane z = 0 of the world.
+  const Eigen::Isometry3d T_cam_world = T_world_cam.inverse();
+  const Eigen::Vector3d n = T_cam_world.linear() * Eigen::Vector3d::UnitZ();
+  const double h = n.dot(T_cam_world.translation());
+  int road = 0, on_plane = 0;
+  for (int v = rig.left.height - 40; v < rig.left.height; ++v)
+    for (int u = rig.left.width / 2 - 100; u < rig.left.width / 2 + 100; ++u) {
+      const Eigen::Vector3d ray((u - rig.left.cx) / rig.left.fx, (v - rig.left.cy) / rig.left.fy,
+                                1.0);
+      const double Z = h / n.dot(ray);
+      ++road;
+      if (std::fabs(depth.at<float>(v, u) - Z) < 1e-4 * Z) ++on_plane;
+    }
+  EXPECT_GT(on_plane, 0.95 * road) << "the road in front of the car";
+  // LiDAR points (noise-free) at pixels whose 3x3 neighbourhood is one smooth surface.
+  std::vector<double> diff;
+  const LidarScan scan = sim.renderScan(0);
+  for (const LidarPoint& p : scan) {
+    const Eigen::Vector3d X = rig.T_cam_lidar * Eigen::Vector3d(p.x, p.y, p.z);
+    if (X.z() < 2.0 || X.z() > 40.0) continue;
+    const double u = rig.left.fx * X.x() / X.z() + rig.left.cx;
+    const double v = rig.left.fy * X.y() / X.z() + rig.left.cy;
+    const int iu = static_cast<int>(std::floor(u)), iv = static_cast<int>(std::floor(v));
+    if (iu < 1 || iv < 1 || iu + 2 >= depth.cols || iv + 2 >= depth.rows) continue;
+    float lo = 1e9f, hi = 0.f;
+    for (int dv = -1; dv <= 2; ++dv)
+      for (int du = -1; du <= 2; ++du) {
+        const float z = depth.at<float>(iv + dv, iu + du);
+        lo = std::min(lo, std::isfinite(z) ? z : 0.f),
+        hi = std::max(hi, std::isfinite(z) ? z : 1e9f);
+      }
+    if (!(hi - lo < 0.02f * lo)) continue;
+    // Inverse depth is affine in the image on a plane: interpolate it.
+    const double fu = u - iu, fv = v - iv;
+    const double inv =
+        (1 - fv) * ((1 - fu) / depth.at<float>(iv, iu) + fu / depth.at<float>(iv, iu + 1)) +
+        fv * ((1 - fu) / depth.at<float>(iv + 1, iu) + fu / depth.at<float>(iv + 1, iu + 1));
+    diff.push_back(std::fabs(1.0 / inv - X.z()));
+  }
+  ASSERT_GT(diff.size(), 5000u);
+  std::nth_element(diff.begin(), diff.begin() + diff.size() / 2, diff.end());
+  const double median = diff[diff.size() / 2];
+  std::nth_element(diff.begin(), diff.begin() + diff.size() * 9 / 10, diff.end());
+  std::cout << "[ depth    ] " << diff.size()
+            << " LiDAR points on smooth surfaces: |render - LiDAR|"
+            << " median " << median * 1000 << " mm, 90 % " << diff[diff.size() * 9 / 10] * 1000
+            << " mm\n";
+  EXPECT_LT(median, 0.002);
+  // The sky.
+  int sky = 0;
+  for (int u = 0; u < depth.cols; ++u) sky += std::isnan(depth.at<float>(0, u)) ? 1 : 0;
+  EXPECT_GT(sky, 0) << "no pixel of the top row sees the sky";
 }
 
 TEST(Simulator, LidarNoiseFollowsTheNoiseLevel) {

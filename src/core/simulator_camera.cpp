@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "tescalib/core/scene_surface.h"
@@ -176,6 +177,36 @@ cv::Mat renderCamera(const SceneWorld& world, const SunShadowGrid& shadows,
     }
   });
   return image;
+}
+
+cv::Mat renderCameraDepth(const SceneWorld& world, const CameraIntrinsics& K,
+                          const Eigen::Isometry3d& T_world_cam, float max_range, int threads) {
+  const Eigen::Matrix3f R = T_world_cam.linear().cast<float>();
+  const Vec3 origin = T_world_cam.translation().cast<float>();
+  PinholeView view;
+  view.R_cam_world = R.transpose();
+  view.origin = origin;
+  view.fx = static_cast<float>(K.fx), view.fy = static_cast<float>(K.fy);
+  view.cx = static_cast<float>(K.cx), view.cy = static_cast<float>(K.cy);
+  view.width = K.width, view.height = K.height;
+  const TileCandidates tiles = cullPinhole(world.prims, view, max_range, kTile);
+  cv::Mat depth(K.height, K.width, CV_32F);
+  parallelFor(K.height, resolveThreads(threads), [&](int y) {
+    float* row = depth.ptr<float>(y);
+    for (int x = 0; x < K.width; ++x) {
+      // The same ray as the image's sample at the pixel centre (x, y).
+      const Vec3 r =
+          R * Vec3((x - float(K.cx)) / float(K.fx), (y - float(K.cy)) / float(K.fy), 1.f);
+      const float len = r.norm();
+      const int tx = std::clamp(x / kTile, 0, tiles.tilesX() - 1);
+      const int ty = std::clamp(y / kTile, 0, tiles.tilesY() - 1);
+      const TraceResult hit =
+          traceRay(world.prims, tiles.begin(tx, ty), tiles.end(tx, ty), origin, r / len, 1e5f);
+      row[x] =
+          hit.prim == TraceResult::kNoHit ? std::numeric_limits<float>::quiet_NaN() : hit.t / len;
+    }
+  });
+  return depth;
 }
 
 }  // namespace sim

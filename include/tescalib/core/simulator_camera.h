@@ -38,5 +38,11 @@ cv::Mat renderCamera(const SceneWorld& world, const SunShadowGrid& shadows,
                      const CameraIntrinsics& K, const Eigen::Isometry3d& T_world_cam,
                      const CameraExposure& exposure, const CameraRenderSettings& settings);
 
+/// The exact depth (z along the optical axis, m; NaN where the ray meets no surface) at every
+/// pixel centre of the same camera: the ground truth of a stereo matcher on the rendered pair.
+cv::Mat renderCameraDepth(const SceneWorld& world, const CameraIntrinsics& K,
+                          const Eigen::Isometry3d& T_world_cam, float max_range = 250.f,
+                          int threads = 1);
+
 }  // namespace sim
 }  // namespace tescalib
