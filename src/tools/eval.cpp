@@ -61,6 +61,7 @@ struct Args {
   int stereo_yaw = -1;  ///< LiDAR-stereo estimates the right camera's yaw: 0/1; -1: the default
   int stereo_scale = -1;  ///< LiDAR-stereo mode estimates the clouds' scale: 0/1; -1: the default
   int check_halves = -1;  ///< LidarStereoSettings::check_window_halves: 0/1; -1: the default
+  int refine_iterations = -1;  ///< DisparityRefinementSettings::iterations; -1: the default
   /// De-skew the scans with the motion registered against a neighbouring frame: 0/1; -1: when
   /// the sequence's scans are swept (sweptScans).
   int deskew = -1;
@@ -92,6 +93,7 @@ void usage() {
          "[--first-trial K]\n"
          "         [--co-model-scale K] [--smooth-keypoints PX] [--stereo-yaw 0|1]\n"
          "         [--stereo-scale 0|1] [--check-halves 0|1] [--lidar-sigma DEG,M]\n"
+         "         [--refine-iterations N]\n"
          "         [--deskew 0|1]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
@@ -106,11 +108,13 @@ void usage() {
          "direction and succeeds when the error is below 0.2 deg and 3 cm.\n"
          "--windows disjoint splits all keyframes into consecutive windows of W and trial t uses\n"
          "window t mod (number of windows): independent windows, so mean NEES means something.\n"
-         "--smooth-keypoints PX: full-resolution photometric key points only where the LiDAR depth\n"
+         "--smooth-keypoints PX: full-resolution photometric key points only where the LiDAR "
+         "depth\n"
          "is smooth within PX pixels (PhotometricSettings::smooth_depth_radius_px; 0: off).\n"
          "--depth-prior SIGMA: photometric key points' depth free at full resolution with a\n"
          "log-depth prior of SIGMA (PhotometricSettings::depth_prior_sigma; 0: the LiDAR's).\n"
-         "(co: the prior of the rounds with free depth, CoCalibrationSettings::free_depth_prior_sigma)\n"
+         "(co: the prior of the rounds with free depth, "
+         "CoCalibrationSettings::free_depth_prior_sigma)\n"
          "--free-depth-rounds N: co: photometric solves of rounds 1..N with free key point depth.\n"
          "--rematch-deg X: co: SGBM matches again beyond X deg about x/z (and 5 X of baseline\n"
          "direction) from its last matches, re-triangulates below (< 0: always matches again).\n"
@@ -119,6 +123,8 @@ void usage() {
          "estimate_stereo_yaw, co: CoCalibrationSettings::lidar_estimates_stereo_yaw).\n"
          "--stereo-scale 0|1: lidar_stereo mode: the solve also estimates a scale of the stereo\n"
          "clouds (LidarStereoSettings::estimate_stereo_scale; always on in co).\n"
+         "--refine-iterations N: rounds of the stereo clouds' disparity refinement\n"
+         "(StereoSettings::refinement.iterations; 0 keeps SGBM's disparities).\n"
          "--deskew 0|1: motion-compensate each keyframe's scan to the camera trigger with the\n"
          "velocity registered against the sequence's next frame (default: on for KITTI raw\n"
          "recordings and tescalib_simulate --lidar-sweep 1 output; off for KITTI odometry\n"
@@ -208,14 +214,16 @@ bool parse(int argc, char** argv, Args* a) {
         a->deskew = std::stoi(v);
       else if (k == "--check-halves")
         a->check_halves = std::stoi(v);
-      else if (k == "--lidar-sigma") {
+      else if (k == "--refine-iterations") {
+        a->refine_iterations = std::stoi(v);
+        if (a->refine_iterations < 0) throw std::invalid_argument(v);
+      } else if (k == "--lidar-sigma") {
         const auto parts = split(v, ',');
         if (parts.size() != 2) throw std::invalid_argument(v);
         a->lidar_sigma_deg = std::stod(parts[0]);
         a->lidar_sigma_m = std::stod(parts[1]);
         if (!(a->lidar_sigma_deg >= 0 && a->lidar_sigma_m >= 0)) throw std::invalid_argument(v);
-      }
-      else {
+      } else {
         std::cerr << "tescalib_eval: unknown option " << k << "\n";
         return false;
       }
@@ -374,6 +382,7 @@ int main(int argc, char** argv) {
   // ground truth in lidar_stereo mode). Meshes depend on the view filter of the initial guess and
   // are rebuilt per trial.
   KeyframeSettings kfs;
+  if (args.refine_iterations >= 0) kfs.stereo.refinement.iterations = args.refine_iterations;
   std::vector<Frame> frames;
   std::vector<Keyframe> base;
   double stereo_seconds = 0;
@@ -498,6 +507,7 @@ int main(int argc, char** argv) {
     Eigen::Isometry3d T_est = T_init;
     if (co_mode) {
       CoCalibrationSettings cs;
+      cs.stereo_cloud.refinement = kfs.stereo.refinement;
       cs.lidar.cov_cells_x = solver_settings.cov_cells_x;
       cs.lidar.cov_cells_y = solver_settings.cov_cells_y;
       cs.lidar.model_sigma_rot_deg = solver_settings.model_sigma_rot_deg;
