@@ -50,6 +50,17 @@ struct Sample {
   bool lit = false;           ///< in direct sun
 };
 
+/// The culling view of camera K at pose T_world_cam.
+PinholeView pinholeView(const CameraIntrinsics& K, const Eigen::Isometry3d& T_world_cam) {
+  PinholeView view;
+  view.R_cam_world = T_world_cam.linear().cast<float>().transpose();
+  view.origin = T_world_cam.translation().cast<float>();
+  view.fx = static_cast<float>(K.fx), view.fy = static_cast<float>(K.fy);
+  view.cx = static_cast<float>(K.cx), view.cy = static_cast<float>(K.cy);
+  view.width = K.width, view.height = K.height;
+  return view;
+}
+
 class CameraRenderer {
  public:
   CameraRenderer(const SceneWorld& world, const SunShadowGrid& shadows, const CameraIntrinsics& K,
@@ -57,12 +68,7 @@ class CameraRenderer {
       : world_(world), shadows_(shadows), K_(K) {
     R_ = T_world_cam.linear().cast<float>();
     origin_ = T_world_cam.translation().cast<float>();
-    PinholeView view;
-    view.R_cam_world = R_.transpose();
-    view.origin = origin_;
-    view.fx = static_cast<float>(K.fx), view.fy = static_cast<float>(K.fy);
-    view.cx = static_cast<float>(K.cx), view.cy = static_cast<float>(K.cy);
-    view.width = K.width, view.height = K.height;
+    const PinholeView view = pinholeView(K, T_world_cam);
     tiles_ = cullPinhole(world.prims, view, max_range, kTile);
     step_x_ = R_.col(0) / view.fx;
     step_y_ = R_.col(1) / view.fy;
@@ -183,13 +189,8 @@ cv::Mat renderCameraDepth(const SceneWorld& world, const CameraIntrinsics& K,
                           const Eigen::Isometry3d& T_world_cam, float max_range, int threads) {
   const Eigen::Matrix3f R = T_world_cam.linear().cast<float>();
   const Vec3 origin = T_world_cam.translation().cast<float>();
-  PinholeView view;
-  view.R_cam_world = R.transpose();
-  view.origin = origin;
-  view.fx = static_cast<float>(K.fx), view.fy = static_cast<float>(K.fy);
-  view.cx = static_cast<float>(K.cx), view.cy = static_cast<float>(K.cy);
-  view.width = K.width, view.height = K.height;
-  const TileCandidates tiles = cullPinhole(world.prims, view, max_range, kTile);
+  const TileCandidates tiles =
+      cullPinhole(world.prims, pinholeView(K, T_world_cam), max_range, kTile);
   cv::Mat depth(K.height, K.width, CV_32F);
   parallelFor(K.height, resolveThreads(threads), [&](int y) {
     float* row = depth.ptr<float>(y);
