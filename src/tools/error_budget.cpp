@@ -31,14 +31,16 @@ void usage() {
          "  Generates the drive (keyframes 0.5 s apart; default urban, seed 1, 20 keyframes,\n"
          "  default noise) and prints, at the ground truth, how far the fine stage's residuals\n"
          "  pull T_cam_lidar: all of them, the stereo clouds' disparity error alone and the LiDAR\n"
-         "  mesh's error alone (one Gauss-Newton step, camera axes), then the stereo part by\n"
+         "  mesh's error alone (one Gauss-Newton step, camera axes), then both parts by\n"
          "  surface (road: normal within 37 deg of vertical; facing: within 14 deg of the optical\n"
          "  axis; lateral: within 45 deg of camera x; other) and depth.\n";
 }
 
 struct Part {
-  Vector6d g = Vector6d::Zero();
-  double disparity_error = 0;
+  Vector6d g = Vector6d::Zero();       ///< stereo part of sum w J r
+  Vector6d g_mesh = Vector6d::Zero();  ///< mesh part
+  double disparity_error = 0;          ///< px, summed
+  double mesh_error = 0;               ///< m along the face normal, summed
   int n = 0;
 };
 
@@ -160,6 +162,7 @@ int main(int argc, char** argv) {
       const int band = Z < depth_edges[1] ? 0 : Z < depth_edges[2] ? 1 : 2;
       Part& p = by_class[cls * 3 + band];
       p.g += w * J * r_stereo, p.disparity_error += d - d_true, ++p.n;
+      p.g_mesh += w * J * r_mesh, p.mesh_error += m.dot(c - pt);
     }
   }
   std::printf(
@@ -187,16 +190,20 @@ int main(int argc, char** argv) {
   printPull("stereo", H_inv, stereo.g);
   printPull("mesh", H_inv, mesh.g);
   std::printf(
-      "the stereo part by surface and depth:\n"
-      "  %-8s %-8s %7s %14s %10s %10s %12s\n",
-      "surface", "depth m", "assoc", "mean dd (px)", "tz (mm)", "ty (mm)", "rx (deg)");
+      "by surface and depth: the stereo part (mean disparity error, pull) and the mesh\n"
+      "part (mean error along the face normal, towards the sensor positive; pull)\n"
+      "  %-8s %-8s %6s %10s %8s %8s %9s %9s %8s %8s %9s\n",
+      "surface", "depth m", "assoc", "dd (px)", "tz mm", "ty mm", "rx deg", "mesh mm", "tz mm",
+      "ty mm", "rx deg");
   for (int k = 0; k < kClasses * 3; ++k) {
     const Part& p = by_class[k];
     if (!p.n) continue;
-    const Vector6d dx = -H_inv * p.g;
-    std::printf("  %-8s %2.0f-%-5.0f %7d %+14.4f %+10.2f %+10.2f %+12.4f\n", class_name[k / 3],
-                depth_edges[k % 3], depth_edges[k % 3 + 1], p.n, p.disparity_error / p.n,
-                dx[5] * 1e3, dx[4] * 1e3, dx[0] * kDegPerRad);
+    const Vector6d dx = -H_inv * p.g, dm = -H_inv * p.g_mesh;
+    std::printf(
+        "  %-8s %2.0f-%-5.0f %6d %+10.4f %+8.2f %+8.2f %+9.4f %+9.2f %+8.2f %+8.2f %+9.4f\n",
+        class_name[k / 3], depth_edges[k % 3], depth_edges[k % 3 + 1], p.n, p.disparity_error / p.n,
+        dx[5] * 1e3, dx[4] * 1e3, dx[0] * kDegPerRad, p.mesh_error / p.n * 1e3, dm[5] * 1e3,
+        dm[4] * 1e3, dm[0] * kDegPerRad);
   }
   return 0;
 }
