@@ -28,9 +28,9 @@ enum { kGG, kGL, kG, kLL, kL, kGW, kLW, kW, kTerms };
 /// The refinement's full-size images, kept per thread: a window's clouds are computed one after
 /// another on each thread, and allocating some 30 fresh image buffers per cloud cost more
 /// (zeroing new pages) than the arithmetic on them. A thread that has refined a 1241x376 pair
-/// keeps 34 float images, about 63 MB, until it ends.
+/// keeps 34 float images, about 63 MB, until it ends (36, 67 MB, with smoothed gradient rounds).
 struct Buffers {
-  cv::Mat L, R, GR, valid, map_y, s1, mx, my, mxx, myy, mxy, d0, map_x, W, G, sD, xD, yD;
+  cv::Mat L, R, GR, Rs, GRs, valid, map_y, s1, mx, my, mxx, myy, mxy, d0, map_x, W, G, sD, xD, yD;
   cv::Mat terms[kTerms], sums[kTerms];
 };
 
@@ -60,6 +60,12 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
   // Central-difference x gradient of the right image (warped along with it).
   const cv::Mat kernel = (cv::Mat_<float>(1, 3) << -0.5f, 0.f, 0.5f);
   cv::filter2D(R, GR, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
+  if (s.smoothed_gradient_rounds > 0) {
+    const int k =
+        2 * static_cast<int>(std::ceil(2.0 * s.smoothed_gradient_sigma)) + 1;  // +-2 sigma
+    cv::GaussianBlur(R, buf.Rs, cv::Size(k, k), s.smoothed_gradient_sigma);
+    cv::filter2D(buf.Rs, buf.GRs, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
+  }
 
   const int rows = disparity->rows, cols = disparity->cols, r = s.window_radius;
   const double n_window = (2.0 * r + 1) * (2.0 * r + 1);
@@ -114,7 +120,8 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
     }
     cv::Mat &W = buf.W, &G = buf.G;
     cv::remap(R, W, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-    cv::remap(GR, G, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    cv::remap(it < s.smoothed_gradient_rounds ? buf.GRs : GR, G, map_x, map_y, cv::INTER_LINEAR,
+              cv::BORDER_REPLICATE);
     // Photometric normal equations of W = G delta + alpha L + beta over the valid pixels
     // (single precision suffices: grey values, 81-pixel windows).
     cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {

@@ -28,6 +28,7 @@ void usage() {
   std::cout
       << "usage: rosrun tescalib tescalib_error_budget [--scenario urban|residential|highway]\n"
          "         [--seed S] [--keyframes K] [--noise default|none|high] [--refine-iterations N]\n"
+         "         [--refine-smoothed-rounds N]\n"
          "  Generates the drive (keyframes 0.5 s apart; default urban, seed 1, 20 keyframes,\n"
          "  default noise) and prints, at the ground truth, how far the fine stage's residuals\n"
          "  pull T_cam_lidar: all of them, the stereo clouds' disparity error alone and the LiDAR\n"
@@ -85,6 +86,10 @@ int main(int argc, char** argv) {
         if (keyframes < 1) throw std::invalid_argument("--keyframes " + v);
       } else if (a == "--noise") {
         if (!parseNoiseLevel(v, &o.noise)) throw std::invalid_argument("--noise " + v);
+      } else if (a == "--refine-smoothed-rounds") {
+        ks.stereo.refinement.smoothed_gradient_rounds = number(to_int);
+        if (ks.stereo.refinement.smoothed_gradient_rounds < 0)
+          throw std::invalid_argument(a + " " + v);
       } else if (a == "--refine-iterations") {
         ks.stereo.refinement.iterations = number(to_int);
         if (ks.stereo.refinement.iterations < 0) throw std::invalid_argument(a + " " + v);
@@ -167,7 +172,7 @@ int main(int argc, char** argv) {
   }
   std::printf(
       "tescalib_error_budget: %s drive, seed %llu, %d keyframes, noise %s, refinement "
-      "rounds %d\n",
+      "rounds %d (%d smoothed)\n",
       o.scenario == sim::Scenario::kUrban         ? "urban"
       : o.scenario == sim::Scenario::kResidential ? "residential"
                                                   : "highway",
@@ -175,7 +180,8 @@ int main(int argc, char** argv) {
       o.noise == NoiseLevel::kNone   ? "none"
       : o.noise == NoiseLevel::kHigh ? "high"
                                      : "default",
-      ks.stereo.refinement.iterations);
+      ks.stereo.refinement.iterations,
+      std::min(ks.stereo.refinement.smoothed_gradient_rounds, ks.stereo.refinement.iterations));
   std::printf(
       "  %d fine-stage associations at the ground truth (%d more across depth edges "
       "left out)\n",

@@ -62,6 +62,7 @@ struct Args {
   int stereo_scale = -1;  ///< LiDAR-stereo mode estimates the clouds' scale: 0/1; -1: the default
   int check_halves = -1;  ///< LidarStereoSettings::check_window_halves: 0/1; -1: the default
   int refine_iterations = -1;  ///< DisparityRefinementSettings::iterations; -1: the default
+  int refine_smoothed = -1;    ///< DisparityRefinementSettings::smoothed_gradient_rounds
   /// De-skew the scans with the motion registered against a neighbouring frame: 0/1; -1: when
   /// the sequence's scans are swept (sweptScans).
   int deskew = -1;
@@ -93,7 +94,7 @@ void usage() {
          "[--first-trial K]\n"
          "         [--co-model-scale K] [--smooth-keypoints PX] [--stereo-yaw 0|1]\n"
          "         [--stereo-scale 0|1] [--check-halves 0|1] [--lidar-sigma DEG,M]\n"
-         "         [--refine-iterations N]\n"
+         "         [--refine-iterations N] [--refine-smoothed-rounds N]\n"
          "         [--deskew 0|1]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
@@ -125,6 +126,8 @@ void usage() {
          "clouds (LidarStereoSettings::estimate_stereo_scale; always on in co).\n"
          "--refine-iterations N: rounds of the stereo clouds' disparity refinement\n"
          "(StereoSettings::refinement.iterations; 0 keeps SGBM's disparities).\n"
+         "--refine-smoothed-rounds N: of those rounds, the first N take the smoothed gradient\n"
+         "(DisparityRefinementSettings::smoothed_gradient_rounds).\n"
          "--deskew 0|1: motion-compensate each keyframe's scan to the camera trigger with the\n"
          "velocity registered against the sequence's next frame (default: on for KITTI raw\n"
          "recordings and tescalib_simulate --lidar-sweep 1 output; off for KITTI odometry\n"
@@ -214,7 +217,10 @@ bool parse(int argc, char** argv, Args* a) {
         a->deskew = std::stoi(v);
       else if (k == "--check-halves")
         a->check_halves = std::stoi(v);
-      else if (k == "--refine-iterations") {
+      else if (k == "--refine-smoothed-rounds") {
+        a->refine_smoothed = std::stoi(v);
+        if (a->refine_smoothed < 0) throw std::invalid_argument(v);
+      } else if (k == "--refine-iterations") {
         a->refine_iterations = std::stoi(v);
         if (a->refine_iterations < 0) throw std::invalid_argument(v);
       } else if (k == "--lidar-sigma") {
@@ -383,6 +389,8 @@ int main(int argc, char** argv) {
   // are rebuilt per trial.
   KeyframeSettings kfs;
   if (args.refine_iterations >= 0) kfs.stereo.refinement.iterations = args.refine_iterations;
+  if (args.refine_smoothed >= 0)
+    kfs.stereo.refinement.smoothed_gradient_rounds = args.refine_smoothed;
   std::vector<Frame> frames;
   std::vector<Keyframe> base;
   double stereo_seconds = 0;
