@@ -60,7 +60,8 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
   // Central-difference x gradient of the right image (warped along with it).
   const cv::Mat kernel = (cv::Mat_<float>(1, 3) << -0.5f, 0.f, 0.5f);
   cv::filter2D(R, GR, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
-  if (s.smoothed_gradient_rounds > 0) {
+  const bool smoothed = s.smoothed_gradient_rounds > 0 && s.smoothed_gradient_sigma > 0;
+  if (smoothed) {
     const int k =
         2 * static_cast<int>(std::ceil(2.0 * s.smoothed_gradient_sigma)) + 1;  // +-2 sigma
     cv::GaussianBlur(R, buf.Rs, cv::Size(k, k), s.smoothed_gradient_sigma);
@@ -120,8 +121,8 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
     }
     cv::Mat &W = buf.W, &G = buf.G;
     cv::remap(R, W, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-    cv::remap(it < s.smoothed_gradient_rounds ? buf.GRs : GR, G, map_x, map_y, cv::INTER_LINEAR,
-              cv::BORDER_REPLICATE);
+    cv::remap(smoothed && it < s.smoothed_gradient_rounds ? buf.GRs : GR, G, map_x, map_y,
+              cv::INTER_LINEAR, cv::BORDER_REPLICATE);
     // Photometric normal equations of W = G delta + alpha L + beta over the valid pixels
     // (single precision suffices: grey values, 81-pixel windows).
     cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {

@@ -28,7 +28,7 @@ struct DisparityRefinementSettings {
   /// the README ("Where the optical-axis error comes from", session 14) with `iterations` = 2 and
   /// 1 smoothed round; 0 by default (the covariance model is calibrated on the default clouds).
   int smoothed_gradient_rounds = 0;
-  double smoothed_gradient_sigma = 1.0;
+  double smoothed_gradient_sigma = 1.0;  ///< px; <= 0: every round takes the exact gradient
 };
 
 /// Refines `disparity` (CV_32F, px, NaN where invalid) in place for the rectified grey pair
