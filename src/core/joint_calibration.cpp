@@ -213,11 +213,8 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
         if (!st.disparityAt(u, v, &d)) continue;
         const Eigen::Vector3d p_s = st.pointAt(u, v, d);
         const Eigen::Vector3d m = R * f.normal.cast<double>();
-        const double dFdd = scale * std::fabs(m.dot(p_s)) / d;
-        const double var =
-            lidarVarianceAlong(m, c.normalized(), f.range, ls) +
-            dFdd * dFdd * s.stereo_cloud.disparity_sigma * s.stereo_cloud.disparity_sigma;
-        const double inv_sigma = 1.0 / std::sqrt(var);
+        const double inv_sigma = pointPlaneInvSigma(m, c.normalized(), f.range, p_s, d, scale,
+                                                    s.stereo_cloud.disparity_sigma, ls);
         if (std::fabs(m.dot(c - scale * p_s)) * inv_sigma > ls.fine_gate_sigma) continue;
         auto* lr = new JointLidarResidual;
         lr->q = q, lr->m = m, lr->t = T_cl.translation();

@@ -165,6 +165,16 @@ double lidarVarianceAlong(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_
   return s.lidar_range_sigma * s.lidar_range_sigma * c * c + lateral * lateral * (1.0 - c * c);
 }
 
+double pointPlaneInvSigma(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_dir, double range,
+                          const Eigen::Vector3d& stereo_point, double disparity,
+                          double stereo_scale, double disparity_sigma,
+                          const LidarStereoSettings& s) {
+  const double dFdd = stereo_scale * std::fabs(n.dot(stereo_point)) / disparity;
+  const double var =
+      lidarVarianceAlong(n, beam_dir, range, s) + dFdd * dFdd * disparity_sigma * disparity_sigma;
+  return 1.0 / std::sqrt(var);
+}
+
 LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                                    const Eigen::Isometry3d& T_init, const LidarStereoSettings& s) {
   LidarStereoResult res;
@@ -240,10 +250,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
             a.g = yawGain(st, st.fx * sr.x() / sr.z() + st.cx, a.d);
             // Point-to-plane noise: LiDAR along the normal plus stereo depth noise along it.
             const Eigen::Vector3d beam = c.normalized();
-            const double dFdd = std::fabs(m.dot(a.p_s)) / sp.disparity;
-            const double var = lidarVarianceAlong(m, beam, f.range, s) +
-                               dFdd * dFdd * s.disparity_sigma * s.disparity_sigma;
-            a.inv_sigma = 1.0 / std::sqrt(var);
+            a.inv_sigma = pointPlaneInvSigma(m, beam, f.range, a.p_s, sp.disparity, 1.0,
+                                             s.disparity_sigma, s);
             kf_as->push_back(a);
           }
         };
@@ -287,10 +295,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
           const Eigen::Vector3d m = R * f.normal.cast<double>();
           const double g = yawGain(st, u, d);
           const double k = correctedStereoScale(&scale, &yaw, d, g);
-          const double dFdd = k * std::fabs(m.dot(ps)) / d;
-          const double var = lidarVarianceAlong(m, c.normalized(), f.range, s) +
-                             dFdd * dFdd * s.disparity_sigma * s.disparity_sigma;
-          const double inv_sigma = 1.0 / std::sqrt(var);
+          const double inv_sigma =
+              pointPlaneInvSigma(m, c.normalized(), f.range, ps, d, k, s.disparity_sigma, s);
           if (std::fabs(m.dot(c - k * ps)) * inv_sigma > s.fine_gate_sigma) continue;
           const int cell =
               std::clamp(static_cast<int>(u * s.cov_cells_x / st.disparity.cols), 0,

@@ -145,9 +145,8 @@ int main(int argc, char** argv) {
       const Eigen::Vector3d ps = st.pointAt(u, v, d), pt = st.pointAt(u, v, d_true);
       const Eigen::Vector3d m = T.linear() * f.normal.cast<double>();
       // The fine stage's noise model, gate and Huber weight (LidarStereoSettings defaults).
-      const double dFdd = std::fabs(m.dot(ps)) / d;
-      const double inv_sigma = 1.0 / std::sqrt(lidarVarianceAlong(m, c.normalized(), f.range, s) +
-                                               dFdd * dFdd * s.disparity_sigma * s.disparity_sigma);
+      const double inv_sigma =
+          pointPlaneInvSigma(m, c.normalized(), f.range, ps, d, 1.0, s.disparity_sigma, s);
       const double r = m.dot(c - ps) * inv_sigma;
       if (std::fabs(r) > s.fine_gate_sigma) continue;
       const double w = std::fabs(r) <= s.fine_huber ? 1.0 : s.fine_huber / std::fabs(r);

@@ -149,6 +149,15 @@ struct LidarStereoResult {
 double lidarVarianceAlong(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_dir, double range,
                           const LidarStereoSettings& settings);
 
+/// 1 / sigma of a point-to-plane residual along the unit normal n between a LiDAR point (beam
+/// direction, range) and a stereo point of disparity d: the LiDAR point's variance along n
+/// (lidarVarianceAlong) plus the stereo point's, stereo_scale |n . p| / d per px of disparity
+/// noise (`disparity_sigma`), p the stereo point as triangulated.
+double pointPlaneInvSigma(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_dir, double range,
+                          const Eigen::Vector3d& stereo_point, double disparity,
+                          double stereo_scale, double disparity_sigma,
+                          const LidarStereoSettings& settings);
+
 /// Solves T_cam_lidar over the window from `T_init`. Never throws on bad data: an empty window or
 /// a scene without structure gives converged = false and a message.
 LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
