@@ -50,46 +50,76 @@ struct Sample {
   bool lit = false;           ///< in direct sun
 };
 
-/// The culling view of camera K at pose T_world_cam.
-PinholeView pinholeView(const CameraIntrinsics& K, const Eigen::Isometry3d& T_world_cam) {
-  PinholeView view;
-  view.R_cam_world = T_world_cam.linear().cast<float>().transpose();
-  view.origin = T_world_cam.translation().cast<float>();
-  view.fx = static_cast<float>(K.fx), view.fy = static_cast<float>(K.fy);
-  view.cx = static_cast<float>(K.cx), view.cy = static_cast<float>(K.cy);
-  view.width = K.width, view.height = K.height;
-  return view;
-}
+/// The rays of camera K at pose T_world_cam: the image's samples and its depth render trace the
+/// same ray through the same culled primitives.
+class CameraRays {
+ public:
+  struct Ray {
+    Vec3 r;     ///< through the image point, world frame, unit z in the camera frame
+    float len;  ///< |r|
+    Vec3 d;     ///< r / len
+    TraceResult hit;
+  };
+
+  CameraRays(const SceneWorld& world, const CameraIntrinsics& K,
+             const Eigen::Isometry3d& T_world_cam, float max_range)
+      : world_(world), K_(K) {
+    R_ = T_world_cam.linear().cast<float>();
+    origin_ = T_world_cam.translation().cast<float>();
+    PinholeView view;
+    view.R_cam_world = R_.transpose();
+    view.origin = origin_;
+    view.fx = static_cast<float>(K.fx), view.fy = static_cast<float>(K.fy);
+    view.cx = static_cast<float>(K.cx), view.cy = static_cast<float>(K.cy);
+    view.width = K.width, view.height = K.height;
+    tiles_ = cullPinhole(world.prims, view, max_range, kTile);
+  }
+
+  /// Traces the ray through image point (u, v).
+  Ray trace(float u, float v) const {
+    Ray ray;
+    ray.r = R_ * Vec3((u - float(K_.cx)) / float(K_.fx), (v - float(K_.cy)) / float(K_.fy), 1.f);
+    ray.len = ray.r.norm();
+    ray.d = ray.r / ray.len;
+    const int tx = std::clamp(static_cast<int>(u) / kTile, 0, tiles_.tilesX() - 1);
+    const int ty = std::clamp(static_cast<int>(v) / kTile, 0, tiles_.tilesY() - 1);
+    ray.hit =
+        traceRay(world_.prims, tiles_.begin(tx, ty), tiles_.end(tx, ty), origin_, ray.d, 1e5f);
+    return ray;
+  }
+
+  const Eigen::Matrix3f& R() const { return R_; }
+  const Vec3& origin() const { return origin_; }
+
+ private:
+  const SceneWorld& world_;
+  const CameraIntrinsics& K_;
+  Eigen::Matrix3f R_;
+  Vec3 origin_;
+  TileCandidates tiles_;
+};
 
 class CameraRenderer {
  public:
   CameraRenderer(const SceneWorld& world, const SunShadowGrid& shadows, const CameraIntrinsics& K,
                  const Eigen::Isometry3d& T_world_cam, float max_range)
-      : world_(world), shadows_(shadows), K_(K) {
-    R_ = T_world_cam.linear().cast<float>();
-    origin_ = T_world_cam.translation().cast<float>();
-    const PinholeView view = pinholeView(K, T_world_cam);
-    tiles_ = cullPinhole(world.prims, view, max_range, kTile);
-    step_x_ = R_.col(0) / view.fx;
-    step_y_ = R_.col(1) / view.fy;
+      : world_(world), shadows_(shadows), rays_(world, K, T_world_cam, max_range) {
+    step_x_ = rays_.R().col(0) / static_cast<float>(K.fx);
+    step_y_ = rays_.R().col(1) / static_cast<float>(K.fy);
   }
 
   /// Traces and shades the ray through image point (u, v).
   Sample sample(float u, float v) const {
-    const Vec3 r =
-        R_ * Vec3((u - float(K_.cx)) / float(K_.fx), (v - float(K_.cy)) / float(K_.fy), 1.f);
-    const float len = r.norm();
-    const Vec3 d = r / len;
-    const int tx = std::clamp(static_cast<int>(u) / kTile, 0, tiles_.tilesX() - 1);
-    const int ty = std::clamp(static_cast<int>(v) / kTile, 0, tiles_.tilesY() - 1);
-    const TraceResult hit =
-        traceRay(world_.prims, tiles_.begin(tx, ty), tiles_.end(tx, ty), origin_, d, 1e5f);
+    const CameraRays::Ray ray = rays_.trace(u, v);
+    const Vec3 &r = ray.r, &d = ray.d;
+    const float len = ray.len;
+    const TraceResult& hit = ray.hit;
     Sample s;
     if (hit.prim == TraceResult::kNoHit) {
       s.value = sky(d);
       return s;
     }
-    SurfacePoint sp = surfaceAt(world_, hit, origin_, d);
+    SurfacePoint sp = surfaceAt(world_, hit, rays_.origin(), d);
     // Ray differentials: where the neighbouring pixels' rays meet the surface's tangent plane.
     const float lambda = hit.t / len;
     float nr = sp.normal.dot(r);
@@ -117,10 +147,8 @@ class CameraRenderer {
 
   const SceneWorld& world_;
   const SunShadowGrid& shadows_;
-  const CameraIntrinsics& K_;
-  Eigen::Matrix3f R_;
-  Vec3 origin_, step_x_, step_y_;
-  TileCandidates tiles_;
+  CameraRays rays_;
+  Vec3 step_x_, step_y_;
 };
 
 }  // namespace
@@ -187,24 +215,14 @@ cv::Mat renderCamera(const SceneWorld& world, const SunShadowGrid& shadows,
 
 cv::Mat renderCameraDepth(const SceneWorld& world, const CameraIntrinsics& K,
                           const Eigen::Isometry3d& T_world_cam, float max_range, int threads) {
-  const Eigen::Matrix3f R = T_world_cam.linear().cast<float>();
-  const Vec3 origin = T_world_cam.translation().cast<float>();
-  const TileCandidates tiles =
-      cullPinhole(world.prims, pinholeView(K, T_world_cam), max_range, kTile);
+  const CameraRays rays(world, K, T_world_cam, max_range);
   cv::Mat depth(K.height, K.width, CV_32F);
   parallelFor(K.height, resolveThreads(threads), [&](int y) {
     float* row = depth.ptr<float>(y);
     for (int x = 0; x < K.width; ++x) {
-      // The same ray as the image's sample at the pixel centre (x, y).
-      const Vec3 r =
-          R * Vec3((x - float(K.cx)) / float(K.fx), (y - float(K.cy)) / float(K.fy), 1.f);
-      const float len = r.norm();
-      const int tx = std::clamp(x / kTile, 0, tiles.tilesX() - 1);
-      const int ty = std::clamp(y / kTile, 0, tiles.tilesY() - 1);
-      const TraceResult hit =
-          traceRay(world.prims, tiles.begin(tx, ty), tiles.end(tx, ty), origin, r / len, 1e5f);
-      row[x] =
-          hit.prim == TraceResult::kNoHit ? std::numeric_limits<float>::quiet_NaN() : hit.t / len;
+      const CameraRays::Ray ray = rays.trace(x, y);  // the image's sample at the pixel centre
+      row[x] = ray.hit.prim == TraceResult::kNoHit ? std::numeric_limits<float>::quiet_NaN()
+                                                   : ray.hit.t / ray.len;
     }
   });
   return depth;
