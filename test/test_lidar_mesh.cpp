@@ -1,0 +1,164 @@
+// The LiDAR triangle mesh (issue 4's preprocessing): faces from adjacent rings and azimuths,
+// none across a depth discontinuity or at a grazing angle, normals towards the sensor and
+// fitted to the neighbourhood's plane.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "tescalib/core/geometry.h"
+#include "tescalib/core/lidar_mesh.h"
+
+namespace {
+
+using tescalib::kDegPerRad;
+using tescalib::LidarMesh;
+using tescalib::LidarMeshSettings;
+using tescalib::LidarScan;
+
+constexpr double kHeight = 1.73;  // sensor above the road, m (KITTI)
+
+// One revolution of a 64-ring sensor (elevations -24.9..+2 deg, as the HDL-64E) in a scene of a
+// flat road, a wall 10 m ahead left of the axis (y in [-3, 0)) and one 16 m ahead right of it
+// (y in [0, 3]): a 6 m depth step between neighbouring azimuths. Range noise N(0, sigma).
+LidarScan stepScene(double range_sigma, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  LidarScan scan;
+  const int rings = 64, per_ring = 1000;
+  for (int r = 0; r < rings; ++r) {
+    const double elev = (-24.9 + 26.9 * r / (rings - 1)) / kDegPerRad;
+    for (int k = 0; k < per_ring; ++k) {
+      const double az = 2 * M_PI * (k + 0.5) / per_ring - M_PI;
+      const Eigen::Vector3d d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az),
+                              std::sin(elev));
+      double t = std::numeric_limits<double>::infinity();
+      auto wall = [&](double x, double y0, double y1) {
+        if (d.x() <= 0) return;
+        const double tw = x / d.x();
+        const Eigen::Vector3d p = tw * d;
+        if (p.y() >= y0 && p.y() < y1 && p.z() >= -kHeight && p.z() <= 3.0) t = std::min(t, tw);
+      };
+      wall(10.0, -3.0, 0.0);
+      wall(16.0, 0.0, 3.0);
+      if (d.z() < 0) t = std::min(t, -kHeight / d.z());
+      if (!(t < 80.0)) continue;
+      const Eigen::Vector3d p = (t + range_sigma * noise(rng)) * d;
+      tescalib::LidarPoint lp;
+      lp.x = float(p.x()), lp.y = float(p.y()), lp.z = float(p.z());
+      lp.ring = uint16_t(r);
+      scan.push_back(lp);
+    }
+  }
+  return scan;
+}
+
+enum Surface { kNearWall, kFarWall, kRoad, kOther };
+// A face belongs to a surface when all three vertices lie on it (within `tol`, m); faces at the
+// walls' feet, with vertices on the wall and on the road, are neither.
+Surface surfaceOf(const tescalib::MeshFace& f, float tol = 0.01f) {
+  auto all = [&](auto on) { return on(f.a) && on(f.b) && on(f.c); };
+  auto above_road = [&](const Eigen::Vector3f& v) { return v.z() > -kHeight + 5 * tol; };
+  if (all([&](const Eigen::Vector3f& v) { return std::fabs(v.x() - 10.f) < tol && above_road(v); }))
+    return kNearWall;
+  if (all([&](const Eigen::Vector3f& v) { return std::fabs(v.x() - 16.f) < tol && above_road(v); }))
+    return kFarWall;
+  if (all([&](const Eigen::Vector3f& v) { return std::fabs(v.z() + kHeight) < tol; })) return kRoad;
+  return kOther;
+}
+
+double angleDeg(const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+  return std::acos(std::min(1.0, std::fabs(double(a.normalized().dot(b.normalized()))))) *
+         kDegPerRad;
+}
+
+double median(std::vector<double> v) {
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+TEST(LidarMesh, NoFaceAcrossADepthStepOrAtAGrazingAngle) {
+  const LidarMesh mesh = tescalib::buildLidarMesh(stepScene(0.0, 1), LidarMeshSettings{});
+  int near = 0, far = 0, road = 0, across = 0, road_beyond_grazing = 0;
+  double worst_incidence = 0;
+  for (const auto& f : mesh.faces) {
+    // Normals are unit and face the sensor.
+    EXPECT_NEAR(f.normal.norm(), 1.f, 1e-4f);
+    EXPECT_LT(f.normal.dot(f.centroid), 0.f);
+    // A face with vertices on both walls bridges the 6 m step.
+    const float xmin = std::min({f.a.x(), f.b.x(), f.c.x()});
+    const float xmax = std::max({f.a.x(), f.b.x(), f.c.x()});
+    const float zmin = std::min({f.a.z(), f.b.z(), f.c.z()});
+    if (xmin < 11.f && xmax > 15.f && zmin > -kHeight + 0.1f) ++across;
+    const Surface s = surfaceOf(f);
+    near += s == kNearWall, far += s == kFarWall;
+    if (s == kRoad) {
+      ++road;
+      // The road's true incidence at the centroid: 80 deg (the default limit) is reached
+      // where the beam is 10 deg below the horizon, 1.73 / sin(10 deg) = 9.96 m away.
+      const double incidence = std::acos(kHeight / f.centroid.norm()) * kDegPerRad;
+      worst_incidence = std::max(worst_incidence, incidence);
+      if (f.centroid.norm() > 10.5f) ++road_beyond_grazing;
+    }
+  }
+  EXPECT_EQ(across, 0);
+  // Both sides of the step are meshed, and the road up to where it becomes grazing.
+  EXPECT_GT(near, 1000);
+  EXPECT_GT(far, 300);
+  EXPECT_GT(road, 5000);
+  EXPECT_EQ(road_beyond_grazing, 0);
+  EXPECT_LT(worst_incidence, 80.5);
+
+  // Without the rules the step and the far road are meshed: the test can tell.
+  LidarMeshSettings loose;
+  loose.max_edge_ratio = 10.0, loose.max_edge_abs = 100.0, loose.max_incidence_deg = 89.9;
+  const LidarMesh all = tescalib::buildLidarMesh(stepScene(0.0, 1), loose);
+  int across_loose = 0, far_road_loose = 0;
+  for (const auto& f : all.faces) {
+    const float xmin = std::min({f.a.x(), f.b.x(), f.c.x()});
+    const float xmax = std::max({f.a.x(), f.b.x(), f.c.x()});
+    const float zmin = std::min({f.a.z(), f.b.z(), f.c.z()});
+    if (xmin < 11.f && xmax > 15.f && zmin > -kHeight + 0.1f) ++across_loose;
+    if (surfaceOf(f) == kRoad && f.centroid.norm() > 10.5f) ++far_road_loose;
+  }
+  EXPECT_GT(across_loose, 10);
+  EXPECT_GT(far_road_loose, 1000);
+}
+
+TEST(LidarMesh, FittedNormalsFollowThePlaneUnderRangeNoise) {
+  // 2 cm of range noise: a single face's normal (a 3-6 cm edge along the ring) tilts by
+  // degrees; the plane fit to its neighbourhood does not.
+  const LidarScan scan = stepScene(0.02, 7);
+  LidarMeshSettings raw;
+  raw.smooth_cols = 0;
+  const Eigen::Vector3f wall_normal(-1.f, 0.f, 0.f), road_normal(0.f, 0.f, 1.f);
+  auto errors = [&](const LidarMesh& mesh, std::vector<double>* wall, std::vector<double>* road) {
+    for (const auto& f : mesh.faces) {
+      const Surface s = surfaceOf(f, 0.06f);
+      if (s == kNearWall) wall->push_back(angleDeg(f.normal, wall_normal));
+      if (s == kRoad) road->push_back(angleDeg(f.normal, road_normal));
+    }
+  };
+  std::vector<double> wall_fit, road_fit, wall_raw, road_raw;
+  errors(tescalib::buildLidarMesh(scan, LidarMeshSettings{}), &wall_fit, &road_fit);
+  errors(tescalib::buildLidarMesh(scan, raw), &wall_raw, &road_raw);
+  ASSERT_GT(wall_fit.size(), 500u);
+  ASSERT_GT(road_fit.size(), 2000u);
+  const double wf = median(wall_fit), wr = median(wall_raw);
+  const double rf = median(road_fit), rr = median(road_raw);
+  RecordProperty("wall_fit_deg", std::to_string(wf));
+  RecordProperty("wall_raw_deg", std::to_string(wr));
+  RecordProperty("road_fit_deg", std::to_string(rf));
+  RecordProperty("road_raw_deg", std::to_string(rr));
+  std::printf("median normal error (deg): wall fitted %.2f raw %.2f, road fitted %.2f raw %.2f\n",
+              wf, wr, rf, rr);
+  EXPECT_GT(wr, 3.0);
+  EXPECT_LT(wf, 2.0);
+  EXPECT_LT(wf, 0.3 * wr);
+  EXPECT_LT(rf, 0.5 * rr);
+}
