@@ -76,7 +76,7 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
     // Normals from a plane fit (PCA) to the points of the face's neighbourhood in the range
     // image (rings -1..+2, +-smooth_cols azimuth bins) that lie near the face's plane. A single
     // face's normal is set by a 3-10 cm edge along the ring, where 2 cm of range noise tilts it
-    // by ~5 deg; averaging neighbouring faces barely helps (they share vertices).
+    // by degrees (lidar_mesh.h); averaging neighbouring faces barely helps (they share vertices).
     const float cos_max = static_cast<float>(std::cos(s.smooth_max_angle_deg * M_PI / 180.0));
     std::vector<Eigen::Vector3f> fitted(mesh.faces.size());
     const int n_faces = static_cast<int>(mesh.faces.size());
