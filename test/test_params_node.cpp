@@ -19,6 +19,11 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_FALSE(p.online.deskew);  // KITTI odometry scans are compensated already
   EXPECT_DOUBLE_EQ(p.online.deskew_max_dt, 0.25);
   EXPECT_TRUE(p.online.sweep.clockwise);
+  EXPECT_EQ(p.online.keyframe.stereo.refinement.iterations, 2);
+  EXPECT_EQ(p.online.keyframe.stereo.refinement.smoothed_gradient_rounds, 1);
+  EXPECT_EQ(p.online.co.stereo_cloud.refinement.iterations, 1);
+  EXPECT_EQ(p.online.co.stereo_cloud.refinement.smoothed_gradient_rounds, 0);
+  EXPECT_EQ(p.online.co.stereo_cloud.num_disparities, p.online.keyframe.stereo.num_disparities);
 }
 
 TEST(Params, InvalidValuesAreNamed) {
@@ -30,6 +35,8 @@ TEST(Params, InvalidValuesAreNamed) {
   pnh.setParam("lidar_stereo/halves_chi2_limit", -1.0);
   pnh.setParam("deskew/max_dt", 0.0);
   pnh.setParam("deskew/rate_hz", -10.0);
+  pnh.setParam("stereo/refine_iterations", 1);
+  pnh.setParam("stereo/refine_smoothed_rounds", 2);
   tescalib::NodeParams p;
   std::string error;
   EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
@@ -39,6 +46,8 @@ TEST(Params, InvalidValuesAreNamed) {
   EXPECT_NE(error.find("lidar_stereo/halves_chi2_limit"), std::string::npos) << error;
   EXPECT_NE(error.find("deskew/max_dt must be > 0"), std::string::npos) << error;
   EXPECT_NE(error.find("deskew/rate_hz must be > 0"), std::string::npos) << error;
+  EXPECT_NE(error.find("stereo/refine_smoothed_rounds must be between 0 and"), std::string::npos)
+      << error;
   EXPECT_NE(error.find("initial/T_cam_lidar must be [x, y, z, qx, qy, qz, qw] (7 values, got 3)"),
             std::string::npos)
       << error;

@@ -115,6 +115,8 @@ TEST(StereoGenerated, SmoothedFirstRoundCorrectsMoreOfTheNoisyRoadBias) {
   o.seed = 1;
   const Simulator sim(o);  // default noise
   StereoSettings one, smoothed;
+  one.refinement.iterations = 1;
+  one.refinement.smoothed_gradient_rounds = 0;
   smoothed.refinement.iterations = 2;
   smoothed.refinement.smoothed_gradient_rounds = 1;
   const double e_one = medianRoadDisparityError(sim, 0, one);
@@ -137,8 +139,9 @@ TEST(StereoGenerated, RefinementDoesNotDependOnWhatItRefinedBefore) {
   StereoSettings raw;
   raw.refinement.iterations = 0;
   const cv::Mat sgbm = computeStereoCloud(f.left, f.right, rig, rig.T_right_left, raw).disparity;
-  DisparityRefinementSettings two_rounds;
-  two_rounds.iterations = 2;
+  DisparityRefinementSettings other_rounds;  // not the default's rounds
+  other_rounds.iterations = 3;
+  other_rounds.smoothed_gradient_rounds = 0;
   auto refined = [&](const cv::Mat& l, const cv::Mat& r, const cv::Mat& d,
                      const DisparityRefinementSettings& rs) {
     cv::Mat out = d.clone();
@@ -159,7 +162,7 @@ TEST(StereoGenerated, RefinementDoesNotDependOnWhatItRefinedBefore) {
   // Another size and another number of rounds in between, on the same thread.
   const cv::Rect crop(100, 50, 700, 250);
   const cv::Mat small =
-      refined(left(crop).clone(), right(crop).clone(), sgbm(crop).clone(), two_rounds);
+      refined(left(crop).clone(), right(crop).clone(), sgbm(crop).clone(), other_rounds);
   EXPECT_EQ(small.size(), crop.size());
   EXPECT_TRUE(sameBits(refined(left, right, sgbm, {}), first));
   // The same size with other contents in between (what a stale buffer would leak).
@@ -167,7 +170,7 @@ TEST(StereoGenerated, RefinementDoesNotDependOnWhatItRefinedBefore) {
   cv::flip(left, flipped_l, 0);
   cv::flip(right, flipped_r, 0);
   cv::flip(sgbm, flipped_d, 0);
-  refined(flipped_l, flipped_r, flipped_d + 0.5, two_rounds);
+  refined(flipped_l, flipped_r, flipped_d + 0.5, other_rounds);
   EXPECT_TRUE(sameBits(refined(left, right, sgbm, {}), first));
   cv::Mat on_fresh_thread;
   std::thread([&] { on_fresh_thread = refined(left, right, sgbm, {}); }).join();

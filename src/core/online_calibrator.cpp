@@ -89,7 +89,9 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   }
   std::shared_ptr<Keyframe> kf;
   try {
-    kf = std::make_shared<Keyframe>(makeKeyframe(*use, rig_, T_cl, T_rl, settings_.keyframe));
+    KeyframeSettings ks = settings_.keyframe;
+    if (settings_.estimate_stereo) ks.stereo.refinement = settings_.co.stereo_cloud.refinement;
+    kf = std::make_shared<Keyframe>(makeKeyframe(*use, rig_, T_cl, T_rl, ks));
     kf->seconds_deskew = deskew_seconds;
   } catch (const DataError& e) {
     *msg = e.what();

@@ -43,6 +43,8 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "stereo/disparity_sigma", &p->online.keyframe.stereo.disparity_sigma);
   get(pnh, "stereo/refine_iterations", &p->online.keyframe.stereo.refinement.iterations);
   get(pnh, "stereo/refine_window_radius", &p->online.keyframe.stereo.refinement.window_radius);
+  get(pnh, "stereo/refine_smoothed_rounds",
+      &p->online.keyframe.stereo.refinement.smoothed_gradient_rounds);
   get(pnh, "lidar_stereo/normal_weight", &p->online.co.lidar.normal_weight);
   get(pnh, "lidar_stereo/lidar_range_sigma", &p->online.co.lidar.lidar_range_sigma);
   get(pnh, "lidar_stereo/max_depth", &p->online.co.lidar.max_depth);
@@ -57,7 +59,10 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "initial/perturb_trans_m", &p->initial_perturb_trans_m);
   get(pnh, "initial/perturb_seed", &p->initial_perturb_seed);
   get(pnh, "save_path", &p->save_path);
-  p->online.co.stereo_cloud = p->online.keyframe.stereo;
+  p->online.co.stereo_cloud = coStereoCloudSettings(p->online.keyframe.stereo);
+  get(pnh, "co_calibration/refine_iterations", &p->online.co.stereo_cloud.refinement.iterations);
+  get(pnh, "co_calibration/refine_smoothed_rounds",
+      &p->online.co.stereo_cloud.refinement.smoothed_gradient_rounds);
   return validateNodeParams(*p, error);
 }
 
@@ -93,6 +98,20 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
       o.keyframe.stereo.refinement.window_radius > 15)
     e << "stereo/refine_window_radius must be between 1 and 15 px (got "
       << o.keyframe.stereo.refinement.window_radius << "); ";
+  if (o.keyframe.stereo.refinement.smoothed_gradient_rounds < 0 ||
+      o.keyframe.stereo.refinement.smoothed_gradient_rounds >
+          o.keyframe.stereo.refinement.iterations)
+    e << "stereo/refine_smoothed_rounds must be between 0 and stereo/refine_iterations (got "
+      << o.keyframe.stereo.refinement.smoothed_gradient_rounds << "); ";
+  if (o.co.stereo_cloud.refinement.iterations < 0 || o.co.stereo_cloud.refinement.iterations > 5)
+    e << "co_calibration/refine_iterations must be between 0 and 5 (got "
+      << o.co.stereo_cloud.refinement.iterations << "); ";
+  if (o.co.stereo_cloud.refinement.smoothed_gradient_rounds < 0 ||
+      o.co.stereo_cloud.refinement.smoothed_gradient_rounds >
+          o.co.stereo_cloud.refinement.iterations)
+    e << "co_calibration/refine_smoothed_rounds must be between 0 and "
+         "co_calibration/refine_iterations (got "
+      << o.co.stereo_cloud.refinement.smoothed_gradient_rounds << "); ";
   if (o.co.max_rounds < 1) e << "co_calibration/max_rounds must be >= 1; ";
   if (o.warm_co_rounds < 1) e << "co_calibration/warm_co_rounds must be >= 1; ";
   if (o.co.free_depth_rounds < 0) e << "co_calibration/free_depth_rounds must be >= 0; ";

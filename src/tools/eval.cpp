@@ -125,9 +125,11 @@ void usage() {
          "--stereo-scale 0|1: lidar_stereo mode: the solve also estimates a scale of the stereo\n"
          "clouds (LidarStereoSettings::estimate_stereo_scale; always on in co).\n"
          "--refine-iterations N: rounds of the stereo clouds' disparity refinement\n"
-         "(StereoSettings::refinement.iterations; 0 keeps SGBM's disparities).\n"
+         "(StereoSettings::refinement.iterations; 0 keeps SGBM's disparities; default 2 in\n"
+         "lidar_stereo mode, 1 for the clouds co and joint match, coStereoCloudSettings).\n"
          "--refine-smoothed-rounds N: of those rounds, the first N take the smoothed gradient\n"
-         "(DisparityRefinementSettings::smoothed_gradient_rounds).\n"
+         "(DisparityRefinementSettings::smoothed_gradient_rounds; default 1 in lidar_stereo\n"
+         "mode, 0 in co and joint).\n"
          "--deskew 0|1: motion-compensate each keyframe's scan to the camera trigger with the\n"
          "velocity registered against the sequence's next frame (default: on for KITTI raw\n"
          "recordings and tescalib_simulate --lidar-sweep 1 output; off for KITTI odometry\n"
@@ -391,6 +393,17 @@ int main(int argc, char** argv) {
   if (args.refine_iterations >= 0) kfs.stereo.refinement.iterations = args.refine_iterations;
   if (args.refine_smoothed >= 0)
     kfs.stereo.refinement.smoothed_gradient_rounds = args.refine_smoothed;
+  // co / joint match their clouds with co-calibration's own refinement default (one exact
+  // round), unless the command line sets it.
+  DisparityRefinementSettings co_refinement = CoCalibrationSettings{}.stereo_cloud.refinement;
+  if (args.refine_iterations >= 0) co_refinement.iterations = args.refine_iterations;
+  if (args.refine_smoothed >= 0) co_refinement.smoothed_gradient_rounds = args.refine_smoothed;
+  const bool co_clouds = args.mode == "co" || args.mode == "joint";
+  const DisparityRefinementSettings& used_refinement =
+      co_clouds ? co_refinement : kfs.stereo.refinement;
+  std::cout << "  stereo clouds: disparity refinement " << used_refinement.iterations
+            << " round(s), " << used_refinement.smoothed_gradient_rounds
+            << " of them with the smoothed gradient\n";
   std::vector<Frame> frames;
   std::vector<Keyframe> base;
   double stereo_seconds = 0;
@@ -515,7 +528,7 @@ int main(int argc, char** argv) {
     Eigen::Isometry3d T_est = T_init;
     if (co_mode) {
       CoCalibrationSettings cs;
-      cs.stereo_cloud.refinement = kfs.stereo.refinement;
+      cs.stereo_cloud.refinement = co_refinement;
       cs.lidar.cov_cells_x = solver_settings.cov_cells_x;
       cs.lidar.cov_cells_y = solver_settings.cov_cells_y;
       cs.lidar.model_sigma_rot_deg = solver_settings.model_sigma_rot_deg;
@@ -762,7 +775,9 @@ int main(int argc, char** argv) {
     }
     js << std::setprecision(10) << "{\"mode\": \"" << args.mode << "\", \"method\": \""
        << args.method << "\", \"window\": " << window_size << ", \"windows\": " << n_windows
-       << ", \"trials\": [\n";
+       << ", \"refinement\": {\"iterations\": " << used_refinement.iterations
+       << ", \"smoothed_rounds\": " << used_refinement.smoothed_gradient_rounds
+       << "}, \"trials\": [\n";
     for (size_t i = 0; i < trials.size(); ++i) {
       const auto& tr = trials[i];
       js << "  {\"seed\": " << tr.seed << ", \"window_index\": " << tr.window_index

@@ -13,10 +13,20 @@
 
 namespace tescalib {
 
+/// The stereo clouds co-calibration matches: the keyframes' settings, but one exact disparity
+/// refinement round. The LiDAR-stereo default (a smoothed round, then an exact one) removes a
+/// disparity bias that co-calibration's stereo scale and yaw absorb anyway; here it measured
+/// worse and slower (README, "Benchmarks", session 15).
+inline StereoSettings coStereoCloudSettings(StereoSettings s = {}) {
+  s.refinement.iterations = 1;
+  s.refinement.smoothed_gradient_rounds = 0;
+  return s;
+}
+
 struct CoCalibrationSettings {
   LidarStereoSettings lidar;
   PhotometricSettings stereo;
-  StereoSettings stereo_cloud;
+  StereoSettings stereo_cloud = coStereoCloudSettings();  ///< clouds matched again each round
   int max_rounds = 15;
   /// Stability criterion (both must hold for both extrinsics): the last round moved the estimate
   /// by less than this, and so does the remaining distance to the fixed point predicted from the

@@ -15,7 +15,7 @@
 namespace tescalib {
 
 struct DisparityRefinementSettings {
-  int iterations = 1;               ///< warp + solve rounds (0 disables the refinement)
+  int iterations = 2;               ///< warp + solve rounds (0 disables the refinement)
   int window_radius = 4;            ///< px; the window is (2r+1)^2
   double max_step = 1.0;            ///< px; larger corrections of one round are clamped
   double min_gradient = 0.5;        ///< grey levels/px, RMS over the window; below it d is kept
@@ -25,9 +25,9 @@ struct DisparityRefinementSettings {
   /// one round with the exact gradient corrects SGBM's short disparity on the near road only
   /// partly (the Gauss-Newton step falls short where the texture is fine and weak); a smoothed
   /// first round gets most of the way and an exact second one keeps the precision. Measured in
-  /// the README ("Where the optical-axis error comes from", session 14) with `iterations` = 2 and
-  /// 1 smoothed round; 0 by default (the covariance model is calibrated on the default clouds).
-  int smoothed_gradient_rounds = 0;
+  /// the README ("Where the optical-axis error comes from", session 14); the default since
+  /// session 15 (README, "Benchmarks": 2 rounds, the first smoothed).
+  int smoothed_gradient_rounds = 1;
   double smoothed_gradient_sigma = 1.0;  ///< px; <= 0: every round takes the exact gradient
 };
 

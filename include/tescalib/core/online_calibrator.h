@@ -64,6 +64,9 @@ struct OnlineSettings {
   bool deskew = false;
   double deskew_max_dt = 0.25;  ///< s
   ScanSweep sweep;
+  /// Keyframes' mesh and stereo cloud. With `estimate_stereo` the keyframes' clouds take
+  /// `co.stereo_cloud`'s refinement instead, so that every cloud of a co-calibration window is of
+  /// one kind (co-calibration matches clouds again with it).
   KeyframeSettings keyframe;
   CoCalibrationSettings co;
 };
