@@ -37,6 +37,7 @@ TEST(Params, InvalidValuesAreNamed) {
   pnh.setParam("deskew/rate_hz", -10.0);
   pnh.setParam("stereo/refine_iterations", 1);
   pnh.setParam("stereo/refine_smoothed_rounds", 2);
+  pnh.setParam("co_calibration/refine_iterations", 7);
   tescalib::NodeParams p;
   std::string error;
   EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
@@ -46,7 +47,11 @@ TEST(Params, InvalidValuesAreNamed) {
   EXPECT_NE(error.find("lidar_stereo/halves_chi2_limit"), std::string::npos) << error;
   EXPECT_NE(error.find("deskew/max_dt must be > 0"), std::string::npos) << error;
   EXPECT_NE(error.find("deskew/rate_hz must be > 0"), std::string::npos) << error;
-  EXPECT_NE(error.find("stereo/refine_smoothed_rounds must be between 0 and"), std::string::npos)
+  EXPECT_NE(error.find("stereo/refine_smoothed_rounds must be between 0 and stereo/"),
+            std::string::npos)
+      << error;
+  EXPECT_NE(error.find("co_calibration/refine_iterations must be between 0 and 5 (got 7)"),
+            std::string::npos)
       << error;
   EXPECT_NE(error.find("initial/T_cam_lidar must be [x, y, z, qx, qy, qz, qw] (7 values, got 3)"),
             std::string::npos)

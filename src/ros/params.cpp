@@ -9,6 +9,17 @@ template <typename T>
 void get(const ros::NodeHandle& nh, const std::string& name, T* value) {
   nh.param(name, *value, *value);
 }
+
+/// The rounds of a disparity refinement read from `prefix`refine_iterations and
+/// `prefix`refine_smoothed_rounds.
+void checkRefinementRounds(const DisparityRefinementSettings& r, const std::string& prefix,
+                           std::ostringstream& e) {
+  if (r.iterations < 0 || r.iterations > 5)
+    e << prefix << "refine_iterations must be between 0 and 5 (got " << r.iterations << "); ";
+  if (r.smoothed_gradient_rounds < 0 || r.smoothed_gradient_rounds > r.iterations)
+    e << prefix << "refine_smoothed_rounds must be between 0 and " << prefix
+      << "refine_iterations (got " << r.smoothed_gradient_rounds << "); ";
+}
 }  // namespace
 
 bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* error) {
@@ -91,27 +102,12 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.keyframe.stereo.block_size < 1 || o.keyframe.stereo.block_size % 2 == 0)
     e << "stereo/block_size must be odd (got " << o.keyframe.stereo.block_size << "); ";
   if (o.keyframe.stereo.disparity_sigma <= 0) e << "stereo/disparity_sigma must be > 0; ";
-  if (o.keyframe.stereo.refinement.iterations < 0 || o.keyframe.stereo.refinement.iterations > 5)
-    e << "stereo/refine_iterations must be between 0 and 5 (got "
-      << o.keyframe.stereo.refinement.iterations << "); ";
+  checkRefinementRounds(o.keyframe.stereo.refinement, "stereo/", e);
   if (o.keyframe.stereo.refinement.window_radius < 1 ||
       o.keyframe.stereo.refinement.window_radius > 15)
     e << "stereo/refine_window_radius must be between 1 and 15 px (got "
       << o.keyframe.stereo.refinement.window_radius << "); ";
-  if (o.keyframe.stereo.refinement.smoothed_gradient_rounds < 0 ||
-      o.keyframe.stereo.refinement.smoothed_gradient_rounds >
-          o.keyframe.stereo.refinement.iterations)
-    e << "stereo/refine_smoothed_rounds must be between 0 and stereo/refine_iterations (got "
-      << o.keyframe.stereo.refinement.smoothed_gradient_rounds << "); ";
-  if (o.co.stereo_cloud.refinement.iterations < 0 || o.co.stereo_cloud.refinement.iterations > 5)
-    e << "co_calibration/refine_iterations must be between 0 and 5 (got "
-      << o.co.stereo_cloud.refinement.iterations << "); ";
-  if (o.co.stereo_cloud.refinement.smoothed_gradient_rounds < 0 ||
-      o.co.stereo_cloud.refinement.smoothed_gradient_rounds >
-          o.co.stereo_cloud.refinement.iterations)
-    e << "co_calibration/refine_smoothed_rounds must be between 0 and "
-         "co_calibration/refine_iterations (got "
-      << o.co.stereo_cloud.refinement.smoothed_gradient_rounds << "); ";
+  checkRefinementRounds(o.co.stereo_cloud.refinement, "co_calibration/", e);
   if (o.co.max_rounds < 1) e << "co_calibration/max_rounds must be >= 1; ";
   if (o.warm_co_rounds < 1) e << "co_calibration/warm_co_rounds must be >= 1; ";
   if (o.co.free_depth_rounds < 0) e << "co_calibration/free_depth_rounds must be >= 0; ";
