@@ -390,20 +390,23 @@ int main(int argc, char** argv) {
   // ground truth in lidar_stereo mode). Meshes depend on the view filter of the initial guess and
   // are rebuilt per trial.
   KeyframeSettings kfs;
-  if (args.refine_iterations >= 0) kfs.stereo.refinement.iterations = args.refine_iterations;
-  if (args.refine_smoothed >= 0)
-    kfs.stereo.refinement.smoothed_gradient_rounds = args.refine_smoothed;
-  // co / joint match their clouds with co-calibration's own refinement default (one exact
-  // round), unless the command line sets it.
-  DisparityRefinementSettings co_refinement = CoCalibrationSettings{}.stereo_cloud.refinement;
-  if (args.refine_iterations >= 0) co_refinement.iterations = args.refine_iterations;
-  if (args.refine_smoothed >= 0) co_refinement.smoothed_gradient_rounds = args.refine_smoothed;
+  // The command line's refinement rounds, over the LiDAR-stereo clouds' default and over the one
+  // co / joint match their clouds with (co-calibration's own: one exact round).
+  auto withRefineArgs = [&](DisparityRefinementSettings r) {
+    if (args.refine_iterations >= 0) r.iterations = args.refine_iterations;
+    if (args.refine_smoothed >= 0) r.smoothed_gradient_rounds = args.refine_smoothed;
+    return r;
+  };
+  kfs.stereo.refinement = withRefineArgs(kfs.stereo.refinement);
+  const DisparityRefinementSettings co_refinement =
+      withRefineArgs(CoCalibrationSettings{}.stereo_cloud.refinement);
   const bool co_clouds = args.mode == "co" || args.mode == "joint";
   const DisparityRefinementSettings& used_refinement =
       co_clouds ? co_refinement : kfs.stereo.refinement;
-  std::cout << "  stereo clouds: disparity refinement " << used_refinement.iterations
-            << " round(s), " << used_refinement.smoothed_gradient_rounds
-            << " of them with the smoothed gradient\n";
+  if (args.mode != "stereo")  // stereo mode matches no clouds
+    std::cout << "  stereo clouds: disparity refinement " << used_refinement.iterations
+              << " round(s), " << used_refinement.smoothed_gradient_rounds
+              << " of them with the smoothed gradient\n";
   std::vector<Frame> frames;
   std::vector<Keyframe> base;
   double stereo_seconds = 0;
