@@ -134,7 +134,8 @@ TEST(LidarMesh, FittedNormalsFollowThePlaneUnderRangeNoise) {
   // 2 cm of range noise: a single face's normal (a 3-6 cm edge along the ring) tilts by
   // degrees; the plane fit to its neighbourhood does not.
   const LidarScan scan = stepScene(0.02, 7);
-  LidarMeshSettings raw;
+  LidarMeshSettings fit_all, raw;
+  fit_all.sampled_faces = 0;  // every face fitted, for the statistics
   raw.smooth_cols = 0;
   const Eigen::Vector3f wall_normal(-1.f, 0.f, 0.f), road_normal(0.f, 0.f, 1.f);
   auto errors = [&](const LidarMesh& mesh, std::vector<double>* wall, std::vector<double>* road) {
@@ -145,7 +146,7 @@ TEST(LidarMesh, FittedNormalsFollowThePlaneUnderRangeNoise) {
     }
   };
   std::vector<double> wall_fit, road_fit, wall_raw, road_raw;
-  errors(tescalib::buildLidarMesh(scan, LidarMeshSettings{}), &wall_fit, &road_fit);
+  errors(tescalib::buildLidarMesh(scan, fit_all), &wall_fit, &road_fit);
   errors(tescalib::buildLidarMesh(scan, raw), &wall_raw, &road_raw);
   ASSERT_GT(wall_fit.size(), 500u);
   ASSERT_GT(road_fit.size(), 2000u);
@@ -161,4 +162,51 @@ TEST(LidarMesh, FittedNormalsFollowThePlaneUnderRangeNoise) {
   EXPECT_LT(wf, 2.0);
   EXPECT_LT(wf, 0.3 * wr);
   EXPECT_LT(rf, 0.5 * rr);
+}
+
+TEST(LidarMesh, NormalsAreFittedForTheSampleTheSolversDrawFrom) {
+  using tescalib::evenlyStrided;
+  EXPECT_EQ(evenlyStrided(10, 4), (std::vector<size_t>{0, 2, 5, 7}));
+  EXPECT_EQ(evenlyStrided(3, 5), (std::vector<size_t>{0, 1, 2}));
+  EXPECT_TRUE(evenlyStrided(10, 0).empty());
+  EXPECT_TRUE(evenlyStrided(0, 4).empty());
+
+  const LidarScan scan = stepScene(0.02, 7);
+  LidarMeshSettings all, raw;
+  all.sampled_faces = 0;
+  raw.smooth_cols = 0;
+  const LidarMesh sampled = tescalib::buildLidarMesh(scan, LidarMeshSettings{});
+  const LidarMesh fitted = tescalib::buildLidarMesh(scan, all);
+  const LidarMesh unfitted = tescalib::buildLidarMesh(scan, raw);
+  const size_t n = sampled.faces.size();
+  ASSERT_GT(n, 20000u);
+  ASSERT_EQ(fitted.faces.size(), n);
+  ASSERT_EQ(unfitted.faces.size(), n);
+  EXPECT_EQ(fitted.sample.size(), n);
+  ASSERT_EQ(sampled.sample.size(), 4000u);
+  // Evenly spread, increasing: the gaps are floor or ceil of n / 4000.
+  const size_t lo = n / 4000, hi = (n + 3999) / 4000;
+  EXPECT_EQ(sampled.sample.front(), 0u);
+  for (size_t j = 1; j < sampled.sample.size(); ++j) {
+    const size_t gap = sampled.sample[j] - sampled.sample[j - 1];
+    ASSERT_TRUE(gap == lo || gap == hi) << "gap " << gap << " at " << j;
+  }
+  // The sample's normals are exactly those of the fully fitted mesh; the rest keep their own.
+  std::vector<bool> in_sample(n, false);
+  for (uint32_t f : sampled.sample) in_sample[f] = true;
+  int differs_from_own = 0;
+  for (size_t f = 0; f < n; ++f) {
+    ASSERT_EQ(sampled.faces[f].centroid, fitted.faces[f].centroid);
+    const Eigen::Vector3f& expected =
+        in_sample[f] ? fitted.faces[f].normal : unfitted.faces[f].normal;
+    ASSERT_EQ(sampled.faces[f].normal, expected) << "face " << f;
+    if (in_sample[f] && angleDeg(sampled.faces[f].normal, unfitted.faces[f].normal) > 1.0)
+      ++differs_from_own;
+  }
+  EXPECT_GT(differs_from_own, 2000);  // the fit does change most of the sample
+  // A solver asking for fewer faces gets an even part of the sample, for more the whole sample.
+  const std::vector<size_t> coarse = tescalib::sampleFaces(sampled, 750);
+  ASSERT_EQ(coarse.size(), 750u);
+  for (size_t f : coarse) EXPECT_TRUE(in_sample[f]);
+  EXPECT_EQ(tescalib::sampleFaces(sampled, 10000).size(), 4000u);
 }

@@ -200,10 +200,8 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     const Eigen::Matrix3d R = T_cl.linear();
     for (size_t k = 0; k < window.size(); ++k) {
       const StereoCloud& st = window[k]->stereo;
-      const auto& faces = window[k]->mesh.faces;
-      const double step = std::max(1.0, double(faces.size()) / ls.fine_faces_per_keyframe);
-      for (double x = 0; x < faces.size(); x += step) {
-        const MeshFace& f = faces[size_t(x)];
+      for (size_t fi : sampleFaces(window[k]->mesh, ls.fine_faces_per_keyframe)) {
+        const MeshFace& f = window[k]->mesh.faces[fi];
         const Eigen::Vector3d q = R * f.centroid.cast<double>();
         const Eigen::Vector3d c = q + T_cl.translation();
         const Eigen::Vector3d pr = st.R_rect_left * c;

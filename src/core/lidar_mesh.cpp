@@ -9,6 +9,21 @@
 
 namespace tescalib {
 
+std::vector<size_t> evenlyStrided(size_t n, int k) {
+  std::vector<size_t> idx;
+  if (k <= 0) return idx;
+  const size_t m = std::min(n, static_cast<size_t>(k));
+  idx.reserve(m);
+  for (size_t i = 0; i < m; ++i) idx.push_back(i * n / m);
+  return idx;
+}
+
+std::vector<size_t> sampleFaces(const LidarMesh& mesh, int k) {
+  std::vector<size_t> idx = evenlyStrided(mesh.sample.size(), k);
+  for (size_t& i : idx) i = mesh.sample[i];
+  return idx;
+}
+
 LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   LidarMesh mesh;
   if (scan.empty()) return mesh;
@@ -72,15 +87,21 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       tryFace(p01, p11, p10);
     }
   }
+  const std::vector<size_t> sample =
+      evenlyStrided(mesh.faces.size(),
+                    s.sampled_faces > 0 ? s.sampled_faces : static_cast<int>(mesh.faces.size()));
+  mesh.sample.assign(sample.begin(), sample.end());
   if (s.smooth_cols > 0) {
-    // Normals from a plane fit (PCA) to the points of the face's neighbourhood in the range
-    // image (rings -1..+2, +-smooth_cols azimuth bins) that lie near the face's plane. A single
-    // face's normal is set by a 3-10 cm edge along the ring, where 2 cm of range noise tilts it
-    // by degrees (lidar_mesh.h); averaging neighbouring faces barely helps (they share vertices).
+    // Normals of the sampled faces from a plane fit (PCA) to the points of the face's
+    // neighbourhood in the range image (rings -1..+2, +-smooth_cols azimuth bins) that lie near
+    // the face's plane. A single face's normal is set by a 3-10 cm edge along the ring, where 2 cm
+    // of range noise tilts it by degrees (lidar_mesh.h); averaging neighbouring faces barely helps
+    // (they share vertices).
     const float cos_max = static_cast<float>(std::cos(s.smooth_max_angle_deg * M_PI / 180.0));
-    std::vector<Eigen::Vector3f> fitted(mesh.faces.size());
-    const int n_faces = static_cast<int>(mesh.faces.size());
-    auto fit = [&](int f) {
+    std::vector<Eigen::Vector3f> fitted(sample.size());
+    const int n_sample = static_cast<int>(sample.size());
+    auto fit = [&](int j) {
+      const size_t f = sample[j];
       const MeshFace& face = mesh.faces[f];
       const int r0 = face_cell[f] / cols, c0 = face_cell[f] % cols;
       const float tol = 0.02f * face.range + 0.05f;
@@ -97,7 +118,7 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
           second += p * p.transpose();
           ++n;
         }
-      fitted[f] = face.normal;
+      fitted[j] = face.normal;
       if (n < 6) return;
       mean /= static_cast<float>(n);
       const Eigen::Matrix3f cov = second / static_cast<float>(n) - mean * mean.transpose();
@@ -106,13 +127,13 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       if (!(eig.eigenvalues()(0) < 0.1f * eig.eigenvalues()(1))) return;
       Eigen::Vector3f nf = eig.eigenvectors().col(0);
       if (nf.dot(face.normal) < 0) nf = -nf;
-      if (nf.dot(face.normal) > cos_max) fitted[f] = nf.normalized();
+      if (nf.dot(face.normal) > cos_max) fitted[j] = nf.normalized();
     };
     // Each face writes only its own fitted normal: the same mesh on any number of threads.
-    parallelForRanges(n_faces, resolveThreads(s.threads), 64, [&](int begin, int end) {
-      for (int f = begin; f < end; ++f) fit(f);
+    parallelForRanges(n_sample, resolveThreads(s.threads), 64, [&](int begin, int end) {
+      for (int j = begin; j < end; ++j) fit(j);
     });
-    for (size_t f = 0; f < mesh.faces.size(); ++f) mesh.faces[f].normal = fitted[f];
+    for (int j = 0; j < n_sample; ++j) mesh.faces[sample[j]].normal = fitted[j];
   }
   return mesh;
 }

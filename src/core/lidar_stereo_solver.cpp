@@ -37,15 +37,6 @@ class SixDRepresentation : public pcl::PointRepresentation<pcl::PointNormal> {
   float w_;
 };
 
-/// Evenly strided subset of [0, n) with at most k elements (deterministic).
-std::vector<size_t> strided(size_t n, int k) {
-  std::vector<size_t> idx;
-  if (n == 0 || k <= 0) return idx;
-  const double step = std::max(1.0, double(n) / k);
-  for (double x = 0; x < n; x += step) idx.push_back(static_cast<size_t>(x));
-  return idx;
-}
-
 struct Association {
   Eigen::Vector3d q, m;      ///< R_ref p_m and R_ref n_m (camera orientation, before t)
   Eigen::Vector3d p_l, n_l;  ///< face centroid and normal in the LiDAR frame
@@ -199,8 +190,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                  s.coarse_faces_per_window / std::max(1, static_cast<int>(window.size())));
     for (size_t k = 0; k < window.size(); ++k) {
       const auto& pts = window[k]->stereo.points;
-      tree_index[k] = strided(pts.size(), s.coarse_stereo_points_per_keyframe);
-      face_index[k] = strided(window[k]->mesh.faces.size(), coarse_faces);
+      tree_index[k] = evenlyStrided(pts.size(), s.coarse_stereo_points_per_keyframe);
+      face_index[k] = sampleFaces(window[k]->mesh, coarse_faces);
       if (tree_index[k].empty()) continue;
       pcl::PointCloud<pcl::PointNormal>::Ptr cloud(new pcl::PointCloud<pcl::PointNormal>);
       for (size_t i : tree_index[k]) {
@@ -275,7 +266,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   if (s.run_fine) {
     std::vector<std::vector<size_t>> face_index(window.size());
     for (size_t k = 0; k < window.size(); ++k)
-      face_index[k] = strided(window[k]->mesh.faces.size(), s.fine_faces_per_keyframe);
+      face_index[k] = sampleFaces(window[k]->mesh, s.fine_faces_per_keyframe);
     Vector6d d_prev = Vector6d::Zero();
     for (int it = 0; it < s.fine_reassociations; ++it) {
       ++res.iterations;

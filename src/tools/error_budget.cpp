@@ -119,10 +119,8 @@ int main(int argc, char** argv) {
     const cv::Mat depth = sim::renderCameraDepth(sim.world(), rig.left,
                                                  sim.worldFromLidar(i) * T.inverse(), 250.f, 0);
     const StereoCloud& st = kf.stereo;
-    const auto& faces = kf.mesh.faces;
-    const double step = std::max(1.0, double(faces.size()) / s.fine_faces_per_keyframe);
-    for (double x = 0; x < faces.size(); x += step) {
-      const MeshFace& f = faces[static_cast<size_t>(x)];
+    for (size_t fi : sampleFaces(kf.mesh, s.fine_faces_per_keyframe)) {
+      const MeshFace& f = kf.mesh.faces[fi];
       const Eigen::Vector3d c = T * f.centroid.cast<double>();
       if (c.z() < 1.0 || c.z() > s.max_depth) continue;
       const double u = st.fx * c.x() / c.z() + st.cx, v = st.fy * c.y() / c.z() + st.cy;

@@ -4,6 +4,7 @@
 // angles are rejected.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include <Eigen/Core>
@@ -29,6 +30,11 @@ struct LidarMeshSettings {
   /// averaged face normals, 1-3 cm with fitted ones).
   int smooth_cols = 6;
   double smooth_max_angle_deg = 60.0;
+  /// Normals are fitted only for an evenly strided sample of at most this many faces
+  /// (`LidarMesh::sample`), the faces the solvers draw from (the LiDAR-stereo solver takes at most
+  /// 4000 per keyframe); <= 0: every face. Fitting all ~73k faces in view of a 64-ring scan was
+  /// most of the mesh's cost. Solvers that want more faces than the sample get the sample.
+  int sampled_faces = 4000;
   /// Keep only faces whose centroid lies within this half-angle (deg) of `view_axis` (LiDAR
   /// frame); <= 0 keeps everything. Used to keep the part of the scan the cameras can see.
   double view_half_angle_deg = 0.0;
@@ -47,7 +53,17 @@ struct MeshFace {
 
 struct LidarMesh {
   std::vector<MeshFace> faces;
+  /// Indices into `faces`, increasing and evenly strided (evenlyStrided): the faces whose normals
+  /// are fitted (every face when `sampled_faces` <= 0). The other faces keep their own normal
+  /// (degrees off under range noise): use them for their vertices, draw normals from the sample.
+  std::vector<uint32_t> sample;
 };
+
+/// min(n, k) indices of [0, n), evenly strided: i * n / k for i < k (every index when n <= k).
+std::vector<size_t> evenlyStrided(size_t n, int k);
+
+/// At most k faces of `mesh.sample`, evenly strided: indices into `mesh.faces`.
+std::vector<size_t> sampleFaces(const LidarMesh& mesh, int k);
 
 /// Builds the mesh of one scan (points must carry their ring).
 LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& settings = {});

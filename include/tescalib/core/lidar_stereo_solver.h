@@ -16,7 +16,9 @@ namespace tescalib {
 struct LidarStereoSettings {
   // Coarse stage (eq. KD6 association, eq. point_plane_normal_obj).
   bool run_coarse = true;
-  int coarse_faces_per_keyframe = 1500;          ///< LiDAR faces sampled per keyframe
+  /// LiDAR faces per keyframe, evenly strided over the mesh's sample (`LidarMesh::sample`, the
+  /// faces with fitted normals; LidarMeshSettings::sampled_faces, 4000 by default).
+  int coarse_faces_per_keyframe = 1500;
   /// ... and at most this many over the window: the coarse stage only brings the estimate into
   /// the fine stage's basin, and 15000 faces do that as well as 30000 (a 20-keyframe generated
   /// window: the same success from 10 deg / 1 m and the same final errors, coarse stage 1.5x
@@ -30,7 +32,7 @@ struct LidarStereoSettings {
   double coarse_loss_scale = 2.0;  ///< Cauchy scale (normalised residual units)
   // Fine stage (eq. point_point_normal_obj, projective association).
   bool run_fine = true;
-  int fine_faces_per_keyframe = 4000;
+  int fine_faces_per_keyframe = 4000;  ///< from the mesh's sample, like the coarse faces
   int fine_reassociations = 12;
   double fine_huber = 1.5;       ///< Huber threshold in sigma units
   double fine_gate_sigma = 8.0;  ///< associations beyond this many sigma are dropped
