@@ -232,6 +232,48 @@ TEST(LidarStereoSolver, EstimatesTheRightCameraYawOfTheClouds) {
   EXPECT_GT(with.covariance_model(5, 5), 1.2 * without.covariance_model(5, 5));
 }
 
+TEST(LidarStereoSolver, MeasuresADisparityOffsetAndWidensTheCovarianceWithIt) {
+  // Clouds rectified with a right camera 0.03 deg off in yaw: every disparity is short by
+  // f yaw (1 + x_r^2), about 0.38 px, far beyond the model's 0.05 px common bias. The solver
+  // (yaw not estimated) measures the offset from its residuals and widens the bias term with it;
+  // on exact clouds the offset it measures is within the model and nothing changes.
+  const StereoRig rig = kittiLikeRig();
+  const double yaw = 0.03 / kDegPerRad;
+  std::mt19937_64 rng(7);
+  const Eigen::Isometry3d T_init =
+      perturb(rig.T_cam_lidar, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
+  LidarStereoSettings on = testSettings(), off = testSettings();
+  off.measure_disparity_offset = false;
+  on.check_window_halves = off.check_window_halves = false;  // the bias term alone
+
+  const std::vector<Keyframe> shifted = canyonKeyframes(rig, 31, yaw);
+  const LidarStereoResult a = solveLidarStereo(windowOf(shifted), T_init, on);
+  const LidarStereoResult a_off = solveLidarStereo(windowOf(shifted), T_init, off);
+  const double expected = rig.left.fx * yaw;  // at the image centre, more towards its sides
+  std::printf("offset measured %.3f px (f yaw %.3f px); sigma tz %.2f cm, %.2f cm unmeasured\n",
+              a.disparity_offset_px, expected, 100 * std::sqrt(a.covariance(5, 5)),
+              100 * std::sqrt(a_off.covariance(5, 5)));
+  EXPECT_GT(a.disparity_offset_px, expected);  // 0.46 px: (1 + x_r^2) averages 1.2 here
+  EXPECT_LT(a.disparity_offset_px, 1.35 * expected);
+  EXPECT_EQ(a_off.disparity_offset_px, 0.0);
+  // The same estimate; the bias term grows by (offset / 0.05 px)^2 along its sensitivity.
+  EXPECT_TRUE(a.T_cam_lidar.isApprox(a_off.T_cam_lidar, 1e-12));
+  const Eigen::Matrix<double, 6, 1> h = a.bias_sensitivity.col(0);
+  const Matrix6d added =
+      (std::pow(a.disparity_offset_px, 2) - std::pow(on.model_sigma_disparity_px, 2)) * h *
+      h.transpose();
+  EXPECT_TRUE((a.covariance - a_off.covariance).isApprox(added, 1e-6));
+  EXPECT_GT(a.covariance(5, 5), 4 * a_off.covariance(5, 5));
+
+  const std::vector<Keyframe> exact = canyonKeyframes(rig, 31);
+  const LidarStereoResult b = solveLidarStereo(windowOf(exact), T_init, on);
+  const LidarStereoResult b_off = solveLidarStereo(windowOf(exact), T_init, off);
+  std::printf("exact clouds: offset measured %.4f px\n", b.disparity_offset_px);
+  EXPECT_LT(std::fabs(b.disparity_offset_px), 0.25 * on.model_sigma_disparity_px);
+  EXPECT_TRUE(b.covariance.isApprox(b_off.covariance, 1e-12));
+  EXPECT_EQ(b.converged, b_off.converged);
+}
+
 TEST(LidarStereoSolver, FailsHonestlyWithoutStructure) {
   // Only the road: translation along camera x and z and rotation about y are unconstrained.
   const StereoRig rig = kittiLikeRig();

@@ -16,6 +16,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_DOUBLE_EQ(p.online.co.yaw_handover_deg, 0.2);
   EXPECT_TRUE(p.online.co.lidar.check_window_halves);
   EXPECT_DOUBLE_EQ(p.online.co.lidar.halves_chi2_limit, 22.46);
+  EXPECT_TRUE(p.online.co.lidar.measure_disparity_offset);
   EXPECT_FALSE(p.online.deskew);  // KITTI odometry scans are compensated already
   EXPECT_DOUBLE_EQ(p.online.deskew_max_dt, 0.25);
   EXPECT_TRUE(p.online.sweep.clockwise);

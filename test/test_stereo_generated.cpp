@@ -259,18 +259,26 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
     }
     longer.push_back(makeKeyframe(f, rig, rig.T_cam_lidar, rig.T_right_left));
   }
-  auto solve = [](const std::vector<Keyframe>& kfs, const Eigen::Isometry3d& init) {
+  // The estimate does not depend on the measured disparity offset; the +0.3 px window's
+  // covariance does (it widens the bias term and flags tz), checked at the end.
+  LidarStereoSettings unmeasured;
+  unmeasured.measure_disparity_offset = false;
+  auto solve = [](const std::vector<Keyframe>& kfs, const Eigen::Isometry3d& init,
+                  const LidarStereoSettings& settings) {
     std::vector<const Keyframe*> window;
     for (const auto& kf : kfs) window.push_back(&kf);
-    return solveLidarStereo(window, init);
+    return solveLidarStereo(window, init, settings);
   };
-  const LidarStereoResult r0 = solve(plain, rig.T_cam_lidar);
+  const LidarStereoResult r0 = solve(plain, rig.T_cam_lidar, LidarStereoSettings());
   ASSERT_TRUE(r0.converged) << r0.message;
+  EXPECT_FALSE(disparityOffsetMeasured(r0, LidarStereoSettings()) &&
+               std::fabs(r0.disparity_offset_px) > 0.05)
+      << r0.disparity_offset_px << " +- " << r0.disparity_offset_sigma_px;
   const char* axes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
   const char* names[2] = {"disparity +0.3 px", "range +5 cm"};
   const std::vector<Keyframe>* biased[2] = {&shifted, &longer};
   for (int b = 0; b < 2; ++b) {
-    const LidarStereoResult r = solve(*biased[b], r0.T_cam_lidar);
+    const LidarStereoResult r = solve(*biased[b], r0.T_cam_lidar, unmeasured);
     ASSERT_TRUE(r.converged) << names[b] << ": " << r.message;
     const Vector6d moved = poseError(r.T_cam_lidar, r0.T_cam_lidar);
     const Vector6d predicted = r0.bias_sensitivity.col(b) * (b == 0 ? delta_px : delta_m);
@@ -293,6 +301,19 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
       EXPECT_GT(cosine, 0.9) << names[b] << " " << part;
     }
   }
+  // With the offset measured (the default) the +0.3 px window finds it in its residuals (it must
+  // be added back: -0.3 px) and no longer trusts its estimate; the unbiased window measures
+  // nothing beyond the model.
+  const LidarStereoResult measured = solve(shifted, r0.T_cam_lidar, LidarStereoSettings());
+  std::cout << "[ bias     ] disparity +0.3 px: offset measured " << measured.disparity_offset_px
+            << " +- " << measured.disparity_offset_sigma_px << " px; unbiased window "
+            << r0.disparity_offset_px << " +- " << r0.disparity_offset_sigma_px << " px\n";
+  EXPECT_NEAR(measured.disparity_offset_px, -delta_px, 0.05);
+  EXPECT_TRUE(disparityOffsetMeasured(measured, LidarStereoSettings()));
+  EXPECT_TRUE(
+      measured.T_cam_lidar.isApprox(solve(shifted, r0.T_cam_lidar, unmeasured).T_cam_lidar, 1e-12));
+  EXPECT_FALSE(measured.converged);
+  EXPECT_NE(measured.message.find("disparity offset"), std::string::npos) << measured.message;
 }
 
 TEST(LidarStereoGenerated, WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow) {
@@ -311,10 +332,14 @@ TEST(LidarStereoGenerated, WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow) {
     plain.push_back(makeKeyframe(sim.renderFrame(i), rig, rig.T_cam_lidar, rig.T_right_left));
     mixed.push_back(plain.size() <= 4 ? plain.back() : withDisparityOffset(plain.back(), 0.6));
   }
-  auto solve = [&rig](const std::vector<Keyframe>& kfs) {
+  // The split-window check alone: the measured disparity offset (on by default) would flag the
+  // mixed window already (-0.24 px, the average of its halves' offsets).
+  LidarStereoSettings settings;
+  settings.measure_disparity_offset = false;
+  auto solve = [&rig, &settings](const std::vector<Keyframe>& kfs) {
     std::vector<const Keyframe*> window;
     for (const auto& kf : kfs) window.push_back(&kf);
-    return solveLidarStereo(window, rig.T_cam_lidar);
+    return solveLidarStereo(window, rig.T_cam_lidar, settings);
   };
   const LidarStereoResult a = solve(plain), b = solve(mixed);
   for (const LidarStereoResult* r : {&a, &b})
@@ -331,7 +356,7 @@ TEST(LidarStereoGenerated, WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow) {
   EXPECT_FALSE(b.converged);
   EXPECT_NE(b.message.find("halves disagree"), std::string::npos) << b.message;
   // Without the check the same window is declared converged: it is the check that catches it.
-  LidarStereoSettings off;
+  LidarStereoSettings off = settings;
   off.check_window_halves = false;
   std::vector<const Keyframe*> window;
   for (const auto& kf : mixed) window.push_back(&kf);

@@ -129,10 +129,18 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
 }
 
 /// The covariance of what the window constrains: the statistical part plus the common biases.
+/// The common disparity offset's sigma for this window: the model's, or the offset the residuals
+/// show when that is larger (LidarStereoResult::disparity_offset_px).
+double disparityBiasSigma(const LidarStereoResult& r, const LidarStereoSettings& s) {
+  return disparityOffsetMeasured(r, s)
+             ? std::max(s.model_sigma_disparity_px, std::fabs(r.disparity_offset_px))
+             : s.model_sigma_disparity_px;
+}
+
 Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {
   const auto& h = r.bias_sensitivity;
   return r.covariance_statistical +
-         std::pow(s.model_sigma_disparity_px, 2) * h.col(0) * h.col(0).transpose() +
+         std::pow(disparityBiasSigma(r, s), 2) * h.col(0) * h.col(0).transpose() +
          std::pow(s.model_sigma_range_m, 2) * h.col(1) * h.col(1).transpose();
 }
 
@@ -142,6 +150,13 @@ bool smallUpdate(const Vector6d& d, const LidarStereoSettings& s) {
 }
 
 }  // namespace
+
+bool disparityOffsetMeasured(const LidarStereoResult& r, const LidarStereoSettings& s) {
+  return r.disparity_offset_sigma_px > 0 &&
+         r.disparity_offset_sigma_px <= s.max_disparity_offset_sigma_px &&
+         std::fabs(r.disparity_offset_px) >
+             s.disparity_offset_significance * r.disparity_offset_sigma_px;
+}
 
 bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& s, bool observable[6]) {
   return axesWithin(covariance, s.max_sigma_rot_deg, s.max_sigma_trans_m, observable);
@@ -360,11 +375,14 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   std::vector<Eigen::VectorXd> scores;
   // sum w J dr/db for the window-common biases: disparity offset (px), LiDAR range offset (m).
   Eigen::MatrixXd JtD = Eigen::MatrixXd::Zero(n, 2);
+  double DtD = 0;                     // sum w D^2, D = dr / d(disparity offset)
+  std::vector<double> offset_scores;  // per cluster sum w r D (with `scores`: the offset's share)
   double cost = 0;
   if (!as.empty()) {
     int n_clusters = 0;
     for (const auto& a0 : as) n_clusters = std::max(n_clusters, a0.cluster + 1);
     scores.assign(n_clusters, Eigen::VectorXd::Zero(n));
+    offset_scores.assign(n_clusters, 0.0);
     res.keyframe_information.assign(window.size(), Matrix6d::Zero());
     Eigen::VectorXd J(n);
     for (const auto& a0 : as) {
@@ -380,7 +398,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       const double w = std::fabs(r) <= s.fine_huber ? 1.0 : s.fine_huber / std::fabs(r);
       H += w * J * J.transpose();
       // ps ~ d / (d + delta): dr/d(delta) = m.ps / d_c; q = R p_l: dr/d(range) = m.R p_l / |p_l|.
-      JtD.col(0) += w * J * (m.dot(ps) / dc * a0.inv_sigma);
+      const double D = m.dot(ps) / dc * a0.inv_sigma;
+      JtD.col(0) += w * J * D;
+      DtD += w * D * D;
+      offset_scores[a0.cluster] += w * r * D;
       JtD.col(1) += w * J * (m.dot(q) / a0.p_l.norm() * a0.inv_sigma);
       res.keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
           w * J.head<6>() * J.head<6>().transpose();
@@ -403,6 +424,38 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       res.covariance_model = H_inv;
       const Eigen::MatrixXd bias_moves = -(H_inv_full * JtD);  // pose, scale, yaw per bias
       res.bias_sensitivity = bias_moves.topRows<6>();
+      // The window-common disparity offset these residuals show: one Gauss-Newton step of the
+      // problem with the offset added as a parameter, from this estimate (offset 0), the pose
+      // (and scale) re-solved with it, and its cluster-robust sigma (the same sandwich as the
+      // pose's). With the clouds' yaw estimated the offset is a parameter already.
+      if (s.measure_disparity_offset && !s.estimate_stereo_yaw) {
+        Eigen::MatrixXd Ha(n + 1, n + 1);
+        Ha << H, JtD.col(0), JtD.col(0).transpose(), DtD;
+        Eigen::VectorXd ga = Eigen::VectorXd::Zero(n + 1);
+        Eigen::MatrixXd Ma = Eigen::MatrixXd::Zero(n + 1, n + 1);
+        Eigen::VectorXd gc(n + 1);
+        int used_a = 0;
+        for (size_t c = 0; c < scores.size(); ++c) {
+          gc << scores[c], offset_scores[c];
+          if (gc.squaredNorm() == 0) continue;
+          ga += gc;
+          Ma += gc * gc.transpose();
+          ++used_a;
+        }
+        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig_a(Ha);
+        if (used_a > 1 && eig_a.eigenvalues().minCoeff() >
+                              1e-12 * std::max(1.0, eig_a.eigenvalues().maxCoeff())) {
+          Ma *= double(used_a) / double(used_a - 1);
+          const Eigen::MatrixXd Ha_inv = Ha.inverse();
+          res.disparity_offset_px = -(Ha_inv * ga)(n);
+          const double k2a = res.residual_scale * res.residual_scale;
+          res.disparity_offset_sigma_px =
+              std::sqrt(std::max((Ha_inv * Ma * Ha_inv)(n, n), k2a * Ha_inv(n, n)));
+          if (std::getenv("TESCALIB_DEBUG"))
+            std::fprintf(stderr, "disparity offset %+.4f px, sigma %.4f px\n",
+                         res.disparity_offset_px, res.disparity_offset_sigma_px);
+        }
+      }
       Eigen::MatrixXd M = Eigen::MatrixXd::Zero(n, n);
       int used = 0;
       for (const Eigen::VectorXd& g : scores)
@@ -422,7 +475,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
           break;
         }
       if (n_scale) {  // the common biases move the scale too
-        res.stereo_scale_variance += std::pow(s.model_sigma_disparity_px * bias_moves(6, 0), 2) +
+        res.stereo_scale_variance += std::pow(disparityBiasSigma(res, s) * bias_moves(6, 0), 2) +
                                      std::pow(s.model_sigma_range_m * bias_moves(6, 1), 2);
       }
       res.covariance_statistical = res.covariance;
@@ -448,7 +501,14 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.message = "too few LiDAR-stereo associations (" + std::to_string(res.fine_inliers) + ")";
   else if (diverged)
     res.message = "diverged: the correction from the initial guess is implausibly large";
-  else if (!all_observable)
+  else if (!all_observable && disparityBiasSigma(res, s) > s.model_sigma_disparity_px) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "the window does not constrain every axis with the common disparity offset its "
+                  "residuals show (%+.2f px, model %.2f px: rectification or matching bias?)",
+                  res.disparity_offset_px, s.model_sigma_disparity_px);
+    res.message = buf;
+  } else if (!all_observable)
     res.message = "the window does not constrain every axis (degenerate scene)";
   else if (!settled)
     res.message = "the fine stage did not settle within its iteration budget";

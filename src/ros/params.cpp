@@ -61,6 +61,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "lidar_stereo/max_depth", &p->online.co.lidar.max_depth);
   get(pnh, "lidar_stereo/check_window_halves", &p->online.co.lidar.check_window_halves);
   get(pnh, "lidar_stereo/halves_chi2_limit", &p->online.co.lidar.halves_chi2_limit);
+  get(pnh, "lidar_stereo/measure_disparity_offset", &p->online.co.lidar.measure_disparity_offset);
   get(pnh, "photometric/pyramid_levels", &p->online.co.stereo.pyramid_levels);
   get(pnh, "photometric/huber", &p->online.co.stereo.huber);
   get(pnh, "initial/T_cam_lidar", &p->initial_T_cam_lidar);

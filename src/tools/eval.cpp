@@ -61,6 +61,7 @@ struct Args {
   int stereo_yaw = -1;  ///< LiDAR-stereo estimates the right camera's yaw: 0/1; -1: the default
   int stereo_scale = -1;  ///< LiDAR-stereo mode estimates the clouds' scale: 0/1; -1: the default
   int check_halves = -1;  ///< LidarStereoSettings::check_window_halves: 0/1; -1: the default
+  int measure_offset = -1;  ///< LidarStereoSettings::measure_disparity_offset: 0/1; -1: the default
   int refine_iterations = -1;  ///< DisparityRefinementSettings::iterations; -1: the default
   int refine_smoothed = -1;    ///< DisparityRefinementSettings::smoothed_gradient_rounds
   /// De-skew the scans with the motion registered against a neighbouring frame: 0/1; -1: when
@@ -93,7 +94,8 @@ void usage() {
          "         [--windows first|disjoint] [--cov-cells XxY] [--cov-model-scale K] "
          "[--first-trial K]\n"
          "         [--co-model-scale K] [--smooth-keypoints PX] [--stereo-yaw 0|1]\n"
-         "         [--stereo-scale 0|1] [--check-halves 0|1] [--lidar-sigma DEG,M]\n"
+         "         [--stereo-scale 0|1] [--check-halves 0|1] [--measure-offset 0|1]\n"
+         "         [--lidar-sigma DEG,M]\n"
          "         [--refine-iterations N] [--refine-smoothed-rounds N]\n"
          "         [--deskew 0|1]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
@@ -136,6 +138,10 @@ void usage() {
          "sequences, which KITTI compensated, and the generator's default output).\n"
          "--check-halves 0|1: the split-window check of the LiDAR-stereo noise model after a\n"
          "converged solve (LidarStereoSettings::check_window_halves; on by default).\n"
+         "--measure-offset 0|1: measure the disparity offset the LiDAR-stereo residuals show and\n"
+         "widen the covariance's bias term with it "
+         "(LidarStereoSettings::measure_disparity_offset;\n"
+         "on by default).\n"
          "--lidar-sigma DEG,M: stereo mode: the given LiDAR extrinsic's 1-sigma per axis; the\n"
          "left-right covariance adds what it does to the key points' depth (default 0: exact).\n";
 }
@@ -219,6 +225,8 @@ bool parse(int argc, char** argv, Args* a) {
         a->deskew = std::stoi(v);
       else if (k == "--check-halves")
         a->check_halves = std::stoi(v);
+      else if (k == "--measure-offset")
+        a->measure_offset = std::stoi(v);
       else if (k == "--refine-smoothed-rounds") {
         a->refine_smoothed = std::stoi(v);
         if (a->refine_smoothed < 0) throw std::invalid_argument(v);
@@ -336,6 +344,9 @@ struct Trial {
   int yaw_handovers = -1;    ///< co: restarts at the LiDAR-stereo yaw (CoCalibrationResult)
   double stereo_scale = std::nan(""), stereo_scale_sigma = std::nan("");  ///< when estimated
   double stereo_yaw_deg = std::nan("");  ///< the clouds' yaw, when LiDAR-stereo mode estimates it
+  double disparity_offset_px = std::nan("");  ///< LidarStereoResult::disparity_offset_px, measured
+  double disparity_offset_sigma_px = std::nan("");
+  bool disparity_offset_used = false;  ///< determined and beyond the model: the bias term uses it
   LidarStereoResult::Halves halves;  ///< the LiDAR-stereo split-window check
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< co/joint: time per solve stage
   std::vector<Eigen::Vector2d> brightness;  ///< stereo mode: per keyframe (a, b)
@@ -473,6 +484,7 @@ int main(int argc, char** argv) {
   if (args.stereo_yaw >= 0) solver_settings.estimate_stereo_yaw = args.stereo_yaw > 0;
   if (args.stereo_scale >= 0) solver_settings.estimate_stereo_scale = args.stereo_scale > 0;
   if (args.check_halves >= 0) solver_settings.check_window_halves = args.check_halves > 0;
+  if (args.measure_offset >= 0) solver_settings.measure_disparity_offset = args.measure_offset > 0;
   if (args.cov_cells_y > 0) solver_settings.cov_cells_y = args.cov_cells_y;
   if (args.cov_model_scale >= 0) {
     for (double& v : solver_settings.model_sigma_rot_deg) v *= args.cov_model_scale;
@@ -614,6 +626,13 @@ int main(int argc, char** argv) {
         tr.stereo_scale_sigma = std::sqrt(r.stereo_scale_variance);
       }
       if (solver_settings.estimate_stereo_yaw) tr.stereo_yaw_deg = r.stereo_yaw_rad * kDegPerRad;
+      if (solver_settings.measure_disparity_offset && !solver_settings.estimate_stereo_yaw) {
+        tr.disparity_offset_px = r.disparity_offset_px;
+        tr.disparity_offset_sigma_px = r.disparity_offset_sigma_px;
+        tr.disparity_offset_used =
+            disparityOffsetMeasured(r, solver_settings) &&
+            std::fabs(r.disparity_offset_px) > solver_settings.model_sigma_disparity_px;
+      }
     } else {
       const GicpBaselineResult r = solveGicpBaseline(window, T_init);
       T_est = r.T_cam_lidar;
@@ -770,6 +789,21 @@ int main(int argc, char** argv) {
                   chi2.size(), trials.size(), median(chi2), beyond);
   }
 
+  {
+    std::vector<double> offsets;
+    int beyond = 0;
+    for (const auto& tr : trials)
+      if (std::isfinite(tr.disparity_offset_px)) {
+        offsets.push_back(tr.disparity_offset_px);
+        beyond += tr.disparity_offset_used;
+      }
+    if (!offsets.empty())
+      std::printf(
+          "  disparity offset the residuals show: median %+.3f px, %d of %zu trials determine "
+          "one beyond the model's %.3f px (their bias term uses it)\n",
+          median(offsets), beyond, offsets.size(), solver_settings.model_sigma_disparity_px);
+  }
+
   if (!args.json.empty()) {
     std::ofstream js(args.json);
     if (!js) {
@@ -803,6 +837,10 @@ int main(int argc, char** argv) {
         js << ", \"stereo_scale\": " << tr.stereo_scale
            << ", \"stereo_scale_sigma\": " << tr.stereo_scale_sigma;
       if (std::isfinite(tr.stereo_yaw_deg)) js << ", \"stereo_yaw_deg\": " << tr.stereo_yaw_deg;
+      if (std::isfinite(tr.disparity_offset_px))
+        js << ", \"disparity_offset_px\": " << tr.disparity_offset_px
+           << ", \"disparity_offset_sigma_px\": " << tr.disparity_offset_sigma_px
+           << ", \"disparity_offset_used\": " << (tr.disparity_offset_used ? "true" : "false");
       if (tr.halves.tested)
         js << ", \"halves\": {\"chi2\": " << tr.halves.chi2
            << ", \"covariance_scale\": " << tr.halves.covariance_scale
