@@ -232,6 +232,37 @@ TEST(LidarStereoSolver, EstimatesTheRightCameraYawOfTheClouds) {
   EXPECT_GT(with.covariance_model(5, 5), 1.2 * without.covariance_model(5, 5));
 }
 
+TEST(LidarStereoSolver, CoarseStageHoldsTheStereoNuisancesByDefault) {
+  // The coarse stage only brings the pose into the fine stage's basin; the clouds' scale and yaw
+  // are the fine stage's to estimate (a far start otherwise slides along the valley where the
+  // forward offset, the scale and the yaw trade against each other).
+  const StereoRig rig = kittiLikeRig();
+  const std::vector<Keyframe> kfs = canyonKeyframes(rig, 31, 0.05 / kDegPerRad);
+  std::mt19937_64 rng(7);
+  const Eigen::Isometry3d T_init =
+      perturb(rig.T_cam_lidar, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
+  LidarStereoSettings s = testSettings();
+  s.estimate_stereo_scale = s.estimate_stereo_yaw = true;
+  s.run_fine = false;
+  const LidarStereoResult held = solveLidarStereo(windowOf(kfs), T_init, s);
+  EXPECT_EQ(held.stereo_scale, 1.0);
+  EXPECT_EQ(held.stereo_yaw_rad, 0.0);
+  s.coarse_estimates_stereo_nuisances = true;
+  const LidarStereoResult freed = solveLidarStereo(windowOf(kfs), T_init, s);
+  EXPECT_NE(freed.stereo_scale, 1.0);
+  EXPECT_NE(freed.stereo_yaw_rad, 0.0);
+  // Either way the fine stage then finds the yaw (0.05 deg) and the extrinsic.
+  for (bool coarse_free : {false, true}) {
+    s.coarse_estimates_stereo_nuisances = coarse_free;
+    s.run_fine = true;
+    const LidarStereoResult r = solveLidarStereo(windowOf(kfs), T_init, s);
+    const Vector6d e = poseError(r.T_cam_lidar, rig.T_cam_lidar);
+    EXPECT_NEAR(r.stereo_yaw_rad * kDegPerRad, 0.05, 0.01) << coarse_free;
+    EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.1) << coarse_free;
+    EXPECT_LT(e.tail<3>().norm(), 0.02) << coarse_free;
+  }
+}
+
 TEST(LidarStereoSolver, MeasuresADisparityOffsetAndWidensTheCovarianceWithIt) {
   // Clouds rectified with a right camera 0.03 deg off in yaw: every disparity is short by
   // f yaw (1 + x_r^2), about 0.38 px, far beyond the model's 0.05 px common bias. The solver

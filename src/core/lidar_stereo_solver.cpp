@@ -101,13 +101,14 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
     }
   }
   if (!as.empty()) {
-    if (s.estimate_stereo_scale) {
+    const bool nuisances = !coarse || s.coarse_estimates_stereo_nuisances;
+    if (s.estimate_stereo_scale && nuisances) {
       problem.SetParameterLowerBound(scale, 0, 1.0 / s.max_stereo_scale);
       problem.SetParameterUpperBound(scale, 0, s.max_stereo_scale);
     } else {
       problem.SetParameterBlockConstant(scale);
     }
-    if (s.estimate_stereo_yaw) {
+    if (s.estimate_stereo_yaw && nuisances) {
       const double limit = s.max_stereo_yaw_deg / kDegPerRad;
       problem.SetParameterLowerBound(yaw, 0, -limit);
       problem.SetParameterUpperBound(yaw, 0, limit);
@@ -128,15 +129,15 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
   return d;
 }
 
-/// The covariance of what the window constrains: the statistical part plus the common biases.
 /// The common disparity offset's sigma for this window: the model's, or the offset the residuals
-/// show when that is larger (LidarStereoResult::disparity_offset_px).
+/// show when the window determines it and it is larger (LidarStereoResult::disparity_offset_px).
 double disparityBiasSigma(const LidarStereoResult& r, const LidarStereoSettings& s) {
   return disparityOffsetMeasured(r, s)
              ? std::max(s.model_sigma_disparity_px, std::fabs(r.disparity_offset_px))
              : s.model_sigma_disparity_px;
 }
 
+/// The covariance of what the window constrains: the statistical part plus the common biases.
 Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {
   const auto& h = r.bias_sensitivity;
   return r.covariance_statistical +

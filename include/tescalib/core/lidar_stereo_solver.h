@@ -51,6 +51,12 @@ struct LidarStereoSettings {
   /// +-max_stereo_yaw_deg.
   bool estimate_stereo_yaw = false;
   double max_stereo_yaw_deg = 1.0;
+  /// The coarse stage estimates the stereo scale and yaw too (when they are estimated at all);
+  /// off, it holds them at their start values and only the fine stage estimates them. From a far
+  /// start the coarse stage can otherwise slide along the valley where the LiDAR's forward offset,
+  /// the clouds' scale and their yaw trade against each other (session 16: a co-calibration start
+  /// 3 deg / 0.3 m off ended 1.6 m off along z).
+  bool coarse_estimates_stereo_nuisances = false;
   /// Start of the yaw (rad): a warm start knows it from the previous solve; starting at 0 with
   /// clouds 0.3 deg off in yaw, the fine stage's gate can reject nearly every association.
   double initial_stereo_yaw_rad = 0.0;
