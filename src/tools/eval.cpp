@@ -62,6 +62,7 @@ struct Args {
   int stereo_scale = -1;  ///< LiDAR-stereo mode estimates the clouds' scale: 0/1; -1: the default
   int check_halves = -1;  ///< LidarStereoSettings::check_window_halves: 0/1; -1: the default
   int measure_offset = -1;  ///< LidarStereoSettings::measure_disparity_offset: 0/1; -1: the default
+  int coarse_nuisances = -1;   ///< LidarStereoSettings::coarse_estimates_stereo_nuisances: 0/1
   int refine_iterations = -1;  ///< DisparityRefinementSettings::iterations; -1: the default
   int refine_smoothed = -1;    ///< DisparityRefinementSettings::smoothed_gradient_rounds
   /// De-skew the scans with the motion registered against a neighbouring frame: 0/1; -1: when
@@ -95,6 +96,7 @@ void usage() {
          "[--first-trial K]\n"
          "         [--co-model-scale K] [--smooth-keypoints PX] [--stereo-yaw 0|1]\n"
          "         [--stereo-scale 0|1] [--check-halves 0|1] [--measure-offset 0|1]\n"
+         "         [--coarse-nuisances 0|1]\n"
          "         [--lidar-sigma DEG,M]\n"
          "         [--refine-iterations N] [--refine-smoothed-rounds N]\n"
          "         [--deskew 0|1]\n"
@@ -142,6 +144,9 @@ void usage() {
          "widen the covariance's bias term with it "
          "(LidarStereoSettings::measure_disparity_offset;\n"
          "on by default).\n"
+         "--coarse-nuisances 0|1: the LiDAR-stereo coarse stage also estimates the clouds' scale\n"
+         "and yaw where they are estimated (co; LidarStereoSettings::\n"
+         "coarse_estimates_stereo_nuisances; off by default: only the fine stage does).\n"
          "--lidar-sigma DEG,M: stereo mode: the given LiDAR extrinsic's 1-sigma per axis; the\n"
          "left-right covariance adds what it does to the key points' depth (default 0: exact).\n";
 }
@@ -227,6 +232,8 @@ bool parse(int argc, char** argv, Args* a) {
         a->check_halves = std::stoi(v);
       else if (k == "--measure-offset")
         a->measure_offset = std::stoi(v);
+      else if (k == "--coarse-nuisances")
+        a->coarse_nuisances = std::stoi(v);
       else if (k == "--refine-smoothed-rounds") {
         a->refine_smoothed = std::stoi(v);
         if (a->refine_smoothed < 0) throw std::invalid_argument(v);
@@ -485,6 +492,8 @@ int main(int argc, char** argv) {
   if (args.stereo_scale >= 0) solver_settings.estimate_stereo_scale = args.stereo_scale > 0;
   if (args.check_halves >= 0) solver_settings.check_window_halves = args.check_halves > 0;
   if (args.measure_offset >= 0) solver_settings.measure_disparity_offset = args.measure_offset > 0;
+  if (args.coarse_nuisances >= 0)
+    solver_settings.coarse_estimates_stereo_nuisances = args.coarse_nuisances > 0;
   if (args.cov_cells_y > 0) solver_settings.cov_cells_y = args.cov_cells_y;
   if (args.cov_model_scale >= 0) {
     for (double& v : solver_settings.model_sigma_rot_deg) v *= args.cov_model_scale;
@@ -551,6 +560,9 @@ int main(int argc, char** argv) {
       cs.lidar.model_sigma_disparity_px = solver_settings.model_sigma_disparity_px;
       cs.lidar.model_sigma_range_m = solver_settings.model_sigma_range_m;
       cs.lidar.check_window_halves = solver_settings.check_window_halves;
+      cs.lidar.coarse_estimates_stereo_nuisances =
+          solver_settings.coarse_estimates_stereo_nuisances;
+      cs.lidar.measure_disparity_offset = solver_settings.measure_disparity_offset;
       if (args.smooth_keypoints_px >= 0)
         cs.stereo.smooth_depth_radius_px = args.smooth_keypoints_px;
       if (args.depth_prior >= 0) cs.free_depth_prior_sigma = args.depth_prior;
