@@ -49,6 +49,8 @@ struct JointCalibrationSettings {
 /// by one warm solve of each kind, plus the joint model error above; the joint problem's own
 /// marginals were over-confident), the trust flags of those solves, `rounds` = outer
 /// iterations, `stable` = the last update was below the tolerance.
+/// The keyframes' meshes need every face's normal fitted (LidarMeshSettings::sampled_faces = 0):
+/// the photometric residuals intersect each key point's ray with its face along that normal.
 CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const StereoRig& rig,
                                    const Eigen::Isometry3d& T_cam_lidar_init,
                                    const Eigen::Isometry3d& T_right_left_init,
