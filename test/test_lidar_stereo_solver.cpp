@@ -295,6 +295,8 @@ TEST(LidarStereoSolver, MeasuresADisparityOffsetAndWidensTheCovarianceWithIt) {
       h.transpose();
   EXPECT_TRUE((a.covariance - a_off.covariance).isApprox(added, 1e-6));
   EXPECT_GT(a.covariance(5, 5), 4 * a_off.covariance(5, 5));
+  EXPECT_TRUE(disparityOffsetWidensBias(a, on));
+  EXPECT_DOUBLE_EQ(disparityBiasSigma(a, on), a.disparity_offset_px);
 
   const std::vector<Keyframe> exact = canyonKeyframes(rig, 31);
   const LidarStereoResult b = solveLidarStereo(windowOf(exact), T_init, on);
@@ -302,6 +304,8 @@ TEST(LidarStereoSolver, MeasuresADisparityOffsetAndWidensTheCovarianceWithIt) {
   std::printf("exact clouds: offset measured %.4f px\n", b.disparity_offset_px);
   EXPECT_LT(std::fabs(b.disparity_offset_px), 0.25 * on.model_sigma_disparity_px);
   EXPECT_TRUE(b.covariance.isApprox(b_off.covariance, 1e-12));
+  EXPECT_FALSE(disparityOffsetWidensBias(b, on));
+  EXPECT_DOUBLE_EQ(disparityBiasSigma(b, on), on.model_sigma_disparity_px);
   EXPECT_EQ(b.converged, b_off.converged);
 }
 

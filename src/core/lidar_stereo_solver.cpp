@@ -129,14 +129,6 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
   return d;
 }
 
-/// The common disparity offset's sigma for this window: the model's, or the offset the residuals
-/// show when the window determines it and it is larger (LidarStereoResult::disparity_offset_px).
-double disparityBiasSigma(const LidarStereoResult& r, const LidarStereoSettings& s) {
-  return disparityOffsetMeasured(r, s)
-             ? std::max(s.model_sigma_disparity_px, std::fabs(r.disparity_offset_px))
-             : s.model_sigma_disparity_px;
-}
-
 /// The covariance of what the window constrains: the statistical part plus the common biases.
 Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {
   const auto& h = r.bias_sensitivity;
@@ -157,6 +149,16 @@ bool disparityOffsetMeasured(const LidarStereoResult& r, const LidarStereoSettin
          r.disparity_offset_sigma_px <= s.max_disparity_offset_sigma_px &&
          std::fabs(r.disparity_offset_px) >
              s.disparity_offset_significance * r.disparity_offset_sigma_px;
+}
+
+double disparityBiasSigma(const LidarStereoResult& r, const LidarStereoSettings& s) {
+  return disparityOffsetMeasured(r, s)
+             ? std::max(s.model_sigma_disparity_px, std::fabs(r.disparity_offset_px))
+             : s.model_sigma_disparity_px;
+}
+
+bool disparityOffsetWidensBias(const LidarStereoResult& r, const LidarStereoSettings& s) {
+  return disparityBiasSigma(r, s) > s.model_sigma_disparity_px;
 }
 
 bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& s, bool observable[6]) {
@@ -502,7 +504,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.message = "too few LiDAR-stereo associations (" + std::to_string(res.fine_inliers) + ")";
   else if (diverged)
     res.message = "diverged: the correction from the initial guess is implausibly large";
-  else if (!all_observable && disparityBiasSigma(res, s) > s.model_sigma_disparity_px) {
+  else if (!all_observable && disparityOffsetWidensBias(res, s)) {
     char buf[200];
     std::snprintf(buf, sizeof buf,
                   "the window does not constrain every axis with the common disparity offset its "

@@ -645,9 +645,7 @@ int main(int argc, char** argv) {
       if (solver_settings.measure_disparity_offset && !solver_settings.estimate_stereo_yaw) {
         tr.disparity_offset_px = r.disparity_offset_px;
         tr.disparity_offset_sigma_px = r.disparity_offset_sigma_px;
-        tr.disparity_offset_used =
-            disparityOffsetMeasured(r, solver_settings) &&
-            std::fabs(r.disparity_offset_px) > solver_settings.model_sigma_disparity_px;
+        tr.disparity_offset_used = disparityOffsetWidensBias(r, solver_settings);
       }
     } else {
       const GicpBaselineResult r = solveGicpBaseline(window, T_init);

@@ -195,6 +195,15 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
 /// settings.max_disparity_offset_sigma_px.
 bool disparityOffsetMeasured(const LidarStereoResult& result, const LidarStereoSettings& settings);
 
+/// The common disparity offset's sigma the covariance's bias term uses for `result`: the model's
+/// (settings.model_sigma_disparity_px), or the offset the residuals show when the window
+/// determines it (disparityOffsetMeasured) and it is larger.
+double disparityBiasSigma(const LidarStereoResult& result, const LidarStereoSettings& settings);
+
+/// Whether the bias term uses the measured offset instead of the model's (it is larger).
+bool disparityOffsetWidensBias(const LidarStereoResult& result,
+                               const LidarStereoSettings& settings);
+
 /// Per-axis trust flags (LidarStereoResult::observable) from a covariance over [phi; tau]: an
 /// axis is trusted when its sigma is within settings.max_sigma_*; true when every axis is.
 bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& settings,
