@@ -48,8 +48,10 @@ CoStart lidarStart(std::mt19937_64& rng) {
 /// no stereo clouds yet (co-calibration computes them).
 /// `drive_frames` > 0: the keyframes are the first of a drive that long (its scene depends on
 /// the length), as `tescalib_eval` sees the drive `tescalib_simulate --frames drive_frames` wrote.
+/// `sampled_faces`: LidarMeshSettings::sampled_faces of the meshes (0: every face's normal).
 GeneratedWindow generatedWindow(int n, uint64_t seed, const Eigen::Isometry3d* T_cl_guess,
-                                int drive_frames = 0) {
+                                int drive_frames = 0,
+                                int sampled_faces = LidarMeshSettings().sampled_faces) {
   SimOptions o;
   o.scenario = Scenario::kUrban;
   o.frames = std::max(5 * (n - 1) + 1, drive_frames);
@@ -59,8 +61,10 @@ GeneratedWindow generatedWindow(int n, uint64_t seed, const Eigen::Isometry3d* T
   w.rig = sim.rig();
   for (int i = 0; i < 5 * (n - 1) + 1; i += 5) {
     const Frame f = sim.renderFrame(i);
-    Keyframe kf =
-        makeKeyframe(f, w.rig, T_cl_guess ? *T_cl_guess : w.rig.T_cam_lidar, w.rig.T_right_left);
+    KeyframeSettings ks;
+    ks.mesh.sampled_faces = sampled_faces;
+    Keyframe kf = makeKeyframe(f, w.rig, T_cl_guess ? *T_cl_guess : w.rig.T_cam_lidar,
+                               w.rig.T_right_left, ks);
     kf.stereo = StereoCloud{};  // co-calibration must compute its own
     w.keyframes.push_back(std::move(kf));
   }
@@ -75,7 +79,8 @@ struct CoCase {
   Eigen::Isometry3d T_cl_init, T_rl_init;
   GeneratedWindow w;
 };
-CoCase coCase(int n, double stereo_rot_deg, double stereo_trans_m) {
+CoCase coCase(int n, double stereo_rot_deg, double stereo_trans_m,
+              int sampled_faces = LidarMeshSettings().sampled_faces) {
   std::mt19937_64 rng(3);
   CoCase c;
   const CoStart start = lidarStart(rng);
@@ -83,7 +88,7 @@ CoCase coCase(int n, double stereo_rot_deg, double stereo_trans_m) {
   c.T_cl_init = start.T_cl_init;
   c.T_rl_init = perturb(c.truth.T_right_left,
                         randomPerturbation(stereo_rot_deg / kDegPerRad, stereo_trans_m, rng));
-  c.w = generatedWindow(n, 1, &c.T_cl_init);
+  c.w = generatedWindow(n, 1, &c.T_cl_init, 0, sampled_faces);
   return c;
 }
 
@@ -217,7 +222,7 @@ TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
 // The joint problem (--mode joint) from the same start: both extrinsics within the issue's
 // tolerances, and covariances that hold the joint model error and the error within 3 sigma.
 TEST(JointCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
-  CoCase c = coCase(8, 1.0, 0.1);
+  CoCase c = coCase(8, 1.0, 0.1, 0);  // the joint problem needs every face's normal
   const JointCalibrationSettings js;
   const CoCalibrationResult r = jointCalibrate(c.w.window(), c.w.rig, c.T_cl_init, c.T_rl_init, js);
   const Vector6d el = poseError(r.lidar.T_cam_lidar, c.truth.T_cam_lidar);
@@ -239,6 +244,18 @@ TEST(JointCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
     EXPECT_LT(std::fabs(el[i]), 3 * std::sqrt(r.lidar.covariance(i, i))) << "LiDAR axis " << i;
     EXPECT_LT(std::fabs(es[i]), 3 * std::sqrt(r.stereo.covariance(i, i))) << "stereo axis " << i;
   }
+}
+
+// Meshes that fit only the solvers' sample of normals are refused with a message, and the result
+// keeps the initial guesses.
+TEST(JointCalibration, RefusesMeshesWithOnlyTheSampleFitted) {
+  CoCase c = coCase(2, 1.0, 0.1);
+  ASSERT_LT(c.w.keyframes[0].mesh.sample.size(), c.w.keyframes[0].mesh.faces.size());
+  const CoCalibrationResult r = jointCalibrate(c.w.window(), c.w.rig, c.T_cl_init, c.T_rl_init);
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.message.find("sampled_faces = 0"), std::string::npos) << r.message;
+  EXPECT_LT(poseError(r.lidar.T_cam_lidar, c.T_cl_init).norm(), 1e-12);
+  EXPECT_LT(poseError(r.stereo.T_right_left, c.T_rl_init).norm(), 1e-12);
 }
 
 TEST(CoCalibration, RunawayLidarEstimatesAreNotTaken) {

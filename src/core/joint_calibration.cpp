@@ -137,6 +137,20 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   const CoCalibrationSettings& s = js.co;
   const LidarStereoSettings& ls = s.lidar;
   const PhotometricSettings& ps = s.stereo;
+  for (size_t k = 0; k < window.size(); ++k) {
+    const LidarMesh& m = window[k]->mesh;
+    if (m.sample.size() == m.faces.size()) continue;
+    CoCalibrationResult res;
+    res.lidar.T_cam_lidar = T_cam_lidar_init;
+    res.stereo.T_right_left = T_right_left_init;
+    res.message =
+        "joint calibration needs every face's normal fitted (LidarMeshSettings::"
+        "sampled_faces = 0): keyframe " +
+        std::to_string(k) + "'s mesh has " + std::to_string(m.sample.size()) + " of " +
+        std::to_string(m.faces.size());
+    res.seconds = secondsSince(t0);
+    return res;
+  }
   // ------------------------------------------------------------ initialisation: one round
   CoCalibrationSettings init = s;
   init.max_rounds = 1;

@@ -50,7 +50,9 @@ struct JointCalibrationSettings {
 /// marginals were over-confident), the trust flags of those solves, `rounds` = outer
 /// iterations, `stable` = the last update was below the tolerance.
 /// The keyframes' meshes need every face's normal fitted (LidarMeshSettings::sampled_faces = 0):
-/// the photometric residuals intersect each key point's ray with its face along that normal.
+/// the photometric residuals intersect each key point's ray with its face along that normal, and
+/// key points lie on any face. A window whose meshes fit only a sample is refused (converged =
+/// false, the initial guesses, a message saying so).
 CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const StereoRig& rig,
                                    const Eigen::Isometry3d& T_cam_lidar_init,
                                    const Eigen::Isometry3d& T_right_left_init,
