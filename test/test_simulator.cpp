@@ -22,6 +22,7 @@
 #include "tescalib/core/scan_motion.h"
 #include "tescalib/core/simulator.h"
 #include "tescalib/core/simulator_camera.h"
+#include "tescalib/core/stereo_cloud.h"
 #include "test_util.h"
 
 using namespace tescalib;
@@ -450,6 +451,39 @@ TEST(Simulator, CalibFileBecomesTheGroundTruth) {
       lidarDisparityAgreement(f.scan, f.left, f.right, seq.rig(), seq.rig().T_cam_lidar);
   EXPECT_EQ(agree.best_global_shift, 0);
   EXPECT_GT(agree.fraction_within_1px, 0.8);
+}
+
+// The rows of a generated (exactly rectified) pair agree with its calibration; moving the right
+// image down by 0.4 px, or turning it 0.05 deg about its principal point, is measured as such.
+TEST(Consistency, VerticalAlignmentMeasuresWhatTheCalibrationDoesNotExplain) {
+  const Simulator sim(options(Scenario::kUrban, 1));
+  const StereoRig rig = sim.rig();
+  const Frame f = sim.renderFrame(0);
+  const StereoCloud cloud = computeStereoCloud(f.left, f.right, rig, rig.T_right_left);
+  const auto measure = [&](const cv::Mat& M) {
+    cv::Mat right;
+    cv::warpAffine(f.right, right, M, f.right.size(), cv::INTER_CUBIC, cv::BORDER_REPLICATE);
+    return verticalAlignment(f.left, right, cloud, rig, rig.T_right_left);
+  };
+  const VerticalAlignment exact = measure(cv::Mat::eye(2, 3, CV_64F));
+  const VerticalAlignment down = measure((cv::Mat_<double>(2, 3) << 1, 0, 0, 0, 1, 0.4));
+  const double a = 0.05 / kDegPerRad, c = std::cos(a), s = std::sin(a);
+  const double cx = rig.right.cx, cy = rig.right.cy;
+  const VerticalAlignment rolled =
+      measure((cv::Mat_<double>(2, 3) << c, -s, cx - c * cx + s * cy, s, c, cy - s * cx - c * cy));
+  for (const auto* v : {&exact, &down, &rolled})
+    std::cout << "[ rows     ] " << v->points << " corners, median " << v->median_px << " px, fit "
+              << v->offset_px << " + " << v->slope_x_px << " x + " << v->slope_y_px << " y, spread "
+              << v->spread_px << "\n";
+  EXPECT_GT(exact.points, 500);
+  EXPECT_LT(std::fabs(exact.median_px), 0.05);
+  EXPECT_LT(std::fabs(exact.slope_x_px), 0.1);
+  EXPECT_NEAR(down.median_px, 0.4, 0.06);
+  EXPECT_NEAR(down.offset_px, 0.4, 0.06);
+  EXPECT_LT(std::fabs(down.slope_x_px), 0.1);
+  // dv = a (u - cx) = a fx x: a slope of 0.63 px per unit of x.
+  EXPECT_NEAR(rolled.slope_x_px, a * rig.right.fx, 0.15 * a * rig.right.fx);
+  EXPECT_LT(std::fabs(rolled.offset_px), 0.06);
 }
 
 TEST(Simulator, HighwayHasHardlyAnyVerticalStructure) {
