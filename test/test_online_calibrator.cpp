@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/kitti_reader.h"
@@ -218,6 +219,37 @@ void addKeyframes(OnlineCalibrator& cal, const Simulator& sim, int first, int en
   }
 }
 }  // namespace
+
+// A pair whose right image sits a pixel lower than camera_info says: the first keyframe is taken
+// with a warning that names the offset; the pair as rendered gives none. Checked once.
+TEST(OnlineCalibratorGenerated, WarnsWhenTheRightImageRowsDisagreeWithTheCalibration) {
+  SimOptions o;
+  o.frames = 6;
+  o.seed = 1;
+  const Simulator sim(o);
+  OnlineSettings settings;
+  settings.estimate_stereo = false;
+  std::string msg;
+  Frame f0 = sim.renderFrame(0), f5 = sim.renderFrame(5);
+  OnlineCalibrator exact(sim.rig(), settings);
+  ASSERT_EQ(exact.addFrame(f0, f0.stamp, &msg), FrameResult::kKeyframe) << msg;
+  EXPECT_TRUE(msg.empty()) << msg;
+  for (Frame* f : {&f0, &f5}) {
+    cv::Mat lower;
+    const cv::Mat down = (cv::Mat_<double>(2, 3) << 1, 0, 0, 0, 1, 1.0);
+    cv::warpAffine(f->right, lower, down, f->right.size(), cv::INTER_CUBIC, cv::BORDER_REPLICATE);
+    f->right = lower;
+  }
+  OnlineCalibrator shifted(sim.rig(), settings);
+  ASSERT_EQ(shifted.addFrame(f0, f0.stamp, &msg), FrameResult::kKeyframe) << msg;
+  std::cout << "[ online   ] " << msg << "\n";
+  EXPECT_TRUE(msg.find("rows lie +1.0") != std::string::npos ||
+              msg.find("rows lie +0.9") != std::string::npos)
+      << msg;  // the 1 px moved
+  EXPECT_NE(msg.find("enable co-calibration"), std::string::npos) << msg;
+  ASSERT_EQ(shifted.addFrame(f5, f5.stamp, &msg), FrameResult::kKeyframe) << msg;
+  EXPECT_TRUE(msg.empty()) << msg;
+}
 
 TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
   // With co-calibration and lidar_first: 3 keyframes give a LiDAR-stereo estimate with the stereo

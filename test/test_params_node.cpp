@@ -19,6 +19,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_TRUE(p.online.co.lidar.measure_disparity_offset);
   EXPECT_FALSE(p.online.deskew);  // KITTI odometry scans are compensated already
   EXPECT_DOUBLE_EQ(p.online.deskew_max_dt, 0.25);
+  EXPECT_DOUBLE_EQ(p.online.max_row_offset_px, 0.5);
   EXPECT_TRUE(p.online.sweep.clockwise);
   EXPECT_EQ(p.online.keyframe.stereo.refinement.iterations, 2);
   EXPECT_EQ(p.online.keyframe.stereo.refinement.smoothed_gradient_rounds, 1);

@@ -5,6 +5,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "tescalib/core/consistency.h"
 #include "tescalib/core/error.h"
 
 namespace tescalib {
@@ -14,6 +15,7 @@ OnlineCalibrator::OnlineCalibrator(const StereoRig& rig, const OnlineSettings& s
 
 FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, std::string* msg,
                                        std::shared_ptr<const Keyframe>* built) {
+  msg->clear();
   if (frame.scan.empty()) {
     *msg = "empty LiDAR scan";
     return FrameResult::kRejected;
@@ -101,6 +103,28 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
     *msg = "LiDAR scan gives only " + std::to_string(kf->mesh.faces.size()) +
            " mesh faces in the cameras' view (no ring structure?)";
     return FrameResult::kRejected;
+  }
+  bool check_rows = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    check_rows = settings_.max_row_offset_px > 0 && !rows_checked_;
+    rows_checked_ = true;
+  }
+  if (check_rows) {
+    const VerticalAlignment rows =
+        verticalAlignment(kf->left_gray, kf->right_gray, kf->stereo, rig_, kf->T_right_left_used);
+    if (rows.points > 0 && std::fabs(rows.median_px) > settings_.max_row_offset_px) {
+      char buf[400];
+      std::snprintf(buf, sizeof buf,
+                    "the right image's rows lie %+.2f px (median over %d corners; %+.2f px per "
+                    "unit of x, %+.2f per unit of y) from where the stereo calibration puts them: "
+                    "SGBM matches along rows, so the stereo clouds are biased. Check the cameras' "
+                    "camera_info (P, R)%s",
+                    rows.median_px, rows.points, rows.slope_x_px, rows.slope_y_px,
+                    settings_.estimate_stereo ? "; co-calibration re-rectifies with its estimate"
+                                              : " or enable co-calibration");
+      *msg = buf;
+    }
   }
   if (built) *built = kf;
   std::lock_guard<std::mutex> lock(mutex_);

@@ -263,6 +263,11 @@ void CalibrationNodelet::preprocessLoop() {
       }
       NODELET_DEBUG("tescalib: keyframe %d built in %.3f s (window %zu)", keyframes_.load() + 1,
                     build_s, fill);
+      if (!msg.empty()) {
+        NODELET_WARN("tescalib: %s", msg.c_str());
+        std::lock_guard<std::mutex> lock(mutex_);
+        last_problem_ = msg;
+      }
       ++keyframes_;
       solve_requested_ = true;
       cv_.notify_all();

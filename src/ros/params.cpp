@@ -51,6 +51,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
   get(pnh, "stereo/block_size", &p->online.keyframe.stereo.block_size);
   get(pnh, "stereo/max_depth", &p->online.keyframe.stereo.max_depth);
+  get(pnh, "stereo/max_row_offset_px", &p->online.max_row_offset_px);
   get(pnh, "stereo/disparity_sigma", &p->online.keyframe.stereo.disparity_sigma);
   get(pnh, "stereo/refine_iterations", &p->online.keyframe.stereo.refinement.iterations);
   get(pnh, "stereo/refine_window_radius", &p->online.keyframe.stereo.refinement.window_radius);

@@ -63,6 +63,11 @@ struct OnlineSettings {
   /// scans the driver already compensated (KITTI odometry) or that are taken at one instant.
   bool deskew = false;
   double deskew_max_dt = 0.25;  ///< s
+  /// The first keyframe's pair is checked against the stereo calibration (verticalAlignment):
+  /// when the right image's rows lie more than this (median, px) from where it puts them, addFrame
+  /// returns the keyframe with a message saying so (SGBM matches along rows, so its clouds are
+  /// biased; a wrong camera_info is the usual cause). <= 0: no check. KITTI: 0.01-0.13 px.
+  double max_row_offset_px = 0.5;
   ScanSweep sweep;
   /// Keyframes' mesh and stereo cloud. With `estimate_stereo` the keyframes' clouds take
   /// `co.stereo_cloud`'s refinement instead, so that every cloud of a co-calibration window is of
@@ -100,6 +105,8 @@ class OnlineCalibrator {
   /// Keyframe selection and preprocessing (mesh, stereo cloud). Thread-safe. `message` explains
   /// a rejection or a reset. `lidar_stamp` is the scan's stamp (checked against the frame's).
   /// `built` (optional) receives the keyframe on kKeyframe (read-only: the window shares it).
+  /// A kKeyframe comes with an empty message, or with a warning about the pair (its rows, see
+  /// OnlineSettings::max_row_offset_px).
   FrameResult addFrame(const Frame& frame, double lidar_stamp, std::string* message,
                        std::shared_ptr<const Keyframe>* built = nullptr);
 
@@ -135,6 +142,7 @@ class OnlineCalibrator {
   /// The last frame's scan, for the next keyframe's de-skewing (OnlineSettings::deskew).
   std::shared_ptr<const LidarScan> previous_scan_;  ///< GUARDED_BY(mutex_)
   double previous_scan_stamp_ = -1e300;             ///< GUARDED_BY(mutex_)
+  bool rows_checked_ = false;  ///< GUARDED_BY(mutex_) OnlineSettings::max_row_offset_px done
   /// Per-keyframe LiDAR-stereo information from the last solve that used it, by stamp.
   std::map<double, Matrix6d> keyframe_information_;  ///< GUARDED_BY(mutex_)
   /// Index in window_ of the keyframe to drop when the window is over-full.
