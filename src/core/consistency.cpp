@@ -76,6 +76,37 @@ double medianOf(std::vector<double> v) {
 
 }  // namespace
 
+DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoCloud& cloud,
+                                         const Eigen::Isometry3d& T_cam_lidar) {
+  DisparityResidual out;
+  if (cloud.disparity.empty() || cloud.baseline <= 0) return out;
+  const Eigen::Isometry3d T = Eigen::Isometry3d(cloud.R_rect_left) * T_cam_lidar;
+  std::vector<double> all;
+  std::array<std::vector<double>, DisparityResidual::kBins> bins;
+  const double* edges = DisparityResidual::kBinEdges;
+  for (const LidarPoint& p : scan) {
+    const Eigen::Vector3d r = T * Eigen::Vector3d(p.x, p.y, p.z);
+    if (!(r.z() >= edges[0] && r.z() < edges[DisparityResidual::kBins])) continue;
+    double d = 0;
+    if (!cloud.disparityAt(cloud.fx * r.x() / r.z() + cloud.cx, cloud.fy * r.y() / r.z() + cloud.cy,
+                           &d))
+      continue;
+    const double diff = d - cloud.fx * cloud.baseline / r.z();
+    if (std::fabs(diff) > 3.0) continue;
+    all.push_back(diff);
+    int b = 0;
+    while (r.z() >= edges[b + 1]) ++b;
+    bins[b].push_back(diff);
+  }
+  out.points = static_cast<int>(all.size());
+  out.median_px = medianOf(all);
+  for (int b = 0; b < DisparityResidual::kBins; ++b) {
+    out.bin_points[b] = static_cast<int>(bins[b].size());
+    out.bin_median_px[b] = medianOf(bins[b]);
+  }
+  return out;
+}
+
 VerticalAlignment verticalAlignment(const cv::Mat& left, const cv::Mat& right,
                                     const StereoCloud& cloud, const StereoRig& rig,
                                     const Eigen::Isometry3d& T_right_left, int max_corners) {

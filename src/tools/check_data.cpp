@@ -48,6 +48,18 @@ int main(int argc, char** argv) {
             tescalib::computeStereoCloud(f.left, f.right, rig, rig.T_right_left);
         const tescalib::VerticalAlignment va =
             tescalib::verticalAlignment(f.left, f.right, sc, rig, rig.T_right_left);
+        const tescalib::DisparityResidual dr =
+            tescalib::lidarDisparityResidual(f.scan, sc, rig.T_cam_lidar);
+        std::cout
+            << "  stereo (SGBM) minus LiDAR-predicted disparity at the dataset's calibration: "
+            << dr.points << " points, median " << std::showpos << dr.median_px << " px;"
+            << std::noshowpos;
+        for (int b = 0; b < tescalib::DisparityResidual::kBins; ++b)
+          std::cout << std::defaultfloat << " " << tescalib::DisparityResidual::kBinEdges[b] << "-"
+                    << tescalib::DisparityResidual::kBinEdges[b + 1] << " m: " << std::fixed
+                    << std::setprecision(3) << std::showpos << dr.bin_median_px[b] << std::noshowpos
+                    << " (" << dr.bin_points[b] << ")";
+        std::cout << std::setprecision(4) << "\n";
         std::cout << "  right-image rows vs the calibration (found - predicted v): " << va.points
                   << " corners, median " << std::showpos << va.median_px << " px, fit "
                   << va.offset_px << " " << va.slope_x_px << " x " << va.slope_y_px << " y px"

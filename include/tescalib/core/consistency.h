@@ -3,6 +3,8 @@
 // by the tools to sanity-check data and ground truth.
 #pragma once
 
+#include <array>
+
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
@@ -25,6 +27,24 @@ struct DisparityAgreement {
 DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat& left_bgr,
                                            const cv::Mat& right_bgr, const StereoRig& rig,
                                            const Eigen::Isometry3d& T_cam_lidar, int max_shift = 8);
+
+/// The stereo cloud's (SGBM, refined) disparity against the one the LiDAR predicts with
+/// `T_cam_lidar`, at every LiDAR point 3-40 m in front of the camera with a disparity, in the
+/// cloud's rectification: stereo minus LiDAR, differences beyond 3 px (occlusions, mismatches) left
+/// out. A calibration both sensors agree with gives about 0 at every depth; a depth-independent
+/// offset is what a relative yaw of the cameras or a matching bias gives, and moves the
+/// optical-axis estimate by about Z^2 / (f b) per px at depth Z.
+struct DisparityResidual {
+  static constexpr int kBins = 4;
+  static constexpr double kBinEdges[kBins + 1] = {3.0, 7.5, 15.0, 25.0, 40.0};  ///< m
+  int points = 0;
+  double median_px = 0;                       ///< over all points
+  std::array<double, kBins> bin_median_px{};  ///< per depth bin (0 where the bin is empty)
+  std::array<int, kBins> bin_points{};
+};
+
+DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoCloud& cloud,
+                                         const Eigen::Isometry3d& T_cam_lidar);
 
 /// Whether the pair's rows agree with its calibration: corners of the left image are followed
 /// into the right one (pyramidal Lucas-Kanade, started where the calibration and the stereo
