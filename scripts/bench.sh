@@ -66,6 +66,11 @@ if [ "$BENCH" != kitti ]; then
   run "sim_urban_stereo_1deg_lidar_off_free_depth" --sequences "$URBAN" --mode stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
     --lidar-trans-m 0.1 --seed 5 --window 20 --depth-prior 0.05
+  # ... and with the LiDAR's error a nuisance of the depths (its prior: the per-axis sigma of a
+  # 1 deg / 0.1 m perturbation, PhotometricSettings::lidar_error_sigma_*).
+  run "sim_urban_stereo_1deg_lidar_off_free_depth_nuisance" --sequences "$URBAN" --mode stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
+    --lidar-trans-m 0.1 --seed 5 --window 20 --depth-prior 0.01 --lidar-sigma 0.58,0.058
   run "sim_urban_stereo_1deg_free_depth" --sequences "$URBAN" --mode stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20 --depth-prior 0.05
   # Issue 6: NEES over independent windows of 10 keyframes (15 urban drives; 4 held out).

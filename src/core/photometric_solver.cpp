@@ -235,6 +235,10 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     int used = 0, occluded = 0;
     const bool free_depth = s.depth_prior_sigma > 0 && L < s.depth_free_levels;
     std::vector<double> rho;  // per key point; never reallocated while the problem holds it
+    // The LiDAR extrinsic's error shared by the key points' depths (lidar_error_sigma_*).
+    const bool lidar_nuisance =
+        free_depth && s.lidar_error_sigma_rot_deg > 0 && s.lidar_error_sigma_trans_m > 0;
+    double xi[6] = {0, 0, 0, 0, 0, 0};
     // Cauchy on the depth prior: a key point whose LiDAR depth is off by far more than sigma (a
     // depth edge, the road under a misprojected mesh) leaves the scale to the others.
     ceres::CauchyLoss depth_loss(1.0);
@@ -284,9 +288,15 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
           rho.push_back(0.0);
           problem.AddResidualBlock(PhotometricDepthResidual::Create(r), &huber, delta,
                                    ab[k].data(), &rho.back());
-          problem.AddResidualBlock(new ceres::AutoDiffCostFunction<LogDepthPrior, 1, 1>(
-                                       new LogDepthPrior(s.depth_prior_sigma)),
-                                   &depth_loss, &rho.back());
+          if (lidar_nuisance)
+            problem.AddResidualBlock(
+                new ceres::AutoDiffCostFunction<LogDepthLidarPrior, 1, 1, 6>(
+                    new LogDepthLidarPrior(depthRow(f, T_cam_lidar, X), s.depth_prior_sigma)),
+                &depth_loss, &rho.back(), xi);
+          else
+            problem.AddResidualBlock(new ceres::AutoDiffCostFunction<LogDepthPrior, 1, 1>(
+                                         new LogDepthPrior(s.depth_prior_sigma)),
+                                     &depth_loss, &rho.back());
         } else {
           problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PhotometricResidual,
                                                                    kPatternSize, 6, 2>(
@@ -296,6 +306,14 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
         }
         ++used;
       }
+    }
+    if (lidar_nuisance && used > 0) {
+      Vector6d sigma;
+      sigma << Eigen::Vector3d::Constant(s.lidar_error_sigma_rot_deg / kDegPerRad),
+          Eigen::Vector3d::Constant(s.lidar_error_sigma_trans_m);
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<LidarErrorPrior, 6, 6>(new LidarErrorPrior(sigma)),
+          nullptr, xi);
     }
     if (s.fix_baseline_length && used > 0)
       problem.AddResidualBlock(
@@ -320,6 +338,8 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     Vector6d d;
     for (int i = 0; i < 6; ++i) d[i] = delta[i];
     T = perturb(T, d);
+    if (lidar_nuisance)
+      for (int i = 0; i < 6; ++i) res.lidar_error[i] = xi[i];
     if (L == 0) {
       const int n = problem.NumResiduals();
       res.final_cost = 2.0 * summary.final_cost / std::max(1, n);

@@ -148,7 +148,9 @@ void usage() {
          "and yaw where they are estimated (co; LidarStereoSettings::\n"
          "coarse_estimates_stereo_nuisances; off by default: only the fine stage does).\n"
          "--lidar-sigma DEG,M: stereo mode: the given LiDAR extrinsic's 1-sigma per axis; the\n"
-         "left-right covariance adds what it does to the key points' depth (default 0: exact).\n";
+         "left-right covariance adds what it does to the key points' depth (default 0: exact);\n"
+         "with --depth-prior its error is also a nuisance of the key points' depths, with this\n"
+         "prior (PhotometricSettings::lidar_error_sigma_*).\n";
 }
 
 std::vector<std::string> split(const std::string& s, char sep) {
@@ -612,6 +614,10 @@ int main(int argc, char** argv) {
       PhotometricSettings ps;
       if (args.smooth_keypoints_px >= 0) ps.smooth_depth_radius_px = args.smooth_keypoints_px;
       if (args.depth_prior >= 0) ps.depth_prior_sigma = args.depth_prior;
+      // With free depth the given LiDAR extrinsic's uncertainty is also the prior of its error as
+      // a nuisance of the key points' depths.
+      ps.lidar_error_sigma_rot_deg = args.lidar_sigma_deg;
+      ps.lidar_error_sigma_trans_m = args.lidar_sigma_m;
       PhotometricResult r =
           solvePhotometric(window, rig, T_init, perturb(rig.T_right_left, tr.stereo.init), ps);
       if (args.lidar_sigma_deg > 0 || args.lidar_sigma_m > 0) {

@@ -55,6 +55,15 @@ struct PhotometricSettings {
   /// comes from the LiDAR depth). The prior is robust (Cauchy). 0 (the paper): the LiDAR depth.
   double depth_prior_sigma = 0.0;
   int depth_free_levels = 1;
+  /// With free depth: the LiDAR extrinsic's own error as a 6-DoF nuisance xi ([phi; tau] about and
+  /// along the camera axes) shared by every key point, with a Gaussian prior of these per-axis
+  /// sigmas: a key point's log depth then follows D xi (D: how its ray's intersection with its
+  /// face moves with the LiDAR extrinsic) plus its own correction (prior `depth_prior_sigma`). A
+  /// LiDAR extrinsic error moves the depths as it does (the road's with the LiDAR's height, the
+  /// surfaces facing the camera with its forward offset) instead of biasing the baseline length
+  /// through the depth priors. Either <= 0: no nuisance (each depth anchored on its own).
+  double lidar_error_sigma_rot_deg = 0.0;
+  double lidar_error_sigma_trans_m = 0.0;
 };
 
 /// A key point of the photometric objective: the strongest gradient of its cell with LiDAR depth.
@@ -85,6 +94,9 @@ struct PhotometricResult {
   /// exact; with its covariance P the marginal one adds S P S^T (addLidarUncertainty). Zero with
   /// free key point depth.
   Matrix6d lidar_sensitivity = Matrix6d::Zero();
+  /// With the LiDAR error nuisance (PhotometricSettings::lidar_error_sigma_*): its estimate,
+  /// [phi; tau] of the LiDAR extrinsic's error in the camera frame, to first order; else zero.
+  Vector6d lidar_error = Vector6d::Zero();
   bool observable[6] = {false, false, false, false, false, false};
   double seconds = 0;
   std::string message;

@@ -113,4 +113,33 @@ struct LogDepthPrior {
   double inv_sigma_;
 };
 
+/// Prior on a key point's log-depth correction when the LiDAR extrinsic's error is a nuisance
+/// `xi` ([phi; tau], camera frame) shared by the key points: (rho - D xi) / sigma, D how the key
+/// point's log depth follows the LiDAR extrinsic.
+struct LogDepthLidarPrior {
+  LogDepthLidarPrior(const Eigen::Matrix<double, 1, 6>& D, double sigma)
+      : D_(D), inv_sigma_(1.0 / sigma) {}
+  template <typename T>
+  bool operator()(const T* const rho, const T* const xi, T* residual) const {
+    T follows = T(0);
+    for (int j = 0; j < 6; ++j) follows += T(D_[j]) * xi[j];
+    residual[0] = (rho[0] - follows) * T(inv_sigma_);
+    return true;
+  }
+  Eigen::Matrix<double, 1, 6> D_;
+  double inv_sigma_;
+};
+
+/// Gaussian prior on the LiDAR extrinsic's error nuisance: xi_j / sigma_j.
+struct LidarErrorPrior {
+  explicit LidarErrorPrior(const Eigen::Matrix<double, 6, 1>& sigma)
+      : inv_sigma_(sigma.cwiseInverse()) {}
+  template <typename T>
+  bool operator()(const T* const xi, T* residual) const {
+    for (int j = 0; j < 6; ++j) residual[j] = xi[j] * T(inv_sigma_[j]);
+    return true;
+  }
+  Eigen::Matrix<double, 6, 1> inv_sigma_;
+};
+
 }  // namespace tescalib
