@@ -529,24 +529,41 @@ TEST(StereoGenerated, RetriangulationMatchesMatchingAgain) {
   EXPECT_NEAR(re.baseline, rig.baseline(), 1e-9);
 }
 
+/// `n` keyframes 0.5 s apart of the generated urban drive of seed 4, built with the LiDAR
+/// extrinsic `lidar_off` ([phi; tau], perturb) off the truth: their key points take its depths.
+struct WrongLidarWindow {
+  StereoRig rig;
+  Eigen::Isometry3d T_cl_wrong;
+  std::vector<Keyframe> keyframes;
+  std::vector<const Keyframe*> window() const {
+    std::vector<const Keyframe*> w;
+    for (const auto& kf : keyframes) w.push_back(&kf);
+    return w;
+  }
+};
+WrongLidarWindow wrongLidarWindow(int n, const Vector6d& lidar_off) {
+  SimOptions o;
+  o.frames = 5 * (n - 1) + 1;
+  o.seed = 4;
+  const Simulator sim(o);
+  WrongLidarWindow w{sim.rig(), perturb(sim.rig().T_cam_lidar, lidar_off), {}};
+  for (int i = 0; i < o.frames; i += 5)
+    w.keyframes.push_back(
+        makeKeyframe(sim.renderFrame(i), w.rig, w.T_cl_wrong, w.rig.T_right_left));
+  return w;
+}
+
 TEST(PhotometricGenerated, FreeDepthFreesTheBaselineDirectionFromAWrongLidarDepth) {
   // With the LiDAR turned 1 deg about the camera's y axis a key point's depth is off in
   // proportion to its lateral position, the disparity pattern of the right camera's forward
   // offset, which absorbs it; with free depth (depth_prior_sigma) the vertical disparities decide
   // the baseline direction. From the truth, on 5 generated keyframes.
-  SimOptions o;
-  o.frames = 21;
-  o.seed = 4;
-  const Simulator sim(o);
-  const StereoRig& rig = sim.rig();
   Vector6d lidar_off;
   lidar_off << 0, 1.0 / kDegPerRad, 0, 0, 0, 0;
-  const Eigen::Isometry3d T_cl_wrong = perturb(rig.T_cam_lidar, lidar_off);
-  std::vector<Keyframe> kfs;
-  for (int i = 0; i < o.frames; i += 5)
-    kfs.push_back(makeKeyframe(sim.renderFrame(i), rig, T_cl_wrong, rig.T_right_left));
-  std::vector<const Keyframe*> window;
-  for (const auto& kf : kfs) window.push_back(&kf);
+  const WrongLidarWindow w = wrongLidarWindow(5, lidar_off);
+  const StereoRig& rig = w.rig;
+  const Eigen::Isometry3d& T_cl_wrong = w.T_cl_wrong;
+  const std::vector<const Keyframe*> window = w.window();
   PhotometricSettings fixed, free;
   fixed.fix_baseline_length = free.fix_baseline_length = true;  // as in co-calibration
   free.depth_prior_sigma = 0.05;
@@ -573,19 +590,12 @@ TEST(PhotometricGenerated, TheLidarErrorAsANuisanceKeepsItOutOfTheBaselineLength
   // together as that error moves them: the length stays, and the nuisance finds the error. From
   // the truth, length free, 12 keyframes. (On 5 keyframes the nuisance is not better; on the
   // benchmark's 20, README "The left-right photometric solver".)
-  SimOptions o;
-  o.frames = 56;
-  o.seed = 4;
-  const Simulator sim(o);
-  const StereoRig& rig = sim.rig();
   Vector6d lidar_off;
   lidar_off << 0.5 / kDegPerRad, 0, 0, 0, 0.05, 0;
-  const Eigen::Isometry3d T_cl_wrong = perturb(rig.T_cam_lidar, lidar_off);
-  std::vector<Keyframe> kfs;
-  for (int i = 0; i < o.frames; i += 5)
-    kfs.push_back(makeKeyframe(sim.renderFrame(i), rig, T_cl_wrong, rig.T_right_left));
-  std::vector<const Keyframe*> window;
-  for (const auto& kf : kfs) window.push_back(&kf);
+  const WrongLidarWindow w = wrongLidarWindow(12, lidar_off);
+  const StereoRig& rig = w.rig;
+  const Eigen::Isometry3d& T_cl_wrong = w.T_cl_wrong;
+  const std::vector<const Keyframe*> window = w.window();
   PhotometricSettings own, shared;
   own.depth_prior_sigma = shared.depth_prior_sigma = 0.01;
   shared.lidar_error_sigma_rot_deg = 0.58;  // per axis, a 1 deg / 0.1 m error in any direction
