@@ -113,7 +113,10 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   if (check_rows) {
     const VerticalAlignment rows =
         verticalAlignment(kf->left_gray, kf->right_gray, kf->stereo, rig_, kf->T_right_left_used);
-    if (rows.points > 0 && std::fabs(rows.median_px) > settings_.max_row_offset_px) {
+    if (rows.points < 100) {  // too little texture to tell: the next keyframe is checked
+      std::lock_guard<std::mutex> lock(mutex_);
+      rows_checked_ = false;
+    } else if (std::fabs(rows.median_px) > settings_.max_row_offset_px) {
       char buf[400];
       std::snprintf(buf, sizeof buf,
                     "the right image's rows lie %+.2f px (median over %d corners; %+.2f px per "

@@ -63,7 +63,8 @@ struct OnlineSettings {
   /// scans the driver already compensated (KITTI odometry) or that are taken at one instant.
   bool deskew = false;
   double deskew_max_dt = 0.25;  ///< s
-  /// The first keyframe's pair is checked against the stereo calibration (verticalAlignment):
+  /// The first keyframe's pair (the first with at least 100 corners followed) is checked against
+  /// the stereo calibration (verticalAlignment):
   /// when the right image's rows lie more than this (median, px) from where it puts them, addFrame
   /// returns the keyframe with a message saying so (SGBM matches along rows, so its clouds are
   /// biased; a wrong camera_info is the usual cause). <= 0: no check. KITTI: 0.01-0.13 px.
