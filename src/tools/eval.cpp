@@ -359,6 +359,8 @@ struct Trial {
   LidarStereoResult::Halves halves;  ///< the LiDAR-stereo split-window check
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< co/joint: time per solve stage
   std::vector<Eigen::Vector2d> brightness;  ///< stereo mode: per keyframe (a, b)
+  /// stereo mode with the LiDAR error nuisance: PhotometricResult::lidar_error (NaN: none)
+  Vector6d lidar_error_found = Vector6d::Constant(std::nan(""));
   std::string message;
 };
 
@@ -632,6 +634,7 @@ int main(int argc, char** argv) {
       tr.stereo.err = poseError(r.T_right_left, rig.T_right_left);
       tr.message = r.message;
       tr.brightness = r.brightness;
+      if (!r.lidar_error.isZero()) tr.lidar_error_found = r.lidar_error;
     } else if (args.method == "tescalib") {
       const LidarStereoResult r = solveLidarStereo(window, T_init, solver_settings);
       T_est = r.T_cam_lidar;
@@ -824,6 +827,28 @@ int main(int argc, char** argv) {
           median(offsets), beyond, offsets.size(), solver_settings.model_sigma_disparity_px);
   }
 
+  {
+    // The LiDAR error nuisance: the error applied (--lidar-rot-deg / --lidar-trans-m) and what is
+    // left of it after the correction the left-right solve found (perturb(T, found)).
+    std::vector<double> rot_applied, trans_applied, rot_left, trans_left;
+    for (const auto& tr : trials) {
+      if (!std::isfinite(tr.lidar_error_found[0])) continue;
+      const Vector6d left = poseError(
+          perturb(perturb(Eigen::Isometry3d::Identity(), tr.lidar.init), tr.lidar_error_found),
+          Eigen::Isometry3d::Identity());
+      rot_applied.push_back(tr.lidar.init.head<3>().norm() * kDegPerRad);
+      trans_applied.push_back(100 * tr.lidar.init.tail<3>().norm());
+      rot_left.push_back(left.head<3>().norm() * kDegPerRad);
+      trans_left.push_back(100 * left.tail<3>().norm());
+    }
+    if (!rot_left.empty())
+      std::printf(
+          "  LiDAR error nuisance: applied %.3f deg / %.2f cm, left after its estimate %.3f deg / "
+          "%.2f cm (medians of %zu trials)\n",
+          median(rot_applied), median(trans_applied), median(rot_left), median(trans_left),
+          rot_left.size());
+  }
+
   if (!args.json.empty()) {
     std::ofstream js(args.json);
     if (!js) {
@@ -861,6 +886,13 @@ int main(int argc, char** argv) {
         js << ", \"disparity_offset_px\": " << tr.disparity_offset_px
            << ", \"disparity_offset_sigma_px\": " << tr.disparity_offset_sigma_px
            << ", \"disparity_offset_used\": " << (tr.disparity_offset_used ? "true" : "false");
+      if (std::isfinite(tr.lidar_error_found[0])) {
+        js << ", \"lidar_error_found\": [";
+        for (int i = 0; i < 6; ++i)
+          js << (i ? ", " : "")
+             << (i < 3 ? tr.lidar_error_found[i] * kDegPerRad : tr.lidar_error_found[i]);
+        js << "]";
+      }
       if (tr.halves.tested)
         js << ", \"halves\": {\"chi2\": " << tr.halves.chi2
            << ", \"covariance_scale\": " << tr.halves.covariance_scale
