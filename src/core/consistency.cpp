@@ -10,12 +10,27 @@
 
 namespace tescalib {
 
+namespace {
+
+cv::Mat grey(const cv::Mat& img) {
+  if (img.channels() == 1) return img;
+  cv::Mat g;
+  cv::cvtColor(img, g, cv::COLOR_BGR2GRAY);
+  return g;
+}
+
+double medianOf(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
 DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat& left_bgr,
                                            const cv::Mat& right_bgr, const StereoRig& rig,
                                            const Eigen::Isometry3d& T_cam_lidar, int max_shift) {
-  cv::Mat gl, gr;
-  cv::cvtColor(left_bgr, gl, cv::COLOR_BGR2GRAY);
-  cv::cvtColor(right_bgr, gr, cv::COLOR_BGR2GRAY);
+  const cv::Mat gl = grey(left_bgr), gr = grey(right_bgr);
   const int r = 2;  // 5x5 patch
   const double fb = rig.left.fx * rig.baseline();
   const int nshift = 2 * max_shift + 1;
@@ -48,9 +63,7 @@ DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat&
   DisparityAgreement out;
   out.points = static_cast<int>(best_shifts.size());
   if (best_shifts.empty()) return out;
-  std::vector<double> sorted = best_shifts;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  out.median_shift = sorted[sorted.size() / 2];
+  out.median_shift = medianOf(best_shifts);
   out.fraction_within_1px = double(std::count_if(best_shifts.begin(), best_shifts.end(),
                                                  [](double s) { return std::fabs(s) <= 1.0; })) /
                             double(best_shifts.size());
@@ -58,23 +71,6 @@ DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat&
       int(std::min_element(global.begin(), global.end()) - global.begin()) - max_shift;
   return out;
 }
-
-namespace {
-
-cv::Mat grey(const cv::Mat& img) {
-  if (img.channels() == 1) return img;
-  cv::Mat g;
-  cv::cvtColor(img, g, cv::COLOR_BGR2GRAY);
-  return g;
-}
-
-double medianOf(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
-
-}  // namespace
 
 DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoCloud& cloud,
                                          const Eigen::Isometry3d& T_cam_lidar) {
@@ -153,7 +149,6 @@ VerticalAlignment verticalAlignment(const cv::Mat& left, const cv::Mat& right,
   out.median_px = medianOf(dv);
   // Affine fit, iteratively reweighted with a Huber weight (0.2 px).
   Eigen::Vector3d c(out.median_px, 0, 0);
-  std::vector<double> res(dv.size());
   for (int it = 0; it < 10; ++it) {
     Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
     Eigen::Vector3d g = Eigen::Vector3d::Zero();
@@ -165,6 +160,7 @@ VerticalAlignment verticalAlignment(const cv::Mat& left, const cv::Mat& right,
     }
     c += H.ldlt().solve(g);
   }
+  std::vector<double> res(dv.size());
   for (size_t i = 0; i < dv.size(); ++i) res[i] = std::fabs(dv[i] - J[i].dot(c));
   out.offset_px = c[0];
   out.slope_x_px = c[1];
