@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tescalib/core/error.h"
+#include "tescalib/core/geometry.h"
 
 namespace fs = std::filesystem;
 
@@ -133,9 +134,8 @@ KittiOdometryCalib readKittiOdometryCalib(const std::string& path) {
   return c;
 }
 
-void writeKittiOdometryCalib(const std::string& path, const KittiOdometryCalib& calib) {
-  std::ofstream out(path);
-  if (!out) throw DataError(path + ": cannot write calibration file");
+std::string kittiOdometryCalibText(const KittiOdometryCalib& calib) {
+  std::ostringstream out;
   out << std::setprecision(12);
   auto row = [&out](const std::string& key, const Eigen::Matrix<double, 3, 4>& M) {
     out << key << ":";
@@ -145,6 +145,13 @@ void writeKittiOdometryCalib(const std::string& path, const KittiOdometryCalib& 
   };
   for (int i = 0; i < 4; ++i) row("P" + std::to_string(i), calib.P[i]);
   row("Tr", calib.Tr);
+  return out.str();
+}
+
+void writeKittiOdometryCalib(const std::string& path, const KittiOdometryCalib& calib) {
+  std::ofstream out(path);
+  if (!out || !(out << kittiOdometryCalibText(calib)))
+    throw DataError(path + ": cannot write calibration file");
 }
 
 StereoRig rigFromOdometryCalib(const KittiOdometryCalib& calib) {
@@ -428,11 +435,35 @@ Frame KittiSequence::load(size_t i) const {
   return f;
 }
 
+bool KittiSequence::sweptScans() const {
+  std::ifstream info(fs::path(dir_) / "sim_info.txt");
+  if (!info) return layout_ == KittiLayout::kRaw;
+  std::string line;
+  while (std::getline(info, line))
+    if (line.rfind("lidar_sweep:", 0) == 0) return std::stoi(line.substr(12)) == 1;
+  return false;
+}
+
 std::vector<size_t> KittiSequence::keyframes(double min_dt) const {
   std::vector<size_t> out;
   for (size_t i = 0; i < size(); ++i)
     if (out.empty() || stamps_[i] - stamps_[out.back()] >= min_dt - 1e-6) out.push_back(i);
   return out;
+}
+
+std::vector<std::unique_ptr<KittiSequence>> openSequences(const std::vector<std::string>& dirs) {
+  std::vector<std::unique_ptr<KittiSequence>> seqs;
+  for (const auto& dir : dirs) {
+    seqs.push_back(std::make_unique<KittiSequence>(dir));
+    const StereoRig& a = seqs.front()->rig();
+    const StereoRig& b = seqs.back()->rig();
+    if (poseError(a.T_cam_lidar, b.T_cam_lidar).norm() > 1e-4 ||
+        poseError(a.T_right_left, b.T_right_left).norm() > 1e-4 ||
+        std::fabs(a.left.fx - b.left.fx) > 1e-3)
+      throw DataError(dir + ": calibration differs from " + dirs.front() +
+                      " (a window must share one calibration)");
+  }
+  return seqs;
 }
 
 }  // namespace tescalib

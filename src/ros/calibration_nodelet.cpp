@@ -1,14 +1,13 @@
 #include "tescalib/ros/calibration_nodelet.h"
 
 #include <cstdio>
-#include <fstream>
-#include <iomanip>
 #include <random>
 
 #include <geometry_msgs/TransformStamped.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "tescalib/core/calibration_io.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/ros/conversions.h"
 
@@ -20,31 +19,6 @@ Eigen::Isometry3d fromVector7(const std::vector<double>& v) {
   T.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
   T.linear() = Eigen::Quaterniond(v[6], v[3], v[4], v[5]).normalized().toRotationMatrix();
   return T;
-}
-
-/// Writes `text` to `path` atomically: a temporary file in the same folder, then rename.
-bool writeAtomically(const std::string& path, const std::string& text, std::string* error) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp);
-    if (!out || !(out << text) || !out.flush()) {
-      *error = "cannot write " + tmp;
-      return false;
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    *error = "cannot rename " + tmp + " to " + path;
-    return false;
-  }
-  return true;
-}
-
-std::string matrixRow(const Eigen::Matrix<double, 3, 4>& M) {
-  std::ostringstream o;
-  o << std::setprecision(12);
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) o << (r || c ? " " : "") << M(r, c);
-  return o.str();
 }
 }  // namespace
 
@@ -419,48 +393,11 @@ bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
     res.message = "no converged estimate yet";
     return true;
   }
-  std::ostringstream yaml, calib, launch;
-  yaml << std::setprecision(12) << "# tescalib calibration (T_a_b maps points from b into a)\n";
-  auto block = [&yaml](const std::string& name, const std::string& parent, const std::string& child,
-                       const Eigen::Isometry3d& T, const Matrix6d& cov) {
-    const Eigen::Quaterniond q(T.linear());
-    yaml << name << ":\n  parent_frame: " << parent << "\n  child_frame: " << child
-         << "\n  translation: [" << T.translation().x() << ", " << T.translation().y() << ", "
-         << T.translation().z() << "]\n  rotation_xyzw: [" << q.x() << ", " << q.y() << ", "
-         << q.z() << ", " << q.w() << "]\n  covariance_phi_tau: [";
-    for (int i = 0; i < 36; ++i) yaml << (i ? ", " : "") << cov(i / 6, i % 6);
-    yaml << "]\n";
-  };
-  block("T_cam_lidar", params_.left_frame, lidar_frame_, e->T_cam_lidar, e->cov_lidar);
-  block("T_right_left", params_.right_frame, params_.left_frame, e->T_right_left, e->cov_stereo);
-  const StereoRig& rig = calibrator()->rig();
-  Eigen::Matrix<double, 3, 4> P2, P3;
-  P2 << rig.left.K(), Eigen::Vector3d::Zero();
-  P3 << rig.right.K(), rig.right.K() * e->T_right_left.translation();
-  calib << "P0: " << matrixRow(P2) << "\nP1: " << matrixRow(P3) << "\nP2: " << matrixRow(P2)
-        << "\nP3: " << matrixRow(P3) << "\nTr: " << matrixRow(e->T_cam_lidar.matrix().topRows<3>())
-        << "\n";
-  const Eigen::Isometry3d T_lc = e->T_cam_lidar.inverse(), T_lr = e->T_right_left.inverse();
-  auto stp = [&launch](const std::string& n, const std::string& p, const std::string& c,
-                       const Eigen::Isometry3d& T) {
-    const Eigen::Quaterniond q(T.linear());
-    launch << std::setprecision(12)
-           << "  <node pkg=\"tf2_ros\" type=\"static_transform_publisher\" name=\"" << n
-           << "\" args=\"" << T.translation().x() << " " << T.translation().y() << " "
-           << T.translation().z() << " " << q.x() << " " << q.y() << " " << q.z() << " " << q.w()
-           << " " << p << " " << c << "\"/>\n";
-  };
-  launch << "<launch>\n";
-  stp("tescalib_lidar_to_left", lidar_frame_, params_.left_frame, T_lc);
-  stp("tescalib_left_to_right", params_.left_frame, params_.right_frame, T_lr);
-  launch << "</launch>\n";
-  std::string error;
-  res.success = writeAtomically(base + ".yaml", yaml.str(), &error) &&
-                writeAtomically(base + "_calib.txt", calib.str(), &error) &&
-                writeAtomically(base + "_static_tf.launch", launch.str(), &error);
-  res.message =
-      res.success ? "wrote " + base + ".yaml, " + base + "_calib.txt, " + base + "_static_tf.launch"
-                  : error;
+  CalibrationFrames frames;
+  frames.lidar = lidar_frame_;
+  frames.left = params_.left_frame;
+  frames.right = params_.right_frame;
+  res.success = writeCalibrationFiles(base, calibrator()->rig(), *e, frames, &res.message);
   return true;
 }
 

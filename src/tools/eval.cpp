@@ -5,7 +5,6 @@
 #include <cmath>
 #include <numeric>
 #include <cstdio>
-#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -31,8 +30,6 @@
 
 using namespace tescalib;
 using Clock = std::chrono::steady_clock;
-
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -71,19 +68,6 @@ struct Args {
   double cov_model_scale = -1;             ///< scales the solver's model-error sigmas (0: none)
   std::string windows = "first";  ///< first: the first W keyframes; disjoint: every W in turn
 };
-
-/// Whether a sequence's scans are raw sweeps that need de-skewing: KITTI raw recordings (their
-/// readme: the points must be "untwisted"), tescalib_simulate output written with --lidar-sweep 1.
-/// Not KITTI odometry sequences: KITTI compensated their scans for the ego-motion (odometry
-/// readme), nor the generator's default output (every beam from the pose at the stamp).
-bool sweptScans(const KittiSequence& seq) {
-  std::ifstream info(fs::path(seq.dir()) / "sim_info.txt");
-  if (!info) return seq.layout() == KittiLayout::kRaw;
-  std::string line;
-  while (std::getline(info, line))
-    if (line.rfind("lidar_sweep:", 0) == 0) return std::stoi(line.substr(12)) == 1;
-  return false;
-}
 
 void usage() {
   std::cout
@@ -376,18 +360,11 @@ int main(int argc, char** argv) {
   std::vector<std::unique_ptr<KittiSequence>> seqs;
   std::vector<std::pair<size_t, size_t>> keyframes;  // (sequence, frame index)
   try {
-    for (const auto& dir : args.sequences) {
-      seqs.push_back(std::make_unique<KittiSequence>(dir));
-      const auto& a = seqs.front()->rig();
-      const auto& b = seqs.back()->rig();
-      if (poseError(a.T_cam_lidar, b.T_cam_lidar).norm() > 1e-4 ||
-          std::fabs(a.left.fx - b.left.fx) > 1e-3)
-        throw DataError(dir + ": calibration differs from " + args.sequences.front() +
-                        " (a window must share one calibration)");
-      for (size_t i : seqs.back()->keyframes(0.5))
+    seqs = openSequences(args.sequences);
+    for (size_t si = 0; si < seqs.size(); ++si)
+      for (size_t i : seqs[si]->keyframes(0.5))
         if (args.windows == "disjoint" || static_cast<int>(keyframes.size()) < args.window)
-          keyframes.emplace_back(seqs.size() - 1, i);
-    }
+          keyframes.emplace_back(si, i);
   } catch (const DataError& e) {
     std::cerr << "tescalib_eval: " << e.what() << "\n";
     return 1;
@@ -440,7 +417,7 @@ int main(int argc, char** argv) {
   try {
     for (const auto& [si, fi] : keyframes) {
       frames.push_back(seqs[si]->load(fi));
-      if (args.deskew > 0 || (args.deskew < 0 && sweptScans(*seqs[si]))) {
+      if (args.deskew > 0 || (args.deskew < 0 && seqs[si]->sweptScans())) {
         // Constant velocity from this scan to the next frame's (or from the previous one's).
         const KittiSequence& seq = *seqs[si];
         if (seq.size() < 2) throw DataError(seq.dir() + ": --deskew needs two frames");

@@ -11,6 +11,7 @@
 //   T_cam_lidar = [I | K^-1 P2[:,3]] * Tr,   T_right_left = [I | K^-1 (P3[:,3] - P2[:,3])].
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,7 +32,10 @@ struct KittiOdometryCalib {
 /// Parses a KITTI odometry calib.txt. Throws DataError naming the file and the bad key.
 KittiOdometryCalib readKittiOdometryCalib(const std::string& path);
 
-/// Writes a KITTI odometry calib.txt (P0..P3 and Tr, 12 values each, row major).
+/// A KITTI odometry calib.txt's text (P0..P3 and Tr, 12 values each, row major).
+std::string kittiOdometryCalibText(const KittiOdometryCalib& calib);
+
+/// Writes a KITTI odometry calib.txt (kittiOdometryCalibText).
 void writeKittiOdometryCalib(const std::string& path, const KittiOdometryCalib& calib);
 
 /// Rig from odometry calibration: rectified intrinsics from P2/P3, ground truth as above.
@@ -69,6 +73,12 @@ class KittiSequence {
   /// Loads only the LiDAR scan of frame i.
   LidarScan loadScan(size_t i) const;
 
+  /// Whether the scans are raw sweeps that need de-skewing: KITTI raw recordings (their readme:
+  /// the points must be "untwisted"), tescalib_simulate output written with --lidar-sweep 1.
+  /// Not KITTI odometry sequences: KITTI compensated their scans for the ego-motion (odometry
+  /// readme), nor the generator's default output (every beam from the pose at the stamp).
+  bool sweptScans() const;
+
   /// Indices of keyframes at least `min_dt` seconds apart (first frame always taken).
   std::vector<size_t> keyframes(double min_dt = 0.5) const;
 
@@ -89,5 +99,10 @@ class KittiSequence {
   std::vector<double> stamps_;
   int name_digits_ = 6;
 };
+
+/// Opens sequences that form one calibration window: throws DataError when one cannot be opened
+/// or its calibration differs from the first one's (extrinsics by more than 1e-4, focal length by
+/// more than 1e-3 px).
+std::vector<std::unique_ptr<KittiSequence>> openSequences(const std::vector<std::string>& dirs);
 
 }  // namespace tescalib

@@ -1,0 +1,38 @@
+// Writing a calibration result (ROS-free, plain text): the files the online node's ~save service
+// and tescalib_calibrate write, so that a result of either can be read back the same way.
+//   BASE.yaml              both extrinsics (translation, quaternion xyzw), their 6x6 covariances
+//                          over [phi; tau], per-axis sigma and trust flags, converged
+//   BASE_calib.txt         KITTI odometry style: P2 = [K | 0], P3 = [K | K t_right_left],
+//                          Tr = T_cam_lidar (read back by readKittiOdometryCalib /
+//                          rigFromOdometryCalib, e.g. as tescalib_calibrate --init)
+//   BASE_static_tf.launch  tf2_ros static_transform_publisher nodes for both transforms
+#pragma once
+
+#include <string>
+
+#include "tescalib/core/kitti_reader.h"
+#include "tescalib/core/online_calibrator.h"
+#include "tescalib/core/types.h"
+
+namespace tescalib {
+
+/// Frame names written into the YAML and the launch file.
+struct CalibrationFrames {
+  std::string lidar = "velo_link";
+  std::string left = "tescalib_left";
+  std::string right = "tescalib_right";
+};
+
+std::string calibrationYaml(const OnlineEstimate& e, const CalibrationFrames& frames);
+std::string staticTransformLaunch(const OnlineEstimate& e, const CalibrationFrames& frames);
+/// The rig's intrinsics with the estimate's extrinsics (see the file comment).
+KittiOdometryCalib calibrationAsKitti(const StereoRig& rig, const OnlineEstimate& e);
+
+/// Writes `text` to `path` atomically (a temporary file beside it, then rename).
+bool writeAtomically(const std::string& path, const std::string& text, std::string* error);
+
+/// Writes the three files. `message`: the files written, or what went wrong.
+bool writeCalibrationFiles(const std::string& base, const StereoRig& rig, const OnlineEstimate& e,
+                           const CalibrationFrames& frames, std::string* message);
+
+}  // namespace tescalib

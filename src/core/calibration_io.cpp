@@ -1,0 +1,113 @@
+#include "tescalib/core/calibration_io.h"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include <Eigen/Geometry>
+
+#include "tescalib/core/geometry.h"
+
+namespace tescalib {
+
+namespace {
+
+void yamlBlock(std::ostream& yaml, const std::string& name, const std::string& parent,
+               const std::string& child, const Eigen::Isometry3d& T, const Matrix6d& cov,
+               const bool observable[6], bool estimated) {
+  const Eigen::Quaterniond q(T.linear());
+  yaml << name << ":\n  parent_frame: " << parent << "\n  child_frame: " << child
+       << "\n  estimated: " << (estimated ? "true" : "false") << "\n  translation: ["
+       << T.translation().x() << ", " << T.translation().y() << ", " << T.translation().z()
+       << "]\n  rotation_xyzw: [" << q.x() << ", " << q.y() << ", " << q.z() << ", " << q.w()
+       << "]\n  sigma_rot_deg: [";
+  for (int i = 0; i < 3; ++i) yaml << (i ? ", " : "") << std::sqrt(cov(i, i)) * kDegPerRad;
+  yaml << "]\n  sigma_trans_m: [";
+  for (int i = 3; i < 6; ++i) yaml << (i > 3 ? ", " : "") << std::sqrt(cov(i, i));
+  yaml << "]\n  trusted_axes: [";  // rx ry rz tx ty tz
+  for (int i = 0; i < 6; ++i) yaml << (i ? ", " : "") << (observable[i] ? "true" : "false");
+  yaml << "]\n  covariance_phi_tau: [";
+  for (int i = 0; i < 36; ++i) yaml << (i ? ", " : "") << cov(i / 6, i % 6);
+  yaml << "]\n";
+}
+
+void staticPublisher(std::ostream& launch, const std::string& name, const std::string& parent,
+                     const std::string& child, const Eigen::Isometry3d& T_parent_child) {
+  const Eigen::Quaterniond q(T_parent_child.linear());
+  const Eigen::Vector3d& t = T_parent_child.translation();
+  launch << "  <node pkg=\"tf2_ros\" type=\"static_transform_publisher\" name=\"" << name
+         << "\" args=\"" << t.x() << " " << t.y() << " " << t.z() << " " << q.x() << " " << q.y()
+         << " " << q.z() << " " << q.w() << " " << parent << " " << child << "\"/>\n";
+}
+
+}  // namespace
+
+std::string calibrationYaml(const OnlineEstimate& e, const CalibrationFrames& frames) {
+  std::ostringstream yaml;
+  yaml << std::setprecision(12)
+       << "# tescalib calibration (T_a_b maps points from b into a; covariance over\n"
+       << "# [phi_x phi_y phi_z tau_x tau_y tau_z] in rad and m, R = Exp(phi) R_est, t = t_est + "
+          "tau)\n"
+       << "converged: " << (e.converged ? "true" : "false")
+       << "\nkeyframes_used: " << e.keyframes_used << "\nstamp: " << e.stamp << "\n";
+  yamlBlock(yaml, "T_cam_lidar", frames.left, frames.lidar, e.T_cam_lidar, e.cov_lidar,
+            e.observable_lidar, true);
+  yamlBlock(yaml, "T_right_left", frames.right, frames.left, e.T_right_left, e.cov_stereo,
+            e.observable_stereo, e.stereo_estimated);
+  return yaml.str();
+}
+
+std::string staticTransformLaunch(const OnlineEstimate& e, const CalibrationFrames& frames) {
+  std::ostringstream launch;
+  launch << std::setprecision(12) << "<launch>\n";
+  // tf's parent -> child transform maps child points into the parent: T_lidar_left etc.
+  staticPublisher(launch, "tescalib_lidar_to_left", frames.lidar, frames.left,
+                  e.T_cam_lidar.inverse());
+  staticPublisher(launch, "tescalib_left_to_right", frames.left, frames.right,
+                  e.T_right_left.inverse());
+  launch << "</launch>\n";
+  return launch.str();
+}
+
+KittiOdometryCalib calibrationAsKitti(const StereoRig& rig, const OnlineEstimate& e) {
+  KittiOdometryCalib c;
+  Eigen::Matrix<double, 3, 4> P2, P3;
+  P2 << rig.left.K(), Eigen::Vector3d::Zero();
+  P3 << rig.right.K(), rig.right.K() * e.T_right_left.translation();
+  c.P[0] = c.P[2] = P2;
+  c.P[1] = c.P[3] = P3;
+  c.Tr = e.T_cam_lidar.matrix().topRows<3>();
+  return c;
+}
+
+bool writeAtomically(const std::string& path, const std::string& text, std::string* error) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp);
+    if (!out || !(out << text) || !out.flush()) {
+      *error = "cannot write " + tmp;
+      return false;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    *error = "cannot rename " + tmp + " to " + path;
+    return false;
+  }
+  return true;
+}
+
+bool writeCalibrationFiles(const std::string& base, const StereoRig& rig, const OnlineEstimate& e,
+                           const CalibrationFrames& frames, std::string* message) {
+  const bool ok =
+      writeAtomically(base + ".yaml", calibrationYaml(e, frames), message) &&
+      writeAtomically(base + "_calib.txt", kittiOdometryCalibText(calibrationAsKitti(rig, e)),
+                      message) &&
+      writeAtomically(base + "_static_tf.launch", staticTransformLaunch(e, frames), message);
+  if (ok)
+    *message = "wrote " + base + ".yaml, " + base + "_calib.txt, " + base + "_static_tf.launch";
+  return ok;
+}
+
+}  // namespace tescalib
