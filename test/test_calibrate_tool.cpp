@@ -156,6 +156,10 @@ TEST(CalibrateToolReal, RefusesTheKittiWindowItCannotTrust) {
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("8 keyframes, 0 rejected"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("disparity offset"), std::string::npos) << r.output;
+  // What the window gave is shown for a look, with the axes it does not trust.
+  EXPECT_NE(r.output.find("the last solve's result, not trusted (8 keyframes)"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("not trusted: "), std::string::npos) << r.output;
   EXPECT_FALSE(tescalib_test::fs::exists(tmp.str() + "/result.yaml"));
 }
 

@@ -40,13 +40,15 @@ class OnlineEndToEnd(unittest.TestCase):
         # Raw swept scans (tescalib_simulate --lidar-sweep 1), de-skewed by the node.
         cls.sweep = rospy.get_param('~sweep', False)
         cls.lock = threading.Lock()
-        cls.est = {'lidar_to_left': [], 'left_to_right': []}
+        cls.est = {'lidar_to_left': [], 'left_to_right': [], 'candidate': []}
         cls.tf = []
         cls.overlays = []
         cls.raw = {}
         cls.diag = []
         rospy.Subscriber('/tescalib/lidar_to_left', ExtrinsicEstimate, cls.on_est, 'lidar_to_left')
         rospy.Subscriber('/tescalib/left_to_right', ExtrinsicEstimate, cls.on_est, 'left_to_right')
+        rospy.Subscriber('/tescalib/candidate/lidar_to_left', ExtrinsicEstimate, cls.on_est,
+                         'candidate')
         rospy.Subscriber('/tf', TFMessage, cls.on_tf)
         rospy.Subscriber('/tescalib_overlay/left/overlay', Image, cls.on_overlay, queue_size=2)
         rospy.Subscriber('/kitti/camera_color_left/image_raw', Image, cls.on_raw, queue_size=20)
@@ -234,6 +236,23 @@ class OnlineEndToEnd(unittest.TestCase):
         self.assertGreater(len(mesh.points), 3000)
         self.assertEqual(len(mesh.points) % 3, 0)
         self.assertEqual(len(mesh.colors), len(mesh.points))
+
+    def test_7_every_solve_is_a_candidate(self):
+        # ~candidate/lidar_to_left carries every solve's result, published or not; `status` says
+        # why one was not published, and is empty on the published estimates.
+        cands = self.est['candidate']
+        estimates = self.est['lidar_to_left']
+        self.assertGreaterEqual(len(cands), len(estimates))
+        for e in estimates:
+            self.assertEqual(e.status, '')
+        for c in cands:
+            if not c.converged:
+                self.assertNotEqual(c.status, '')
+        last = ex.from_msg(estimates[-1].transform)
+        published = [c for c in cands if c.status == '']
+        self.assertTrue(any(ex.norm(ex.error(ex.from_msg(c.transform), last)[1]) < 1e-9
+                            for c in published))
+        rospy.loginfo('e2e: %d candidates, %d of them published', len(cands), len(published))
 
 
 if __name__ == '__main__':

@@ -292,24 +292,27 @@ bool OnlineCalibrator::solve(std::string* msg) {
   e.keyframes_used = static_cast<int>(snapshot.size());
   e.stamp = snapshot.back()->stamp;
   e.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (!e.converged) {
-    *msg = "not converged (" + *msg + "): keeping the previous estimate";
-    return false;
-  }
   std::lock_guard<std::mutex> lock(mutex_);
+  auto notPublished = [&](const std::string& why) {
+    *msg = why;
+    last_solve_ = e;
+    last_solve_->message = why;
+    return false;
+  };
+  if (!e.converged)
+    return notPublished("not converged (" + *msg + "): keeping the previous estimate");
   if (estimate_) {
     // Like with like: the stereo part counts only when both estimated it.
     const bool both = e.stereo_estimated && estimate_->stereo_estimated;
     const double trace_new = e.cov_lidar.trace() + (both ? e.cov_stereo.trace() : 0.0);
     const double trace_old =
         estimate_->cov_lidar.trace() + (both ? estimate_->cov_stereo.trace() : 0.0);
-    if (!std::isfinite(trace_new) || trace_new > settings_.max_trace_growth * trace_old) {
-      *msg = "new estimate is less certain than the published one (covariance trace " +
-             std::to_string(trace_new) + " vs " + std::to_string(trace_old) + "): kept the old one";
-      return false;
-    }
+    if (!std::isfinite(trace_new) || trace_new > settings_.max_trace_growth * trace_old)
+      return notPublished("new estimate is less certain than the published one (covariance trace " +
+                          std::to_string(trace_new) + " vs " + std::to_string(trace_old) +
+                          "): kept the old one");
   }
-  estimate_ = e;
+  estimate_ = last_solve_ = e;
   return true;
 }
 
@@ -324,6 +327,7 @@ void OnlineCalibrator::reset() {
   window_.clear();
   keyframe_information_.clear();
   estimate_.reset();
+  last_solve_.reset();
   previous_scan_.reset();
   last_stamp_ = -1e300;
   last_keyframe_stamp_ = -1e300;
@@ -333,6 +337,11 @@ void OnlineCalibrator::reset() {
 std::optional<OnlineEstimate> OnlineCalibrator::estimate() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return estimate_;
+}
+
+std::optional<OnlineEstimate> OnlineCalibrator::lastSolve() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return last_solve_;
 }
 
 Eigen::Isometry3d OnlineCalibrator::currentTcamLidar() const {

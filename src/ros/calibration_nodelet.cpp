@@ -42,6 +42,8 @@ void CalibrationNodelet::onInit() {
   tf_pub_ = std::make_unique<tf2_ros::TransformBroadcaster>();
   lidar_pub_ = pnh.advertise<ExtrinsicEstimate>("lidar_to_left", 1, true);
   stereo_pub_ = pnh.advertise<ExtrinsicEstimate>("left_to_right", 1, true);
+  candidate_lidar_pub_ = pnh.advertise<ExtrinsicEstimate>("candidate/lidar_to_left", 1, true);
+  candidate_stereo_pub_ = pnh.advertise<ExtrinsicEstimate>("candidate/left_to_right", 1, true);
   lidar_pose_pub_ =
       pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("lidar_to_left_pose", 1, true);
   stereo_pose_pub_ =
@@ -297,6 +299,12 @@ void CalibrationNodelet::solveLoop() {
         first_estimate_sim_s_ = e->stamp - first_set_stamp_;
       }
     }
+    // Every solve's result on ~candidate/*, published or not (status: why not).
+    if (const auto c = calibrator()->lastSolve()) {
+      std_msgs::Header h;
+      h.stamp = ros::Time(c->stamp);
+      publishEstimateMsgs(*c, h, candidate_lidar_pub_, candidate_stereo_pub_);
+    }
     if (updated) {
       publish(*e, ros::Time(e->stamp));
       const std::string kind =
@@ -315,12 +323,7 @@ void CalibrationNodelet::solveLoop() {
 void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp) {
   std_msgs::Header h;
   h.stamp = stamp;
-  lidar_pub_.publish(ros_conv::toEstimateMsg(h, params_.left_frame, lidar_frame_, e.T_cam_lidar,
-                                             e.cov_lidar, e.observable_lidar, e.converged,
-                                             e.keyframes_used, e.cost_lidar, e.iterations_lidar));
-  stereo_pub_.publish(ros_conv::toEstimateMsg(
-      h, params_.right_frame, params_.left_frame, e.T_right_left, e.cov_stereo, e.observable_stereo,
-      e.converged, e.keyframes_used, e.cost_stereo, e.iterations_stereo));
+  publishEstimateMsgs(e, h, lidar_pub_, stereo_pub_);
   h.frame_id = params_.left_frame;
   lidar_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_cam_lidar, e.cov_lidar));
   h.frame_id = params_.right_frame;
@@ -333,6 +336,17 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
     if (!last_tf_stamp_.isZero()) tf_stamp = last_tf_stamp_ + ros::Duration(0, 1000);
   }
   publishTf(tf_stamp);
+}
+
+void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
+                                             const ros::Publisher& lidar,
+                                             const ros::Publisher& stereo) {
+  lidar.publish(ros_conv::toEstimateMsg(
+      h, params_.left_frame, lidar_frame_, e.T_cam_lidar, e.cov_lidar, e.observable_lidar,
+      e.converged, e.keyframes_used, e.cost_lidar, e.iterations_lidar, e.message));
+  stereo.publish(ros_conv::toEstimateMsg(
+      h, params_.right_frame, params_.left_frame, e.T_right_left, e.cov_stereo, e.observable_stereo,
+      e.converged, e.keyframes_used, e.cost_stereo, e.iterations_stereo, e.message));
 }
 
 void CalibrationNodelet::publishKeyframe(const Keyframe& kf) {

@@ -323,7 +323,8 @@ namespace ros_conv {
 ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::string& parent,
                                 const std::string& child, const Eigen::Isometry3d& T,
                                 const Matrix6d& cov, const bool observable[6], bool converged,
-                                int keyframes, double cost, int iterations) {
+                                int keyframes, double cost, int iterations,
+                                const std::string& status) {
   ExtrinsicEstimate m;
   m.header = header;
   m.header.frame_id = parent;
@@ -340,6 +341,7 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
   m.keyframes_used = static_cast<uint32_t>(keyframes);
   m.final_cost = cost;
   m.iterations = static_cast<uint32_t>(iterations);
+  m.status = status;
   return m;
 }
 

@@ -267,6 +267,13 @@ int main(int argc, char** argv) {
     std::printf("no converged estimate%s%s\n", last_solve.empty() ? "" : ": ", last_solve.c_str());
     if (keyframes < settings.minKeyframes())
       std::printf("(%d keyframes; a solve needs %d)\n", keyframes, settings.minKeyframes());
+    if (const auto c = calibrator.lastSolve()) {
+      // What the window gives, untrusted: for a look, not for use (nothing is written).
+      std::printf("the last solve's result, not trusted (%d keyframes):\n", c->keyframes_used);
+      printExtrinsic("T_cam_lidar", c->T_cam_lidar, c->cov_lidar, c->observable_lidar);
+      std::printf("change from the initial guess: %s\n",
+                  pose6(poseError(c->T_cam_lidar, rig.T_cam_lidar)).c_str());
+    }
     return 1;
   }
   std::printf("estimate from %d keyframes:\n", e->keyframes_used);

@@ -94,6 +94,8 @@ struct OnlineEstimate {
   bool stereo_estimated = false;
   double stamp = 0;  ///< stamp of the newest keyframe of the window it came from
   double solve_seconds = 0;
+  /// OnlineCalibrator::lastSolve: why the solve was not published (empty when it was).
+  std::string message;
 };
 
 enum class FrameResult { kKeyframe, kTooClose, kReset, kRejected };
@@ -123,6 +125,10 @@ class OnlineCalibrator {
   void reset();
 
   std::optional<OnlineEstimate> estimate() const;  ///< the current published estimate
+  /// The last solve's result, published or not: `converged` and `message` say which and why.
+  /// What the window gives when nothing is trusted (a user's first question on their data);
+  /// never the published estimate unless it was published.
+  std::optional<OnlineEstimate> lastSolve() const;
   size_t windowFill() const;
   bool readyToSolve() const;
   const StereoRig& rig() const { return rig_; }
@@ -137,6 +143,7 @@ class OnlineCalibrator {
   mutable std::mutex mutex_;
   std::deque<std::shared_ptr<Keyframe>> window_;  ///< GUARDED_BY(mutex_)
   std::optional<OnlineEstimate> estimate_;        ///< GUARDED_BY(mutex_)
+  std::optional<OnlineEstimate> last_solve_;      ///< GUARDED_BY(mutex_)
   double last_stamp_ = -1e300;                    ///< GUARDED_BY(mutex_)
   double last_keyframe_stamp_ = -1e300;           ///< GUARDED_BY(mutex_)
   int new_keyframes_ = 0;                         ///< GUARDED_BY(mutex_) since the last solve

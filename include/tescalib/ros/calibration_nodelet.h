@@ -97,6 +97,10 @@ class CalibrationNodelet : public nodelet::Nodelet {
   std::unique_ptr<message_filters::Synchronizer<ApproxPolicy>> approx_sync_;
   std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
   ros::Publisher lidar_pub_, stereo_pub_, lidar_pose_pub_, stereo_pose_pub_;
+  /// Every solve's result, published or not, with why not (OnlineCalibrator::lastSolve).
+  ros::Publisher candidate_lidar_pub_, candidate_stereo_pub_;
+  void publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
+                           const ros::Publisher& lidar, const ros::Publisher& stereo);
   /// Each new keyframe's stereo cloud (left camera frame) and LiDAR mesh, for rviz: computed for
   /// the calibration anyway, published only while someone subscribes.
   ros::Publisher keyframe_cloud_pub_, keyframe_mesh_pub_;
