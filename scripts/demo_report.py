@@ -31,7 +31,7 @@ AXES = 'rx ry rz tx ty tz'.split()
 class Listener:
     def __init__(self, ref_tf_frame):
         self.lock = threading.Lock()
-        self.estimates = {'lidar_to_left': [], 'left_to_right': []}
+        self.estimates = {'lidar_to_left': [], 'left_to_right': [], 'candidate': []}
         self.diag = []  # (wall time, {key: value})
         self.clock_wall = None  # wall time /clock last advanced
         self.clock_value = None
@@ -43,6 +43,8 @@ class Listener:
                          'lidar_to_left')
         rospy.Subscriber('/tescalib/left_to_right', ExtrinsicEstimate, self.on_est,
                          'left_to_right')
+        rospy.Subscriber('/tescalib/candidate/lidar_to_left', ExtrinsicEstimate, self.on_est,
+                         'candidate')
         rospy.Subscriber('/diagnostics', DiagnosticArray, self.on_diag)
         rospy.Subscriber('/clock', Clock, self.on_clock)
         rospy.Subscriber('/tf', TFMessage, self.on_tf)
@@ -181,6 +183,11 @@ def main():
         print('[demo] no /diagnostics from tescalib received')
     if not est['lidar_to_left']:
         print('[demo] no estimate was published (no solve converged); see the node log')
+        if est['candidate']:
+            cand = est['candidate'][-1][1]
+            print('[demo] the last solve, not trusted (/tescalib/candidate/lidar_to_left): %s'
+                  % cand.status)
+            print_estimate('T_cam_lidar', cand, ref['T_cam_lidar'] if ref else None)
         return 1
     print('[demo] %d estimates published; the last one:' % len(est['lidar_to_left']))
     lidar = est['lidar_to_left'][-1][1]
