@@ -8,7 +8,6 @@
 #include <iostream>
 #include <memory>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -17,6 +16,7 @@
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/kitti_reader.h"
 #include "tescalib/core/online_calibrator.h"
+#include "cli.h"
 
 using namespace tescalib;
 
@@ -59,47 +59,30 @@ void usage() {
 }
 
 bool parse(int argc, char** argv, Args* a) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    if (k == "-h" || k == "--help") {
-      usage();
-      std::exit(0);
-    }
-    if (i + 1 >= argc) {
-      std::cerr << "tescalib_calibrate: " << k << " needs a value\n";
+  auto option = [a](const std::string& k, const std::string& v) {
+    if (k == "--sequences")
+      a->sequences = cli::splitList(v);
+    else if (k == "--mode")
+      a->mode = v;
+    else if (k == "--window")
+      a->window = std::stoi(v);
+    else if (k == "--init")
+      a->init = v;
+    else if (k == "--perturb-rot-deg")
+      a->perturb_rot_deg = std::stod(v);
+    else if (k == "--perturb-trans-m")
+      a->perturb_trans_m = std::stod(v);
+    else if (k == "--seed")
+      a->seed = static_cast<unsigned>(std::stoul(v));
+    else if (k == "--deskew")
+      a->deskew = std::stoi(v);
+    else if (k == "--out")
+      a->out = v;
+    else
       return false;
-    }
-    const std::string v = argv[++i];
-    try {
-      if (k == "--sequences") {
-        std::stringstream list(v);
-        for (std::string dir; std::getline(list, dir, ',');)
-          if (!dir.empty()) a->sequences.push_back(dir);
-      } else if (k == "--mode") {
-        a->mode = v;
-      } else if (k == "--window") {
-        a->window = std::stoi(v);
-      } else if (k == "--init") {
-        a->init = v;
-      } else if (k == "--perturb-rot-deg") {
-        a->perturb_rot_deg = std::stod(v);
-      } else if (k == "--perturb-trans-m") {
-        a->perturb_trans_m = std::stod(v);
-      } else if (k == "--seed") {
-        a->seed = static_cast<unsigned>(std::stoul(v));
-      } else if (k == "--deskew") {
-        a->deskew = std::stoi(v);
-      } else if (k == "--out") {
-        a->out = v;
-      } else {
-        std::cerr << "tescalib_calibrate: unknown option " << k << "\n";
-        return false;
-      }
-    } catch (const std::exception&) {
-      std::cerr << "tescalib_calibrate: bad value for " << k << ": " << v << "\n";
-      return false;
-    }
-  }
+    return true;
+  };
+  if (!cli::parseOptions(argc, argv, "tescalib_calibrate", usage, option)) return false;
   if (a->sequences.empty()) {
     std::cerr << "tescalib_calibrate: --sequences is required\n";
     return false;

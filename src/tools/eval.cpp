@@ -27,6 +27,7 @@
 #include "tescalib/core/parallel.h"
 #include "tescalib/core/photometric_solver.h"
 #include "tescalib/core/scan_motion.h"
+#include "cli.h"
 
 using namespace tescalib;
 using Clock = std::chrono::steady_clock;
@@ -137,110 +138,87 @@ void usage() {
          "prior (PhotometricSettings::lidar_error_sigma_*).\n";
 }
 
-std::vector<std::string> split(const std::string& s, char sep) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, sep))
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 bool parse(int argc, char** argv, Args* a) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    if (k == "-h" || k == "--help") {
-      usage();
-      std::exit(0);
-    }
-    if (i + 1 >= argc) {
-      std::cerr << "tescalib_eval: " << k << " needs a value\n";
+  auto option = [a](const std::string& k, const std::string& v) {
+    if (k == "--sequences")
+      a->sequences = cli::splitList(v);
+    else if (k == "--mode")
+      a->mode = v;
+    else if (k == "--method")
+      a->method = v;
+    else if (k == "--trials")
+      a->trials = std::stoi(v);
+    else if (k == "--first-trial")
+      a->first_trial = std::stoi(v);
+    else if (k == "--init-rot-deg")
+      a->init_rot_deg = std::stod(v);
+    else if (k == "--init-trans-m")
+      a->init_trans_m = std::stod(v);
+    else if (k == "--init-stereo-rot-deg")
+      a->init_stereo_rot_deg = std::stod(v);
+    else if (k == "--init-stereo-trans-m")
+      a->init_stereo_trans_m = std::stod(v);
+    else if (k == "--seed")
+      a->seed = std::stoull(v);
+    else if (k == "--window")
+      a->window = std::stoi(v);
+    else if (k == "--json")
+      a->json = v;
+    else if (k == "--stages")
+      a->stages = v;
+    else if (k == "--lidar-rot-deg")
+      a->lidar_rot_deg = std::stod(v);
+    else if (k == "--lidar-trans-m")
+      a->lidar_trans_m = std::stod(v);
+    else if (k == "--windows")
+      a->windows = v;
+    else if (k == "--cov-cells") {
+      const auto x = v.find('x');
+      if (x == std::string::npos) throw std::invalid_argument(v);
+      a->cov_cells_x = std::stoi(v.substr(0, x));
+      a->cov_cells_y = std::stoi(v.substr(x + 1));
+    } else if (k == "--cov-model-scale")
+      a->cov_model_scale = std::stod(v);
+    else if (k == "--smooth-keypoints")
+      a->smooth_keypoints_px = std::stoi(v);
+    else if (k == "--depth-prior")
+      a->depth_prior = std::stod(v);
+    else if (k == "--free-depth-rounds")
+      a->free_depth_rounds = std::stoi(v);
+    else if (k == "--rematch-deg")
+      a->rematch_deg = std::stod(v);
+    else if (k == "--co-model-scale")
+      a->co_model_scale = std::stod(v);
+    else if (k == "--stereo-yaw")
+      a->stereo_yaw = std::stoi(v);
+    else if (k == "--stereo-scale")
+      a->stereo_scale = std::stoi(v);
+    else if (k == "--deskew")
+      a->deskew = std::stoi(v);
+    else if (k == "--check-halves")
+      a->check_halves = std::stoi(v);
+    else if (k == "--measure-offset")
+      a->measure_offset = std::stoi(v);
+    else if (k == "--coarse-nuisances")
+      a->coarse_nuisances = std::stoi(v);
+    else if (k == "--refine-smoothed-rounds") {
+      a->refine_smoothed = std::stoi(v);
+      if (a->refine_smoothed < 0) throw std::invalid_argument(v);
+    } else if (k == "--refine-iterations") {
+      a->refine_iterations = std::stoi(v);
+      if (a->refine_iterations < 0) throw std::invalid_argument(v);
+    } else if (k == "--lidar-sigma") {
+      const auto parts = cli::splitList(v);
+      if (parts.size() != 2) throw std::invalid_argument(v);
+      a->lidar_sigma_deg = std::stod(parts[0]);
+      a->lidar_sigma_m = std::stod(parts[1]);
+      if (!(a->lidar_sigma_deg >= 0 && a->lidar_sigma_m >= 0)) throw std::invalid_argument(v);
+    } else {
       return false;
     }
-    const std::string v = argv[++i];
-    try {
-      if (k == "--sequences")
-        a->sequences = split(v, ',');
-      else if (k == "--mode")
-        a->mode = v;
-      else if (k == "--method")
-        a->method = v;
-      else if (k == "--trials")
-        a->trials = std::stoi(v);
-      else if (k == "--first-trial")
-        a->first_trial = std::stoi(v);
-      else if (k == "--init-rot-deg")
-        a->init_rot_deg = std::stod(v);
-      else if (k == "--init-trans-m")
-        a->init_trans_m = std::stod(v);
-      else if (k == "--init-stereo-rot-deg")
-        a->init_stereo_rot_deg = std::stod(v);
-      else if (k == "--init-stereo-trans-m")
-        a->init_stereo_trans_m = std::stod(v);
-      else if (k == "--seed")
-        a->seed = std::stoull(v);
-      else if (k == "--window")
-        a->window = std::stoi(v);
-      else if (k == "--json")
-        a->json = v;
-      else if (k == "--stages")
-        a->stages = v;
-      else if (k == "--lidar-rot-deg")
-        a->lidar_rot_deg = std::stod(v);
-      else if (k == "--lidar-trans-m")
-        a->lidar_trans_m = std::stod(v);
-      else if (k == "--windows")
-        a->windows = v;
-      else if (k == "--cov-cells") {
-        const auto x = v.find('x');
-        if (x == std::string::npos) throw std::invalid_argument(v);
-        a->cov_cells_x = std::stoi(v.substr(0, x));
-        a->cov_cells_y = std::stoi(v.substr(x + 1));
-      } else if (k == "--cov-model-scale")
-        a->cov_model_scale = std::stod(v);
-      else if (k == "--smooth-keypoints")
-        a->smooth_keypoints_px = std::stoi(v);
-      else if (k == "--depth-prior")
-        a->depth_prior = std::stod(v);
-      else if (k == "--free-depth-rounds")
-        a->free_depth_rounds = std::stoi(v);
-      else if (k == "--rematch-deg")
-        a->rematch_deg = std::stod(v);
-      else if (k == "--co-model-scale")
-        a->co_model_scale = std::stod(v);
-      else if (k == "--stereo-yaw")
-        a->stereo_yaw = std::stoi(v);
-      else if (k == "--stereo-scale")
-        a->stereo_scale = std::stoi(v);
-      else if (k == "--deskew")
-        a->deskew = std::stoi(v);
-      else if (k == "--check-halves")
-        a->check_halves = std::stoi(v);
-      else if (k == "--measure-offset")
-        a->measure_offset = std::stoi(v);
-      else if (k == "--coarse-nuisances")
-        a->coarse_nuisances = std::stoi(v);
-      else if (k == "--refine-smoothed-rounds") {
-        a->refine_smoothed = std::stoi(v);
-        if (a->refine_smoothed < 0) throw std::invalid_argument(v);
-      } else if (k == "--refine-iterations") {
-        a->refine_iterations = std::stoi(v);
-        if (a->refine_iterations < 0) throw std::invalid_argument(v);
-      } else if (k == "--lidar-sigma") {
-        const auto parts = split(v, ',');
-        if (parts.size() != 2) throw std::invalid_argument(v);
-        a->lidar_sigma_deg = std::stod(parts[0]);
-        a->lidar_sigma_m = std::stod(parts[1]);
-        if (!(a->lidar_sigma_deg >= 0 && a->lidar_sigma_m >= 0)) throw std::invalid_argument(v);
-      } else {
-        std::cerr << "tescalib_eval: unknown option " << k << "\n";
-        return false;
-      }
-    } catch (const std::exception&) {
-      std::cerr << "tescalib_eval: bad value '" << v << "' for " << k << "\n";
-      return false;
-    }
-  }
+    return true;
+  };
+  if (!cli::parseOptions(argc, argv, "tescalib_eval", usage, option)) return false;
   if (a->windows != "first" && a->windows != "disjoint") {
     std::cerr << "tescalib_eval: --windows must be first or disjoint\n";
     return false;

@@ -1,0 +1,54 @@
+// The command-line walk the tools share: "--key value" pairs, -h / --help, comma lists.
+#pragma once
+
+#include <cstdlib>
+#include <exception>
+#include <functional>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace tescalib::cli {
+
+/// "a,b,,c" -> {"a", "b", "c"}.
+inline std::vector<std::string> splitList(const std::string& s, char sep = ',') {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, sep);)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+/// Calls `option(key, value)` for every "--key value" pair of argv; -h / --help prints `usage`
+/// and exits with 0. `option` returns false for a key it does not know; an exception from it
+/// (std::stoi on "abc", or thrown for a value out of range) is a bad value. Every problem is
+/// reported on stderr, prefixed with `tool`, and makes the result false.
+inline bool parseOptions(
+    int argc, char** argv, const char* tool, void (*usage)(),
+    const std::function<bool(const std::string& key, const std::string& value)>& option) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    if (k == "-h" || k == "--help") {
+      usage();
+      std::exit(0);
+    }
+    if (i + 1 >= argc) {
+      std::cerr << tool << ": " << k << " needs a value\n";
+      return false;
+    }
+    const std::string v = argv[++i];
+    try {
+      if (!option(k, v)) {
+        std::cerr << tool << ": unknown option " << k << "\n";
+        return false;
+      }
+    } catch (const std::exception&) {
+      std::cerr << tool << ": bad value '" << v << "' for " << k << "\n";
+      return false;
+    }
+  }
+  return true;
+}
+
+}  // namespace tescalib::cli
