@@ -117,7 +117,8 @@ TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
   sim.writeSequence(tmp.str() + "/drive");
   const std::string base = tmp.str() + "/result";
   const ToolRun r = runCalibrate("--sequences " + tmp.str() + "/drive --perturb-rot-deg 2 " +
-                                 "--perturb-trans-m 0.2 --seed 3 --window 8 --out " + base);
+                                 "--perturb-trans-m 0.2 --seed 3 --window 8 --out " + base +
+                                 " --lidar-frame my_velo");
   std::cout << r.output;
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("8 keyframes, 0 rejected"), std::string::npos);
@@ -129,6 +130,8 @@ TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
   EXPECT_LT(err.head<3>().norm() * kDegPerRad, 0.1);
   EXPECT_LT(err.tail<3>().norm(), 0.015);
   EXPECT_NE(readAll(base + ".yaml").find("converged: true"), std::string::npos);
+  EXPECT_NE(readAll(base + "_static_tf.launch").find(" my_velo tescalib_left\"/>"),
+            std::string::npos);
 }
 
 TEST(CalibrateTool, WritesNothingItDoesNotTrust) {

@@ -16,6 +16,7 @@
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/kitti_reader.h"
 #include "tescalib/core/online_calibrator.h"
+
 #include "cli.h"
 
 using namespace tescalib;
@@ -31,6 +32,7 @@ struct Args {
   unsigned seed = 1;
   int deskew = -1;  // -1: as the data say (KittiSequence::sweptScans)
   std::string out;
+  std::string lidar_frame = "velo_link";
 };
 
 void usage() {
@@ -39,7 +41,7 @@ void usage() {
          "lidar_stereo|co]\n"
          "       [--window N] [--init CALIB.txt] [--perturb-rot-deg R --perturb-trans-m T "
          "[--seed S]]\n"
-         "       [--deskew 0|1] [--out BASE]\n"
+         "       [--deskew 0|1] [--out BASE [--lidar-frame NAME]]\n"
          "Calibrates the recording in DIR (KITTI odometry or raw layout; several folders of one\n"
          "rig are played one after the other) with the online pipeline, without ROS.\n"
          "--mode lidar_stereo: T_cam_lidar only (the stereo pair as calibrated); co: both\n"
@@ -53,7 +55,9 @@ void usage() {
          "--deskew: motion-compensate the scans (default: for raw recordings and swept\n"
          "  generated scans).\n"
          "--out BASE: write the last converged estimate to BASE.yaml, BASE_calib.txt and\n"
-         "  BASE_static_tf.launch (nothing is written when none converged).\n"
+         "  BASE_static_tf.launch (nothing is written when none converged); --lidar-frame:\n"
+         "  the LiDAR's tf frame in them (default velo_link, as kitti2bag; the cameras are\n"
+         "  tescalib_left and tescalib_right, as the node publishes them).\n"
          "Exit status: 0 when an estimate converged, 1 when none did or the data are unusable,\n"
          "2 on a usage error.\n";
 }
@@ -78,6 +82,8 @@ bool parse(int argc, char** argv, Args* a) {
       a->deskew = std::stoi(v);
     else if (k == "--out")
       a->out = v;
+    else if (k == "--lidar-frame")
+      a->lidar_frame = v;
     else
       return false;
     return true;
@@ -254,6 +260,8 @@ int main(int argc, char** argv) {
       // What the window gives, untrusted: for a look, not for use (nothing is written).
       std::printf("the last solve's result, not trusted (%d keyframes):\n", c->keyframes_used);
       printExtrinsic("T_cam_lidar", c->T_cam_lidar, c->cov_lidar, c->observable_lidar);
+      if (c->stereo_estimated)
+        printExtrinsic("T_right_left", c->T_right_left, c->cov_stereo, c->observable_stereo);
       std::printf("change from the initial guess: %s\n",
                   pose6(poseError(c->T_cam_lidar, rig.T_cam_lidar)).c_str());
     }
@@ -277,6 +285,7 @@ int main(int argc, char** argv) {
   if (!args.out.empty()) {
     std::string msg;
     CalibrationFrames frames;
+    frames.lidar = args.lidar_frame;
     if (!writeCalibrationFiles(args.out, calibrator.rig(), *e, frames, &msg)) {
       std::cerr << "tescalib_calibrate: " << msg << "\n";
       return 1;

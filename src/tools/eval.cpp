@@ -27,6 +27,7 @@
 #include "tescalib/core/parallel.h"
 #include "tescalib/core/photometric_solver.h"
 #include "tescalib/core/scan_motion.h"
+
 #include "cli.h"
 
 using namespace tescalib;
