@@ -1,4 +1,6 @@
-// kitti_to_bag round trip and the ROS conversions, without a master.
+// kitti_to_bag round trip, reading a bag's synchronized sets, and the ROS conversions, without a
+// master.
+#include <array>
 #include <cmath>
 #include <set>
 
@@ -15,8 +17,10 @@
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_msgs/TFMessage.h>
 
+#include "tescalib/core/error.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/simulator.h"
+#include "tescalib/ros/bag_sets.h"
 #include "tescalib/ros/conversions.h"
 #include "tescalib/ros/kitti_bag_writer.h"
 #include "test_util.h"
@@ -135,6 +139,53 @@ TEST(KittiToBag, ConvertsGeneratedSequences) {
   }
   EXPECT_EQ(counts["/kitti/velo/pointcloud"], 2);
   EXPECT_EQ(counts["/kitti/camera_color_right/image_raw"], 2);
+}
+
+TEST(BagSets, EachCloudTakesTheNearestImagesWithinTheSkew) {
+  // A bag as a real recording has it: images a few milliseconds off the cloud, recorded out of
+  // stamp order, one right image missing its cloud's tolerance, camera_info once at the start.
+  TempDir tmp;
+  const std::string path = tmp.str() + "/sets.bag";
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    auto stamped = [](auto msg, double t) {
+      msg.header.stamp = ros::Time(t);
+      return msg;
+    };
+    const BagTopics topics;
+    sensor_msgs::CameraInfo info;
+    bag.write(topics.left_info, ros::Time(99.9), stamped(info, 99.9));
+    bag.write(topics.right_info, ros::Time(99.9), stamped(info, 99.9));
+    const double clouds[] = {100.0, 100.1, 100.2, 100.3};
+    const double lefts[] = {100.01, 100.11, 100.21, 100.31};
+    const double rights[] = {99.98, 100.1, 100.28};  // nothing within 0.05 s of 100.2
+    for (double t : clouds)
+      bag.write(topics.points, ros::Time(t + 0.03), stamped(sensor_msgs::PointCloud2(), t));
+    for (double t : lefts)
+      bag.write(topics.left, ros::Time(t + 0.02), stamped(sensor_msgs::Image(), t));
+    for (double t : rights) bag.write(topics.right, ros::Time(t), stamped(sensor_msgs::Image(), t));
+  }
+  std::vector<std::array<double, 3>> sets;
+  const BagCounts n = readBagSets(path, BagTopics{}, [&](const BagSet& set) {
+    ASSERT_TRUE(set.left_info && set.right_info);
+    sets.push_back({set.cloud->header.stamp.toSec(), set.left->header.stamp.toSec(),
+                    set.right->header.stamp.toSec()});
+  });
+  EXPECT_EQ(n.clouds, 4);
+  EXPECT_EQ(n.left, 4);
+  EXPECT_EQ(n.right, 3);
+  EXPECT_EQ(n.sets, 3);
+  EXPECT_EQ(n.unmatched_clouds, 1);
+  ASSERT_EQ(sets.size(), 3u);
+  const double expected[3][3] = {
+      {100.0, 100.01, 99.98}, {100.1, 100.11, 100.1}, {100.3, 100.31, 100.28}};
+  for (size_t i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(sets[i][k], expected[i][k], 1e-6) << i << " " << k;
+  BagTopics elsewhere;
+  elsewhere.points = "/velodyne_points";
+  EXPECT_THROW(readBagSets(path, elsewhere, [](const BagSet&) {}), DataError);
+  EXPECT_THROW(readBagSets(tmp.str() + "/missing.bag", BagTopics{}, [](const BagSet&) {}),
+               DataError);
 }
 
 TEST(Conversions, CloudWithoutRingNaNsAndEmpty) {

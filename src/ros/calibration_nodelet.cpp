@@ -91,9 +91,9 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
                                         const Info& right_info) {
   StereoRig rig;
   std::string error;
-  if (!ros_conv::fromCameraInfo(left_info, &rig.left, &error) ||
-      !ros_conv::fromCameraInfo(right_info, &rig.right, &error)) {
-    NODELET_WARN_THROTTLE(5.0, "tescalib: unusable camera_info: %s", error.c_str());
+  if (!ros_conv::stereoFromCameraInfo(left_info, right_info, params_.initial_T_right_left.empty(),
+                                      &rig, &error)) {
+    NODELET_WARN_THROTTLE(5.0, "tescalib: %s", error.c_str());
     return false;
   }
   lidar_frame_ = params_.lidar_frame.empty() ? cloud.header.frame_id : params_.lidar_frame;
@@ -111,18 +111,8 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
       return false;
     }
   }
-  if (!params_.initial_T_right_left.empty()) {
+  if (!params_.initial_T_right_left.empty())
     rig.T_right_left = fromVector7(params_.initial_T_right_left);
-  } else {
-    if (right_info.P[3] >= 0) {
-      NODELET_WARN_THROTTLE(5.0,
-                            "tescalib: right camera_info P[3] = %f is not -fx*baseline; set "
-                            "initial/T_right_left",
-                            right_info.P[3]);
-      return false;
-    }
-    rig.T_right_left.translation() = Eigen::Vector3d(right_info.P[3] / right_info.P[0], 0, 0);
-  }
   if (params_.initial_perturb_rot_deg > 0 || params_.initial_perturb_trans_m > 0) {
     std::mt19937_64 rng(params_.initial_perturb_seed);
     rig.T_cam_lidar =

@@ -255,6 +255,23 @@ bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* c, st
   return true;
 }
 
+bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs::CameraInfo& right,
+                          bool baseline_from_p, StereoRig* rig, std::string* error) {
+  if (!fromCameraInfo(left, &rig->left, error) || !fromCameraInfo(right, &rig->right, error)) {
+    *error = "unusable camera_info: " + *error;
+    return false;
+  }
+  if (!baseline_from_p) return true;
+  if (right.P[3] >= 0) {
+    *error = "right camera_info P[3] = " + std::to_string(right.P[3]) +
+             " is not -fx*baseline; set initial/T_right_left";
+    return false;
+  }
+  rig->T_right_left = Eigen::Isometry3d::Identity();
+  rig->T_right_left.translation() = Eigen::Vector3d(right.P[3] / right.P[0], 0, 0);
+  return true;
+}
+
 bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error) {
   namespace enc = sensor_msgs::image_encodings;
   const std::string& e = msg.encoding;

@@ -1,8 +1,9 @@
-// tescalib_calibrate: calibrates a recording offline, without ROS. It feeds the keyframes of
-// KITTI-layout folders (odometry or raw layout, or tescalib_simulate output) through the same
-// OnlineCalibrator the nodelet runs, from the folders' own calibration (or --init FILE) as the
-// initial guess, prints every estimate the node would publish, and writes the last one as the
-// node's ~save service does (BASE.yaml, BASE_calib.txt, BASE_static_tf.launch).
+// tescalib_calibrate: calibrates a recording offline, as fast as the CPU allows, without a ROS
+// master. It feeds the keyframes of KITTI-layout folders (odometry or raw layout, or
+// tescalib_simulate output) or of a rosbag through the same OnlineCalibrator the nodelet runs,
+// from the data's own calibration (folders: calib.txt; bags: camera_info and /tf_static) or
+// --init FILE as the initial guess, prints every estimate the node would publish, and writes the
+// last one as the node's ~save service does (BASE.yaml, BASE_calib.txt, BASE_static_tf.launch).
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -11,11 +12,15 @@
 #include <string>
 #include <vector>
 
+#include <tf2/exceptions.h>
+
 #include "tescalib/core/calibration_io.h"
 #include "tescalib/core/error.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/kitti_reader.h"
 #include "tescalib/core/online_calibrator.h"
+#include "tescalib/ros/bag_sets.h"
+#include "tescalib/ros/conversions.h"
 
 #include "cli.h"
 
@@ -25,6 +30,8 @@ namespace {
 
 struct Args {
   std::vector<std::string> sequences;
+  std::string bag;
+  BagTopics topics;
   std::string mode = "lidar_stereo";
   int window = 0;  // 0: 20 keyframes (lidar_stereo), 10 (co, the paper's batch)
   std::string init;
@@ -37,13 +44,17 @@ struct Args {
 
 void usage() {
   std::cout
-      << "usage: rosrun tescalib tescalib_calibrate --sequences DIR[,DIR...] [--mode "
-         "lidar_stereo|co]\n"
+      << "usage: rosrun tescalib tescalib_calibrate --sequences DIR[,DIR...] | --bag FILE\n"
+         "       [--mode lidar_stereo|co]\n"
          "       [--window N] [--init CALIB.txt] [--perturb-rot-deg R --perturb-trans-m T "
          "[--seed S]]\n"
          "       [--deskew 0|1] [--out BASE [--lidar-frame NAME]]\n"
          "Calibrates the recording in DIR (KITTI odometry or raw layout; several folders of one\n"
-         "rig are played one after the other) with the online pipeline, without ROS.\n"
+         "rig are played one after the other) or in a rosbag with the online pipeline.\n"
+         "--bag FILE: topics as kitti.launch's (kitti2bag); --points, --left, --right TOPIC\n"
+         "  change them (camera_info: the image topic's folder + /camera_info); --max-skew S\n"
+         "  (default 0.05). Initial guess: camera_info and /tf_static (left camera frame <-\n"
+         "  cloud frame), or --init.\n"
          "--mode lidar_stereo: T_cam_lidar only (the stereo pair as calibrated); co: both\n"
          "  extrinsics (co-calibration).\n"
          "--window N: keyframes in the sliding window (default 20; co: 10).\n"
@@ -84,13 +95,23 @@ bool parse(int argc, char** argv, Args* a) {
       a->out = v;
     else if (k == "--lidar-frame")
       a->lidar_frame = v;
+    else if (k == "--bag")
+      a->bag = v;
+    else if (k == "--points")
+      a->topics.points = v;
+    else if (k == "--left" || k == "--right") {
+      const std::string info = v.substr(0, v.rfind('/') + 1) + "camera_info";
+      (k == "--left" ? a->topics.left : a->topics.right) = v;
+      (k == "--left" ? a->topics.left_info : a->topics.right_info) = info;
+    } else if (k == "--max-skew")
+      a->topics.max_skew = std::stod(v);
     else
       return false;
     return true;
   };
   if (!cli::parseOptions(argc, argv, "tescalib_calibrate", usage, option)) return false;
-  if (a->sequences.empty()) {
-    std::cerr << "tescalib_calibrate: --sequences is required\n";
+  if (a->sequences.empty() == a->bag.empty()) {
+    std::cerr << "tescalib_calibrate: give --sequences or --bag\n";
     return false;
   }
   if (a->mode != "lidar_stereo" && a->mode != "co") {
@@ -143,6 +164,234 @@ void printExtrinsic(const char* name, const Eigen::Isometry3d& T, const Matrix6d
   std::printf("  sigma %s; %s\n", sigma6(cov).c_str(), trusted(observable).c_str());
 }
 
+/// Feeds frames to the calibrator, solves as the node does after each new keyframe, and prints
+/// what happened to each keyframe.
+struct Session {
+  OnlineSettings settings;
+  std::unique_ptr<OnlineCalibrator> calibrator;  // made once the initial guess is known
+  Eigen::Isometry3d T_initial, T_reference, T_reference_stereo;
+  bool perturbed = false;
+  int keyframes = 0, rejected = 0, solves = 0, published = 0;
+  std::string last_solve;
+
+  /// The rig with its initial extrinsics; with --perturb-*, T_cam_lidar is moved away from them
+  /// (they stay the reference of the printed errors).
+  void start(StereoRig rig, const Args& args) {
+    T_reference = rig.T_cam_lidar;
+    T_reference_stereo = rig.T_right_left;
+    perturbed = args.perturb_rot_deg > 0 || args.perturb_trans_m > 0;
+    if (perturbed) {
+      std::mt19937_64 rng(args.seed);
+      rig.T_cam_lidar =
+          perturb(rig.T_cam_lidar,
+                  randomPerturbation(args.perturb_rot_deg / kDegPerRad, args.perturb_trans_m, rng));
+    }
+    T_initial = rig.T_cam_lidar;
+    std::printf("tescalib_calibrate: mode %s, window %d, %dx%d, fx %.2f, baseline %.4f m%s\n",
+                args.mode.c_str(), settings.window_size, rig.left.width, rig.left.height,
+                rig.left.fx, rig.baseline(), settings.deskew ? ", scans de-skewed" : "");
+    if (perturbed)
+      std::printf("initial T_cam_lidar %s from the data's calibration\n",
+                  pose6(poseError(rig.T_cam_lidar, T_reference)).c_str());
+    calibrator = std::make_unique<OnlineCalibrator>(rig, settings);
+  }
+
+  void add(const Frame& frame, double lidar_stamp, const std::string& label) {
+    std::string msg;
+    const FrameResult r = calibrator->addFrame(frame, lidar_stamp, &msg);
+    if (r == FrameResult::kRejected) {
+      std::printf("  %s rejected: %s\n", label.c_str(), msg.c_str());
+      ++rejected;
+      return;
+    }
+    if (r == FrameResult::kReset) std::printf("  %s: %s\n", label.c_str(), msg.c_str());
+    if (r != FrameResult::kKeyframe) return;
+    ++keyframes;
+    if (!msg.empty()) std::printf("  %s: %s\n", label.c_str(), msg.c_str());
+    if (!calibrator->readyToSolve()) return;
+    const bool changed = calibrator->solve(&last_solve);
+    ++solves;
+    std::printf("  keyframe %d (%s): ", keyframes, label.c_str());
+    const auto e = calibrator->estimate();
+    if (changed && e) {
+      ++published;
+      std::printf("new estimate");
+      if (perturbed)
+        std::printf(", error %s", pose6(poseError(e->T_cam_lidar, T_reference)).c_str());
+      std::printf(", %.2f s\n", e->solve_seconds);
+    } else {
+      std::printf("%s\n", last_solve.c_str());
+    }
+  }
+
+  /// The final estimate (or the last untrusted solve), the files; the exit status.
+  int report(const Args& args, double seconds) const {
+    std::printf("%d keyframes, %d rejected, %d solves, %d estimates, %.1f s\n", keyframes, rejected,
+                solves, published, seconds);
+    const auto e = calibrator ? calibrator->estimate() : std::nullopt;
+    if (!e) {
+      std::printf("no converged estimate%s%s\n", last_solve.empty() ? "" : ": ",
+                  last_solve.c_str());
+      if (keyframes < settings.minKeyframes())
+        std::printf("(%d keyframes; a solve needs %d)\n", keyframes, settings.minKeyframes());
+      if (const auto c = calibrator ? calibrator->lastSolve() : std::nullopt) {
+        // What the window gives, untrusted: for a look, not for use (nothing is written).
+        std::printf("the last solve's result, not trusted (%d keyframes):\n", c->keyframes_used);
+        printExtrinsic("T_cam_lidar", c->T_cam_lidar, c->cov_lidar, c->observable_lidar);
+        if (c->stereo_estimated)
+          printExtrinsic("T_right_left", c->T_right_left, c->cov_stereo, c->observable_stereo);
+        std::printf("change from the initial guess: %s\n",
+                    pose6(poseError(c->T_cam_lidar, T_initial)).c_str());
+      }
+      return 1;
+    }
+    std::printf("estimate from %d keyframes:\n", e->keyframes_used);
+    printExtrinsic("T_cam_lidar", e->T_cam_lidar, e->cov_lidar, e->observable_lidar);
+    if (e->stereo_estimated)
+      printExtrinsic("T_right_left", e->T_right_left, e->cov_stereo, e->observable_stereo);
+    else
+      std::printf("T_right_left: as calibrated (not estimated; --mode co estimates it)\n");
+    std::printf("change from the initial guess: %s\n",
+                pose6(poseError(e->T_cam_lidar, T_initial)).c_str());
+    if (perturbed) {
+      std::printf("error against the data's calibration: %s\n",
+                  pose6(poseError(e->T_cam_lidar, T_reference)).c_str());
+      if (e->stereo_estimated)
+        std::printf("T_right_left against the data's calibration: %s\n",
+                    pose6(poseError(e->T_right_left, T_reference_stereo)).c_str());
+    }
+    if (!args.out.empty()) {
+      std::string msg;
+      CalibrationFrames frames;
+      frames.lidar = args.lidar_frame;
+      if (!writeCalibrationFiles(args.out, calibrator->rig(), *e, frames, &msg)) {
+        std::cerr << "tescalib_calibrate: " << msg << "\n";
+        return 1;
+      }
+      std::printf("%s\n", msg.c_str());
+    }
+    return 0;
+  }
+};
+
+/// The extrinsics of a KITTI calib.txt (--init) over the rig's; its intrinsics are not used.
+void applyInit(const std::string& path, StereoRig* rig) {
+  const StereoRig init = rigFromOdometryCalib(readKittiOdometryCalib(path));
+  if (std::fabs(init.left.fx - rig->left.fx) > 1e-3)
+    std::printf("note: %s has fx %.3f, the data %.3f: only its extrinsics are used\n", path.c_str(),
+                init.left.fx, rig->left.fx);
+  rig->T_cam_lidar = init.T_cam_lidar;
+  rig->T_right_left = init.T_right_left;
+}
+
+/// KITTI-layout folders: their keyframes, sequence after sequence (1 s apart).
+void runSequences(const Args& args, Session* session) {
+  const auto seqs = openSequences(args.sequences);
+  StereoRig rig = seqs.front()->rig();
+  if (!args.init.empty()) applyInit(args.init, &rig);
+  session->settings.deskew = args.deskew < 0 ? seqs.front()->sweptScans() : args.deskew > 0;
+  std::printf("%zu sequence(s)\n", seqs.size());
+  session->start(rig, args);
+  double offset = 0;
+  for (const auto& seq : seqs) {
+    double last = offset;
+    for (size_t i : seq->keyframes(session->settings.keyframe_min_dt)) {
+      const std::string label = seq->dir() + " frame " + std::to_string(seq->frameId(i));
+      Frame frame;
+      try {
+        frame = seq->load(i);
+        if (session->settings.deskew) {
+          if (i == 0) {
+            std::printf("  %s: no earlier scan to de-skew with, skipped\n", label.c_str());
+            continue;
+          }
+          session->calibrator->setPreviousScan(std::make_shared<LidarScan>(seq->loadScan(i - 1)),
+                                               seq->stamp(i - 1) + offset);
+        }
+      } catch (const DataError& e) {
+        std::printf("  %s: %s\n", label.c_str(), e.what());
+        ++session->rejected;
+        continue;
+      }
+      frame.stamp += offset;
+      last = frame.stamp;
+      session->add(frame, frame.stamp, label);
+    }
+    offset = last + 1.0;
+  }
+}
+
+/// A rosbag: its synchronized sets in order; keyframe candidates (>= min_dt after the last one)
+/// are converted, the others skipped (with de-skewing, their scans are kept for the next one).
+void runBag(const Args& args, Session* session) {
+  tf2::BufferCore tf;
+  readBagStaticTf(args.bag, &tf);
+  double last_candidate = -1e300;
+  std::shared_ptr<const LidarScan> previous_scan;
+  double previous_stamp = 0;
+  const BagCounts n = readBagSets(args.bag, args.topics, [&](const BagSet& set) {
+    const double stamp = set.left->header.stamp.toSec();
+    char label[64];
+    std::snprintf(label, sizeof label, "set at %.2f s", stamp);
+    std::string error;
+    if (!session->calibrator) {
+      StereoRig rig;
+      if (!ros_conv::stereoFromCameraInfo(*set.left_info, *set.right_info, args.init.empty(), &rig,
+                                          &error))
+        throw DataError(args.bag + ": " + error);
+      if (!args.init.empty()) {
+        applyInit(args.init, &rig);
+      } else {
+        const std::string cam = set.left_info->header.frame_id.empty()
+                                    ? set.left->header.frame_id
+                                    : set.left_info->header.frame_id;
+        try {
+          rig.T_cam_lidar = ros_conv::fromTransformMsg(
+              tf.lookupTransform(cam, set.cloud->header.frame_id, ros::Time(0)).transform);
+        } catch (const tf2::TransformException& e) {
+          throw DataError(args.bag + ": no initial extrinsic on /tf_static (" + cam + " <- " +
+                          set.cloud->header.frame_id + ": " + e.what() + "); give --init FILE");
+        }
+      }
+      session->start(rig, args);
+    }
+    const bool candidate = !(stamp >= last_candidate &&
+                             stamp - last_candidate < session->settings.keyframe_min_dt - 1e-3);
+    if (!candidate && !session->settings.deskew) return;
+    Frame frame;
+    frame.stamp = stamp;
+    if (!ros_conv::fromPointCloud2(*set.cloud, &frame.scan, &error)) {
+      if (candidate) std::printf("  %s: point cloud rejected: %s\n", label, error.c_str());
+      session->rejected += candidate;
+      return;
+    }
+    if (session->settings.deskew) {
+      if (previous_scan) session->calibrator->setPreviousScan(previous_scan, previous_stamp);
+      previous_scan = std::make_shared<const LidarScan>(frame.scan);
+      previous_stamp = set.cloud->header.stamp.toSec();
+      if (!candidate) return;
+    }
+    if (!ros_conv::toBgr8(*set.left, &frame.left, &error) ||
+        !ros_conv::toBgr8(*set.right, &frame.right, &error)) {
+      std::printf("  %s: image rejected: %s\n", label, error.c_str());
+      ++session->rejected;
+      return;
+    }
+    last_candidate = stamp;
+    session->add(frame, set.cloud->header.stamp.toSec(), label);
+  });
+  if (n.sets == 0)
+    throw DataError(args.bag + ": no synchronized sets (" + std::to_string(n.clouds) +
+                    " clouds on " + args.topics.points + ", " + std::to_string(n.left) +
+                    " images on " + args.topics.left + ", " + std::to_string(n.right) + " on " +
+                    args.topics.right + "; camera_info on " + args.topics.left_info + " and " +
+                    args.topics.right_info + "): check --points, --left, --right, --max-skew");
+  std::printf(
+      "bag: %d clouds, %d left and %d right images, %d synchronized sets, %d clouds "
+      "without images within %.3f s\n",
+      n.clouds, n.left, n.right, n.sets, n.unmatched_clouds, args.topics.max_skew);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -151,146 +400,21 @@ int main(int argc, char** argv) {
     usage();
     return 2;
   }
-  std::vector<std::unique_ptr<KittiSequence>> seqs;
-  StereoRig rig;
+  Session session;
+  session.settings.estimate_stereo = args.mode == "co";
+  session.settings.window_size =
+      args.window > 0 ? args.window : (session.settings.estimate_stereo ? 10 : 20);
+  session.settings.deskew = args.deskew > 0;
+  const auto t_start = std::chrono::steady_clock::now();
   try {
-    seqs = openSequences(args.sequences);
-    rig = seqs.front()->rig();
-    if (!args.init.empty()) {
-      const StereoRig init = rigFromOdometryCalib(readKittiOdometryCalib(args.init));
-      if (std::fabs(init.left.fx - rig.left.fx) > 1e-3)
-        std::printf("note: %s has fx %.3f, the data %.3f: only its extrinsics are used\n",
-                    args.init.c_str(), init.left.fx, rig.left.fx);
-      rig.T_cam_lidar = init.T_cam_lidar;
-      rig.T_right_left = init.T_right_left;
-    }
+    if (args.bag.empty())
+      runSequences(args, &session);
+    else
+      runBag(args, &session);
   } catch (const DataError& e) {
     std::cerr << "tescalib_calibrate: " << e.what() << "\n";
     return 1;
   }
-  // The errors' reference with --perturb (the stereo pair is not perturbed).
-  const Eigen::Isometry3d T_reference = rig.T_cam_lidar, T_reference_stereo = rig.T_right_left;
-  const bool perturbed = args.perturb_rot_deg > 0 || args.perturb_trans_m > 0;
-  if (perturbed) {
-    std::mt19937_64 rng(args.seed);
-    rig.T_cam_lidar = perturb(rig.T_cam_lidar, randomPerturbation(args.perturb_rot_deg / kDegPerRad,
-                                                                  args.perturb_trans_m, rng));
-  }
-
-  OnlineSettings settings;
-  settings.estimate_stereo = args.mode == "co";
-  settings.window_size = args.window > 0 ? args.window : (settings.estimate_stereo ? 10 : 20);
-  settings.deskew = args.deskew < 0 ? seqs.front()->sweptScans() : args.deskew > 0;
-  std::printf(
-      "tescalib_calibrate: %zu sequence(s), mode %s, window %d, %dx%d, fx %.2f, baseline "
-      "%.4f m\n",
-      seqs.size(), args.mode.c_str(), settings.window_size, rig.left.width, rig.left.height,
-      rig.left.fx, rig.baseline());
-  if (perturbed)
-    std::printf("initial T_cam_lidar %s from the data's calibration\n",
-                pose6(poseError(rig.T_cam_lidar, T_reference)).c_str());
-
-  OnlineCalibrator calibrator(rig, settings);
-  const auto t_start = std::chrono::steady_clock::now();
-  double offset = 0;  // stamps of later sequences follow the earlier ones (1 s apart)
-  int keyframes = 0, rejected = 0, solves = 0, published = 0;
-  std::string last_solve;
-  for (const auto& seq : seqs) {
-    double last = offset;
-    for (size_t i : seq->keyframes(settings.keyframe_min_dt)) {
-      Frame frame;
-      try {
-        frame = seq->load(i);
-        if (settings.deskew) {
-          if (i == 0) {
-            std::printf("  %s frame %d: no earlier scan to de-skew with, skipped\n",
-                        seq->dir().c_str(), seq->frameId(i));
-            continue;
-          }
-          calibrator.setPreviousScan(std::make_shared<LidarScan>(seq->loadScan(i - 1)),
-                                     seq->stamp(i - 1) + offset);
-        }
-      } catch (const DataError& e) {
-        std::printf("  %s frame %d: %s\n", seq->dir().c_str(), seq->frameId(i), e.what());
-        ++rejected;
-        continue;
-      }
-      frame.stamp += offset;
-      last = frame.stamp;
-      std::string msg;
-      const FrameResult r = calibrator.addFrame(frame, frame.stamp, &msg);
-      if (r == FrameResult::kRejected) {
-        std::printf("  %s frame %d rejected: %s\n", seq->dir().c_str(), seq->frameId(i),
-                    msg.c_str());
-        ++rejected;
-        continue;
-      }
-      if (r != FrameResult::kKeyframe) continue;
-      ++keyframes;
-      if (!msg.empty())
-        std::printf("  %s frame %d: %s\n", seq->dir().c_str(), seq->frameId(i), msg.c_str());
-      if (!calibrator.readyToSolve()) continue;
-      const bool changed = calibrator.solve(&last_solve);
-      ++solves;
-      const auto e = calibrator.estimate();
-      std::printf("  keyframe %d (%s frame %d): ", keyframes, seq->dir().c_str(), seq->frameId(i));
-      if (!changed) std::printf("%s", last_solve.c_str());
-      if (changed && e) {
-        std::printf("new estimate");
-        ++published;
-        if (perturbed)
-          std::printf(", error %s", pose6(poseError(e->T_cam_lidar, T_reference)).c_str());
-        std::printf(", %.2f s", e->solve_seconds);
-      }
-      std::printf("\n");
-    }
-    offset = last + 1.0;
-  }
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-  std::printf("%d keyframes, %d rejected, %d solves, %d estimates, %.1f s\n", keyframes, rejected,
-              solves, published, seconds);
-
-  const auto e = calibrator.estimate();
-  if (!e) {
-    std::printf("no converged estimate%s%s\n", last_solve.empty() ? "" : ": ", last_solve.c_str());
-    if (keyframes < settings.minKeyframes())
-      std::printf("(%d keyframes; a solve needs %d)\n", keyframes, settings.minKeyframes());
-    if (const auto c = calibrator.lastSolve()) {
-      // What the window gives, untrusted: for a look, not for use (nothing is written).
-      std::printf("the last solve's result, not trusted (%d keyframes):\n", c->keyframes_used);
-      printExtrinsic("T_cam_lidar", c->T_cam_lidar, c->cov_lidar, c->observable_lidar);
-      if (c->stereo_estimated)
-        printExtrinsic("T_right_left", c->T_right_left, c->cov_stereo, c->observable_stereo);
-      std::printf("change from the initial guess: %s\n",
-                  pose6(poseError(c->T_cam_lidar, rig.T_cam_lidar)).c_str());
-    }
-    return 1;
-  }
-  std::printf("estimate from %d keyframes:\n", e->keyframes_used);
-  printExtrinsic("T_cam_lidar", e->T_cam_lidar, e->cov_lidar, e->observable_lidar);
-  if (e->stereo_estimated)
-    printExtrinsic("T_right_left", e->T_right_left, e->cov_stereo, e->observable_stereo);
-  else
-    std::printf("T_right_left: as calibrated (not estimated; --mode co estimates it)\n");
-  std::printf("change from the initial guess: %s\n",
-              pose6(poseError(e->T_cam_lidar, rig.T_cam_lidar)).c_str());
-  if (perturbed) {
-    std::printf("error against the data's calibration: %s\n",
-                pose6(poseError(e->T_cam_lidar, T_reference)).c_str());
-    if (e->stereo_estimated)
-      std::printf("T_right_left against the data's calibration: %s\n",
-                  pose6(poseError(e->T_right_left, T_reference_stereo)).c_str());
-  }
-  if (!args.out.empty()) {
-    std::string msg;
-    CalibrationFrames frames;
-    frames.lidar = args.lidar_frame;
-    if (!writeCalibrationFiles(args.out, calibrator.rig(), *e, frames, &msg)) {
-      std::cerr << "tescalib_calibrate: " << msg << "\n";
-      return 1;
-    }
-    std::printf("%s\n", msg.c_str());
-  }
-  return 0;
+  return session.report(
+      args, std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count());
 }

@@ -45,6 +45,12 @@ sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, double Tx,
 /// message when P is zero or the size is missing.
 bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* c, std::string* error);
 
+/// Both cameras' intrinsics from their camera_info and, with `baseline_from_p`, the rectified
+/// pair's T_right_left = [I | (P[3] / P[0], 0, 0)] from the right one's P[3] = -fx * baseline.
+/// False with a message when either is unusable or that P[3] is not negative.
+bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs::CameraInfo& right,
+                          bool baseline_from_p, StereoRig* rig, std::string* error);
+
 /// Image message (bgr8, rgb8, mono8, bgra8, rgba8, mono16) -> CV_8UC3 BGR. False with a message
 /// on an encoding that cannot be used.
 bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error);
