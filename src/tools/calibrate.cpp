@@ -176,7 +176,7 @@ struct Session {
 
   /// The rig with its initial extrinsics; with --perturb-*, T_cam_lidar is moved away from them
   /// (they stay the reference of the printed errors).
-  void start(StereoRig rig, const Args& args) {
+  void start(StereoRig rig, const Args& args, const std::string& source) {
     T_reference = rig.T_cam_lidar;
     T_reference_stereo = rig.T_right_left;
     perturbed = args.perturb_rot_deg > 0 || args.perturb_trans_m > 0;
@@ -187,9 +187,10 @@ struct Session {
                   randomPerturbation(args.perturb_rot_deg / kDegPerRad, args.perturb_trans_m, rng));
     }
     T_initial = rig.T_cam_lidar;
-    std::printf("tescalib_calibrate: mode %s, window %d, %dx%d, fx %.2f, baseline %.4f m%s\n",
-                args.mode.c_str(), settings.window_size, rig.left.width, rig.left.height,
-                rig.left.fx, rig.baseline(), settings.deskew ? ", scans de-skewed" : "");
+    std::printf("tescalib_calibrate: %s, mode %s, window %d, %dx%d, fx %.2f, baseline %.4f m%s\n",
+                source.c_str(), args.mode.c_str(), settings.window_size, rig.left.width,
+                rig.left.height, rig.left.fx, rig.baseline(),
+                settings.deskew ? ", scans de-skewed" : "");
     if (perturbed)
       std::printf("initial T_cam_lidar %s from the data's calibration\n",
                   pose6(poseError(rig.T_cam_lidar, T_reference)).c_str());
@@ -290,8 +291,7 @@ void runSequences(const Args& args, Session* session) {
   StereoRig rig = seqs.front()->rig();
   if (!args.init.empty()) applyInit(args.init, &rig);
   session->settings.deskew = args.deskew < 0 ? seqs.front()->sweptScans() : args.deskew > 0;
-  std::printf("%zu sequence(s)\n", seqs.size());
-  session->start(rig, args);
+  session->start(rig, args, std::to_string(seqs.size()) + " sequence(s)");
   double offset = 0;
   for (const auto& seq : seqs) {
     double last = offset;
@@ -353,7 +353,7 @@ void runBag(const Args& args, Session* session) {
                           set.cloud->header.frame_id + ": " + e.what() + "); give --init FILE");
         }
       }
-      session->start(rig, args);
+      session->start(rig, args, "bag " + args.bag);
     }
     const bool candidate = !(stamp >= last_candidate &&
                              stamp - last_candidate < session->settings.keyframe_min_dt - 1e-3);
