@@ -4,6 +4,7 @@
 #include <array>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <string>
 
@@ -43,6 +44,16 @@ ToolRun runCalibrate(const std::string& args) {
   const int status = pclose(p);
   r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
+}
+
+/// A generated urban drive written to TMP/drive; its simulator holds the ground truth.
+std::unique_ptr<Simulator> writeDrive(const TempDir& tmp, int frames, uint64_t seed) {
+  SimOptions o;
+  o.frames = frames;
+  o.seed = seed;
+  auto sim = std::make_unique<Simulator>(o);
+  sim->writeSequence(tmp.str() + "/drive");
+  return sim;
 }
 
 OnlineEstimate someEstimate() {
@@ -111,21 +122,17 @@ TEST(CalibrationIo, UnwritableFolderIsNamed) {
 
 TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
   TempDir tmp;
-  SimOptions o;
-  o.frames = 36;  // 8 keyframes
-  o.seed = 7;
-  const Simulator sim(o);
-  sim.writeSequence(tmp.str() + "/drive");
+  const auto sim = writeDrive(tmp, 36, 7);  // 8 keyframes
   const std::string base = tmp.str() + "/result";
   const ToolRun r = runCalibrate("--sequences " + tmp.str() + "/drive --perturb-rot-deg 2 " +
                                  "--perturb-trans-m 0.2 --seed 3 --window 8 --out " + base +
                                  " --lidar-frame my_velo");
   std::cout << r.output;
   ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("initial T_cam_lidar"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("8 keyframes, 0 rejected"), std::string::npos);
   const StereoRig back = rigFromOdometryCalib(readKittiOdometryCalib(base + "_calib.txt"));
-  EXPECT_NE(r.output.find("initial T_cam_lidar"), std::string::npos) << r.output;
-  const Vector6d err = poseError(back.T_cam_lidar, sim.rig().T_cam_lidar);
+  const Vector6d err = poseError(back.T_cam_lidar, sim->rig().T_cam_lidar);
   std::cout << "[ calibrate] error " << err.head<3>().norm() * kDegPerRad << " deg, "
             << err.tail<3>().norm() * 100 << " cm\n";
   EXPECT_LT(err.head<3>().norm() * kDegPerRad, 0.1);
@@ -139,11 +146,7 @@ TEST(CalibrateTool, CalibratesFromABagAsFromItsFolder) {
   // The same drive as a kitti2bag-style bag: intrinsics from camera_info, the initial guess from
   // /tf_static, the sets read in order without playing the bag.
   TempDir tmp;
-  SimOptions o;
-  o.frames = 31;  // 7 keyframes
-  o.seed = 8;
-  const Simulator sim(o);
-  sim.writeSequence(tmp.str() + "/drive");
+  const auto sim = writeDrive(tmp, 31, 8);  // 7 keyframes
   writeKittiBag(KittiSequence(tmp.str() + "/drive"), tmp.str() + "/drive.bag");
   const ToolRun folder =
       runCalibrate("--sequences " + tmp.str() + "/drive --perturb-rot-deg 2 --perturb-trans-m 0.2");
@@ -163,7 +166,7 @@ TEST(CalibrateTool, CalibratesFromABagAsFromItsFolder) {
   EXPECT_EQ(last(bag.output).substr(0, 90), last(folder.output).substr(0, 90));
   const StereoRig back =
       rigFromOdometryCalib(readKittiOdometryCalib(tmp.str() + "/result_calib.txt"));
-  const Vector6d err = poseError(back.T_cam_lidar, sim.rig().T_cam_lidar);
+  const Vector6d err = poseError(back.T_cam_lidar, sim->rig().T_cam_lidar);
   EXPECT_LT(err.head<3>().norm() * kDegPerRad, 0.1);
   EXPECT_LT(err.tail<3>().norm(), 0.015);
 }
