@@ -354,6 +354,12 @@ void runBag(const Args& args, Session* session) {
         }
       }
       session->start(rig, args, "bag " + args.bag);
+      const std::string time_field = ros_conv::perPointTimeField(*set.cloud);
+      if (!time_field.empty() && !session->settings.deskew)
+        std::printf(
+            "note: the clouds have a per-point time field ('%s'): raw sweeps, which the "
+            "vehicle's motion skews; --deskew 1 unless the driver compensated them\n",
+            time_field.c_str());
     }
     const bool candidate = !(stamp >= last_candidate &&
                              stamp - last_candidate < session->settings.keyframe_min_dt - 1e-3);
