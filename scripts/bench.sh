@@ -46,6 +46,14 @@ if [ "$BENCH" != kitti ]; then
   run "sim_urban_tescalib_10deg_scale_yaw" --sequences "$URBAN" --mode lidar_stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20 \
     --stereo-scale 1 --stereo-yaw 1
+  # The offline tool on the same drive, from its folder and from its bag (README, "Calibrating a
+  # recording offline"): the node's pipeline, as fast as the CPU allows.
+  echo "=== tescalib_calibrate (folder, then bag), 3 deg / 0.3 m"
+  rosrun tescalib tescalib_calibrate --sequences "$URBAN" --perturb-rot-deg 3 --perturb-trans-m 0.3 |
+    grep -E '^[0-9]+ keyframes|^error against'
+  [ -f "$OUT/sim_urban_s1.bag" ] || rosrun tescalib kitti_to_bag --in "$URBAN" --out "$OUT/sim_urban_s1.bag" > /dev/null
+  rosrun tescalib tescalib_calibrate --bag "$OUT/sim_urban_s1.bag" --perturb-rot-deg 3 --perturb-trans-m 0.3 |
+    grep -E '^[0-9]+ keyframes|^error against'
   # Raw swept scans (the same drive, each scan swept over its revolution): de-skewed (the
   # default for such data) and as they are (README, "Motion compensation").
   SWEPT=$(simulate_swept urban 1 100)
