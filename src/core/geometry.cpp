@@ -65,6 +65,14 @@ Eigen::Vector3d randomUnitVector(std::mt19937_64& rng) {
 }
 }  // namespace
 
+std::string untrustedAxes(const bool trusted[6]) {
+  static const char* kAxes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
+  std::string out;
+  for (int i = 0; i < 6; ++i)
+    if (!trusted[i]) out += std::string(out.empty() ? "" : " ") + kAxes[i];
+  return out;
+}
+
 Vector6d randomPerturbation(double rot_rad, double trans_m, std::mt19937_64& rng) {
   Vector6d d;
   d.head<3>() = rot_rad * randomUnitVector(rng);

@@ -59,8 +59,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
       previous_scan_ = std::make_shared<const LidarScan>(frame.scan);
       previous_scan_stamp_ = frame.stamp;
     }
-    if (frame.stamp - last_keyframe_stamp_ < settings_.keyframe_min_dt - 1e-3)
-      return FrameResult::kTooClose;
+    if (settings_.tooClose(frame.stamp, last_keyframe_stamp_)) return FrameResult::kTooClose;
     last_keyframe_stamp_ = frame.stamp;
     T_cl = estimate_ ? estimate_->T_cam_lidar : rig_.T_cam_lidar;
     T_rl = estimate_ ? estimate_->T_right_left : rig_.T_right_left;

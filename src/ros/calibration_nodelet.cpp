@@ -141,8 +141,8 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
   const double stamp = left->header.stamp.toSec();
   publishTf(left->header.stamp);  // every set, so tf lookups at any image stamp interpolate
   // Cheap keyframe pre-selection here; time going backwards is passed on (the window resets).
-  const bool candidate = !(stamp >= last_enqueued_stamp_ &&
-                           stamp - last_enqueued_stamp_ < params_.online.keyframe_min_dt - 1e-3);
+  const bool candidate =
+      stamp < last_enqueued_stamp_ || !params_.online.tooClose(stamp, last_enqueued_stamp_);
   // De-skewing registers a keyframe's scan to the set before it: keep every set's scan.
   if (!candidate && !params_.online.deskew) return;
   PendingFrame pf;

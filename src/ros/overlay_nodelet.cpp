@@ -7,6 +7,7 @@
 
 #include <pluginlib/class_list_macros.hpp>
 
+#include "tescalib/core/geometry.h"
 #include "tescalib/core/overlay.h"
 #include "tescalib/ros/conversions.h"
 
@@ -21,10 +22,9 @@ std::string statusLine(const char* name, const ExtrinsicEstimate& e) {
   if (rot == 0 && trans == 0)  // T_right_left is the initial one: LiDAR-stereo only, or
     return std::string(name) +  // co-calibration has not run yet (co_calibration/lidar_first)
            ": fixed at its initial value (not estimated)";
-  static const char* axes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
-  std::string weak;
-  for (int i = 0; i < 6; ++i)
-    if (!e.observable[i]) weak += std::string(weak.empty() ? "" : " ") + axes[i];
+  bool observable[6];
+  std::copy(e.observable.begin(), e.observable.end(), observable);
+  const std::string weak = untrustedAxes(observable);
   char buf[256];
   std::snprintf(buf, sizeof(buf), "%s: %s, %u kf, sigma <= %.3f deg / %.2f cm, weak: %s", name,
                 e.converged ? "converged" : "not converged", e.keyframes_used, rot, 100 * trans,

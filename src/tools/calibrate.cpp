@@ -148,10 +148,7 @@ std::string sigma6(const Matrix6d& cov) {
 }
 
 std::string trusted(const bool observable[6]) {
-  static const char* kAxis[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
-  std::string weak;
-  for (int i = 0; i < 6; ++i)
-    if (!observable[i]) weak += std::string(weak.empty() ? "" : " ") + kAxis[i];
+  const std::string weak = untrustedAxes(observable);
   return weak.empty() ? "every axis trusted" : "not trusted: " + weak;
 }
 
@@ -361,8 +358,8 @@ void runBag(const Args& args, Session* session) {
             "vehicle's motion skews; --deskew 1 unless the driver compensated them\n",
             time_field.c_str());
     }
-    const bool candidate = !(stamp >= last_candidate &&
-                             stamp - last_candidate < session->settings.keyframe_min_dt - 1e-3);
+    const bool candidate =
+        stamp < last_candidate || !session->settings.tooClose(stamp, last_candidate);
     if (!candidate && !session->settings.deskew) return;
     Frame frame;
     frame.stamp = stamp;

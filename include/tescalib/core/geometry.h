@@ -4,6 +4,7 @@
 
 #include <array>
 #include <random>
+#include <string>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -38,6 +39,9 @@ void addAxisVariances(Matrix6d* covariance, const std::array<double, 3>& sigma_r
 /// true when every axis is.
 bool axesWithin(const Matrix6d& covariance, double max_sigma_rot_deg, double max_sigma_trans_m,
                 bool trusted[6]);
+
+/// The names of the axes not trusted, "rx ry rz tx ty tz" order, space-separated ("" when none).
+std::string untrustedAxes(const bool trusted[6]);
 
 /// A perturbation whose rotation has exactly `rot_rad` about a uniformly random axis and whose
 /// translation has exactly `trans_m` in a uniformly random direction.

@@ -32,6 +32,11 @@ struct OnlineSettings {
   /// T_cam_lidar comes as early as without co-calibration and the first alternation starts from
   /// it. Off: nothing is published before the first co-calibration.
   bool lidar_first = true;
+  /// Whether a frame at `stamp` is too close after the keyframe at `last_keyframe_stamp` to be
+  /// one (the one spacing rule of the calibrator and of the callers' cheap pre-selection).
+  bool tooClose(double stamp, double last_keyframe_stamp) const {
+    return stamp - last_keyframe_stamp < keyframe_min_dt - 1e-3;
+  }
   int minKeyframes() const {
     return estimate_stereo && !lidar_first ? std::max(min_keyframes, min_keyframes_co)
                                            : min_keyframes;
