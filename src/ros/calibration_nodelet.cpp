@@ -94,6 +94,7 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
   if (!ros_conv::stereoFromCameraInfo(left_info, right_info, params_.initial_T_right_left.empty(),
                                       &rig, &error)) {
     NODELET_WARN_THROTTLE(5.0, "tescalib: %s", error.c_str());
+    noteProblem(error);
     return false;
   }
   lidar_frame_ = params_.lidar_frame.empty() ? cloud.header.frame_id : params_.lidar_frame;
@@ -105,9 +106,11 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
                                                  ros::Time(0), ros::Duration(0.5));
       rig.T_cam_lidar = tf2::transformToEigen(t.transform);
     } catch (const tf2::TransformException& ex) {
-      NODELET_WARN_THROTTLE(5.0, "tescalib: no initial extrinsic: tf %s -> %s: %s",
-                            lidar_frame_.c_str(), params_.initial_tf_camera_frame.c_str(),
-                            ex.what());
+      const std::string what = "no initial extrinsic: tf " + lidar_frame_ + " -> " +
+                               params_.initial_tf_camera_frame + ": " + ex.what() +
+                               " (publish it, or set initial/T_cam_lidar)";
+      NODELET_WARN_THROTTLE(5.0, "tescalib: %s", what.c_str());
+      noteProblem(what);
       return false;
     }
   }
@@ -152,6 +155,7 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     if (!candidate) return;
     ++rejected_;
     NODELET_WARN_THROTTLE(5.0, "tescalib: point cloud rejected: %s", error.c_str());
+    noteProblem("point cloud rejected: " + error);
     return;
   }
   if (params_.online.deskew) {
@@ -180,6 +184,7 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
       !ros_conv::toBgr8(*right, &pf.frame.right, &error)) {
     ++rejected_;
     NODELET_WARN_THROTTLE(5.0, "tescalib: image rejected: %s", error.c_str());
+    noteProblem("image rejected: " + error);
     return;
   }
   pf.frame.stamp = stamp;
@@ -231,22 +236,21 @@ void CalibrationNodelet::preprocessLoop() {
                     build_s, fill);
       if (!msg.empty()) {
         NODELET_WARN("tescalib: %s", msg.c_str());
-        std::lock_guard<std::mutex> lock(mutex_);
-        last_problem_ = msg;
+        noteProblem(msg);
       }
       ++keyframes_;
       solve_requested_ = true;
       cv_.notify_all();
     } else if (r == FrameResult::kReset) {
       NODELET_WARN("tescalib: %s", msg.c_str());
+      noteProblem(msg);
       last_enqueued_stamp_ = pf.frame.stamp;
       std::lock_guard<std::mutex> lock(mutex_);
       unsolved_arrivals_.clear();
     } else if (r == FrameResult::kRejected) {
       ++rejected_;
       NODELET_WARN_THROTTLE(5.0, "tescalib: frame rejected: %s", msg.c_str());
-      std::lock_guard<std::mutex> lock(mutex_);
-      last_problem_ = msg;
+      noteProblem("frame rejected: " + msg);
     }
   }
 }
@@ -372,12 +376,14 @@ void CalibrationNodelet::publishTf(const ros::Time& stamp) {
 
 void CalibrationNodelet::watchdog(const ros::WallTimerEvent&) {
   diagnostics_->force_update();
-  if (images_seen_ > 20 && sync_sets_ == 0)
-    NODELET_WARN_THROTTLE(10.0,
-                          "tescalib: %d images but no synchronized set: check that points, "
-                          "left/right image_raw and both camera_info topics are published with "
-                          "matching stamps (sync/approximate, sync/max_skew)",
-                          images_seen_.load());
+  if (images_seen_ > 20 && sync_sets_ == 0) {
+    const std::string what =
+        std::to_string(images_seen_.load()) +
+        " images but no synchronized set: check that points, left/right image_raw and both "
+        "camera_info topics are published with matching stamps (sync/approximate, sync/max_skew)";
+    NODELET_WARN_THROTTLE(10.0, "tescalib: %s", what.c_str());
+    noteProblem(what);
+  }
 }
 
 bool CalibrationNodelet::onReset(Reset::Request&, Reset::Response& res) {
@@ -403,6 +409,11 @@ bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
   frames.right = params_.right_frame;
   res.success = writeCalibrationFiles(base, calibrator()->rig(), *e, frames, &res.message);
   return true;
+}
+
+void CalibrationNodelet::noteProblem(const std::string& what) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  last_problem_ = what;
 }
 
 void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {

@@ -82,6 +82,9 @@ class CalibrationNodelet : public nodelet::Nodelet {
   bool onReset(Reset::Request& req, Reset::Response& res);
   bool onSave(Save::Request& req, Save::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /// Keeps `what` as /diagnostics' "last problem" (every rejection and start-up problem: the
+  /// log lines are throttled, the diagnostics say what happened last).
+  void noteProblem(const std::string& what);
 
   NodeParams params_;
   /// Created once, on the first synchronized set (sync thread), then read by the worker threads,
