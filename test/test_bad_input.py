@@ -1,10 +1,12 @@
 #!/usr/bin/env python3
-"""Bad input to the running node (test/bad_input.test): CalibrationNodelet in a nodelet manager,
+"""Bad input to the running nodes (test/bad_input.test): CalibrationNodelet and OverlayNodelet in
+their nodelet manager,
 fed by this test with what a user's recording can contain: images without the other topics,
 unusable camera_info, no initial tf, empty and all-NaN clouds, unsupported encodings, images of the
 wrong size, LiDAR and image stamps too far apart, stamps going backwards. Each must be named in
 /diagnostics ("last problem"; the log lines are throttled) and leave the node running, with
-nothing published as an estimate and nothing on tf."""
+nothing published as an estimate and nothing on tf; the overlay keeps showing the images with
+what the node waits for."""
 import math
 import random
 import threading
@@ -77,6 +79,8 @@ class BadInput(unittest.TestCase):
         for topic in ('/tescalib/lidar_to_left', '/tescalib/left_to_right'):
             rospy.Subscriber(topic, ExtrinsicEstimate, cls.on_estimate, topic)
         rospy.Subscriber('/tf', TFMessage, cls.on_tf)
+        cls.overlays = []
+        rospy.Subscriber('/tescalib_overlay/left/overlay', Image, cls.on_overlay)
         cls.pub = {
             'points': rospy.Publisher('/bad/points', PointCloud2, queue_size=10),
             'left': rospy.Publisher('/bad/left/image_raw', Image, queue_size=10),
@@ -102,6 +106,11 @@ class BadInput(unittest.TestCase):
     def on_estimate(cls, msg, topic):
         with cls.lock:
             cls.published.append(topic)
+
+    @classmethod
+    def on_overlay(cls, msg):
+        with cls.lock:
+            cls.overlays.append((time.time(), msg.width, msg.height, msg.encoding))
 
     @classmethod
     def on_tf(cls, msg):
@@ -222,6 +231,10 @@ class BadInput(unittest.TestCase):
         self.assertEqual(values['converged'], 'False')
         self.assertEqual(published, [], 'an estimate was published from bad input')
         self.assertNotIn('tescalib_left', children)
+        with self.lock:
+            overlays = list(self.overlays)
+        self.assertTrue(overlays, 'no overlay image')
+        self.assertEqual(overlays[-1][1:], (W, H, 'bgr8'))
         save = rospy.ServiceProxy('/tescalib/save', Save)
         res = save(path='/tmp/tescalib_bad_input_never_written')
         self.assertFalse(res.success)
