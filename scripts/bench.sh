@@ -39,6 +39,16 @@ if [ "$BENCH" != kitti ]; then
   done
   run "sim_urban_tescalib_10deg" --sequences "$URBAN" --mode lidar_stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
+  # Beyond it: 15 deg / 1.5 m and 20 deg / 2 m, with the wide-basin search (the default) and
+  # without it (README, "Benchmarks").
+  for start in "15 1.5" "20 2.0"; do
+    read -r rot trans <<< "$start"
+    for search in 10 0; do
+      run "sim_urban_tescalib_${rot}deg_search${search}" --sequences "$URBAN" --mode lidar_stereo \
+        --trials 20 --init-rot-deg "$rot" --init-trans-m "$trans" --seed 7 --window 20 \
+        --search-deg $search
+    done
+  done
   # The same with the clouds' scale and yaw as nuisances (README, "Benchmarks").
   run "sim_urban_tescalib_3deg_scale_yaw" --sequences "$URBAN" --mode lidar_stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 \

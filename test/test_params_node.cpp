@@ -17,6 +17,8 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_TRUE(p.online.co.lidar.check_window_halves);
   EXPECT_DOUBLE_EQ(p.online.co.lidar.halves_chi2_limit, 22.46);
   EXPECT_TRUE(p.online.co.lidar.measure_disparity_offset);
+  EXPECT_DOUBLE_EQ(p.online.co.lidar.search_step_deg, 10.0);
+  EXPECT_EQ(p.online.search_min_keyframes, 8);
   EXPECT_FALSE(p.online.deskew);  // KITTI odometry scans are compensated already
   EXPECT_DOUBLE_EQ(p.online.deskew_max_dt, 0.25);
   EXPECT_DOUBLE_EQ(p.online.max_row_offset_px, 0.5);
@@ -40,6 +42,7 @@ TEST(Params, InvalidValuesAreNamed) {
   pnh.setParam("stereo/refine_iterations", 1);
   pnh.setParam("stereo/refine_smoothed_rounds", 2);
   pnh.setParam("co_calibration/refine_iterations", 7);
+  pnh.setParam("lidar_stereo/search_deg", 45.0);
   tescalib::NodeParams p;
   std::string error;
   EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
@@ -53,6 +56,9 @@ TEST(Params, InvalidValuesAreNamed) {
             std::string::npos)
       << error;
   EXPECT_NE(error.find("co_calibration/refine_iterations must be between 0 and 5 (got 7)"),
+            std::string::npos)
+      << error;
+  EXPECT_NE(error.find("lidar_stereo/search_deg must be between 0 (off) and 20 deg (got 45)"),
             std::string::npos)
       << error;
   EXPECT_NE(error.find("initial/T_cam_lidar must be [x, y, z, qx, qy, qz, qw] (7 values, got 3)"),

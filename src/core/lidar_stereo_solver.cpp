@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <optional>
 
 #include <ceres/ceres.h>
 #include <pcl/kdtree/kdtree_flann.h>
@@ -519,6 +520,32 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.converged = true;
   if (res.converged && s.check_window_halves) checkWindowHalves(window, s, &res);
   return res;
+}
+
+LidarStereoResult solveLidarStereoSearch(const std::vector<const Keyframe*>& window,
+                                         const Eigen::Isometry3d& T_init,
+                                         const LidarStereoSettings& s) {
+  LidarStereoResult first = solveLidarStereo(window, T_init, s);
+  if (first.converged || s.search_step_deg <= 0 || window.empty()) return first;
+  const double step = s.search_step_deg / kDegPerRad;
+  const double offsets[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
+  std::optional<LidarStereoResult> best;
+  for (const auto& o : offsets) {
+    Vector6d d = Vector6d::Zero();
+    d(0) = o[0] * step, d(1) = o[1] * step;
+    LidarStereoResult r = solveLidarStereo(window, perturb(T_init, d), s);
+    r.search_offset_rad = d.head<3>();
+    if (r.converged && (!best || r.fine_inliers > best->fine_inliers)) best = std::move(r);
+  }
+  if (best) {
+    best->search_starts = 9;
+    return *best;
+  }
+  first.search_starts = 9;
+  first.message += " (and from none of 8 starts turned by +-" +
+                   std::to_string(static_cast<int>(std::lround(s.search_step_deg))) +
+                   " deg about the camera's x and y axes)";
+  return first;
 }
 
 void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarStereoSettings& s,

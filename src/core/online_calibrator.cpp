@@ -262,7 +262,10 @@ bool OnlineCalibrator::solve(std::string* msg) {
     LidarStereoSettings ls = settings_.co.lidar;
     ls.disparity_sigma = settings_.keyframe.stereo.disparity_sigma;
     if (current && settings_.warm_start_fine_only) ls.run_coarse = false;
-    const LidarStereoResult r = solveLidarStereo(cwin, T_cl, ls);
+    if (current || static_cast<int>(cwin.size()) <
+                       std::min(settings_.window_size, settings_.search_min_keyframes))
+      ls.search_step_deg = 0;
+    const LidarStereoResult r = solveLidarStereoSearch(cwin, T_cl, ls);
     keyframe_info = r.keyframe_information;
     e.T_cam_lidar = r.T_cam_lidar;
     e.T_right_left = T_rl;

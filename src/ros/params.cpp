@@ -63,6 +63,8 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get(pnh, "lidar_stereo/check_window_halves", &p->online.co.lidar.check_window_halves);
   get(pnh, "lidar_stereo/halves_chi2_limit", &p->online.co.lidar.halves_chi2_limit);
   get(pnh, "lidar_stereo/measure_disparity_offset", &p->online.co.lidar.measure_disparity_offset);
+  get(pnh, "lidar_stereo/search_deg", &p->online.co.lidar.search_step_deg);
+  get(pnh, "lidar_stereo/search_min_keyframes", &p->online.search_min_keyframes);
   get(pnh, "photometric/pyramid_levels", &p->online.co.stereo.pyramid_levels);
   get(pnh, "photometric/huber", &p->online.co.stereo.huber);
   get(pnh, "initial/T_cam_lidar", &p->initial_T_cam_lidar);
@@ -119,6 +121,11 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (!(o.co.lidar.halves_chi2_limit > 0))
     e << "lidar_stereo/halves_chi2_limit must be > 0 (got " << o.co.lidar.halves_chi2_limit
       << "); ";
+  if (!(o.co.lidar.search_step_deg >= 0 && o.co.lidar.search_step_deg <= 20))
+    e << "lidar_stereo/search_deg must be between 0 (off) and 20 deg (got "
+      << o.co.lidar.search_step_deg << "); ";
+  if (o.search_min_keyframes < 1)
+    e << "lidar_stereo/search_min_keyframes must be >= 1 (got " << o.search_min_keyframes << "); ";
   if (o.co.stereo.pyramid_levels < 1 || o.co.stereo.pyramid_levels > 5)
     e << "photometric/pyramid_levels must be in [1, 5]; ";
   if (!p.initial_T_cam_lidar.empty() && p.initial_T_cam_lidar.size() != 7)

@@ -62,6 +62,8 @@ struct Args {
   int check_halves = -1;  ///< LidarStereoSettings::check_window_halves: 0/1; -1: the default
   int measure_offset = -1;  ///< LidarStereoSettings::measure_disparity_offset: 0/1; -1: the default
   int coarse_nuisances = -1;   ///< LidarStereoSettings::coarse_estimates_stereo_nuisances: 0/1
+  std::vector<double> coarse_gates;  ///< LidarStereoSettings::coarse_gates; empty: the default
+  double search_deg = -1;  ///< LidarStereoSettings::search_step_deg; < 0: the default
   int refine_iterations = -1;  ///< DisparityRefinementSettings::iterations; -1: the default
   int refine_smoothed = -1;    ///< DisparityRefinementSettings::smoothed_gradient_rounds
   /// De-skew the scans with the motion registered against a neighbouring frame: 0/1; -1: when
@@ -82,7 +84,7 @@ void usage() {
          "[--first-trial K]\n"
          "         [--co-model-scale K] [--smooth-keypoints PX] [--stereo-yaw 0|1]\n"
          "         [--stereo-scale 0|1] [--check-halves 0|1] [--measure-offset 0|1]\n"
-         "         [--coarse-nuisances 0|1]\n"
+         "         [--coarse-nuisances 0|1] [--coarse-gates M,M,...] [--search-deg D]\n"
          "         [--lidar-sigma DEG,M]\n"
          "         [--refine-iterations N] [--refine-smoothed-rounds N]\n"
          "         [--deskew 0|1]\n"
@@ -133,6 +135,11 @@ void usage() {
          "--coarse-nuisances 0|1: the LiDAR-stereo coarse stage also estimates the clouds' scale\n"
          "and yaw where they are estimated (co; LidarStereoSettings::\n"
          "coarse_estimates_stereo_nuisances; off by default: only the fine stage does).\n"
+         "--coarse-gates M,M,...: the coarse stage's 6-D association gates, one stage each\n"
+         "(LidarStereoSettings::coarse_gates; default 2,1,0.5).\n"
+         "--search-deg D: lidar_stereo mode: a solve that does not converge is tried again from\n"
+         "the start turned by +-D deg about the camera's x and y axes, 8 more starts\n"
+         "(LidarStereoSettings::search_step_deg; default 10; 0: off).\n"
          "--lidar-sigma DEG,M: stereo mode: the given LiDAR extrinsic's 1-sigma per axis; the\n"
          "left-right covariance adds what it does to the key points' depth (default 0: exact);\n"
          "with --depth-prior its error is also a nuisance of the key points' depths, with this\n"
@@ -202,6 +209,13 @@ bool parse(int argc, char** argv, Args* a) {
       a->measure_offset = std::stoi(v);
     else if (k == "--coarse-nuisances")
       a->coarse_nuisances = std::stoi(v);
+    else if (k == "--search-deg")
+      a->search_deg = std::stod(v);
+    else if (k == "--coarse-gates") {
+      a->coarse_gates.clear();
+      for (const auto& g : cli::splitList(v)) a->coarse_gates.push_back(std::stod(g));
+      if (a->coarse_gates.empty()) throw std::invalid_argument(v);
+    }
     else if (k == "--refine-smoothed-rounds") {
       a->refine_smoothed = std::stoi(v);
       if (a->refine_smoothed < 0) throw std::invalid_argument(v);
@@ -458,6 +472,8 @@ int main(int argc, char** argv) {
   if (args.measure_offset >= 0) solver_settings.measure_disparity_offset = args.measure_offset > 0;
   if (args.coarse_nuisances >= 0)
     solver_settings.coarse_estimates_stereo_nuisances = args.coarse_nuisances > 0;
+  if (!args.coarse_gates.empty()) solver_settings.coarse_gates = args.coarse_gates;
+  if (args.search_deg >= 0) solver_settings.search_step_deg = args.search_deg;
   if (args.cov_cells_y > 0) solver_settings.cov_cells_y = args.cov_cells_y;
   if (args.cov_model_scale >= 0) {
     for (double& v : solver_settings.model_sigma_rot_deg) v *= args.cov_model_scale;
@@ -592,7 +608,7 @@ int main(int argc, char** argv) {
       tr.brightness = r.brightness;
       if (!r.lidar_error.isZero()) tr.lidar_error_found = r.lidar_error;
     } else if (args.method == "tescalib") {
-      const LidarStereoResult r = solveLidarStereo(window, T_init, solver_settings);
+      const LidarStereoResult r = solveLidarStereoSearch(window, T_init, solver_settings);
       T_est = r.T_cam_lidar;
       tr.converged = r.converged;
       tr.iterations = r.iterations;

@@ -51,6 +51,11 @@ struct OnlineSettings {
   /// The coarse stage exists to bring a start degrees / decimetres off into the fine stage's
   /// basin; from a converged estimate it only costs time (70-80 % of a 10-keyframe solve).
   bool warm_start_fine_only = true;
+  /// LiDAR-stereo only: before the first estimate, a solve that does not converge tries the
+  /// wide-basin search (LidarStereoSettings::search_step_deg, in co.lidar) once the window holds
+  /// min(window_size, search_min_keyframes) keyframes; on fewer a start turned 10 deg could
+  /// settle where the few keyframes' constraints allow, and each search costs 9 solves.
+  int search_min_keyframes = 8;
   /// Co-calibration: once an estimate is published, an update runs this many warm rounds
   /// (photometric on the finest level, LiDAR-stereo fine stage) from it instead of the full
   /// alternation: the alternation continues across updates, so such an update is published when
