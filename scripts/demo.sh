@@ -13,7 +13,8 @@
 # RVIZ=1 opens rviz on part 2 and keeps it open.
 # Settings: DEMO_FRAMES (100), DEMO_SEED (1), DEMO_SCENARIO (urban), DEMO_NOISE (default),
 # DEMO_STEREO (0: LiDAR-stereo only; 1: co-calibration, both extrinsics),
-# DEMO_KITTI (1: run part 3 when the data exists; 0: skip it),
+# DEMO_KITTI (1: run part 3 when the data exists; 0: skip it), DEMO_ROT_DEG / DEMO_TRANS_M (2 / 0.2:
+# how far the initial LiDAR extrinsic is deliberately perturbed),
 # DEMO_SWEEP (0; 1: raw swept scans, tescalib_simulate --lidar-sweep 1, de-skewed online unless
 # DEMO_DESKEW=0).
 set -o pipefail
@@ -24,8 +25,8 @@ FRAMES=${DEMO_FRAMES:-100}
 SEED=${DEMO_SEED:-1}
 SCENARIO=${DEMO_SCENARIO:-urban}
 NOISE=${DEMO_NOISE:-default}
-ROT=2
-TRANS=0.2
+ROT=${DEMO_ROT_DEG:-2}
+TRANS=${DEMO_TRANS_M:-0.2}
 OUT=$ROOT/build/demo
 mkdir -p "$OUT"
 RVIZ_ARG=false
