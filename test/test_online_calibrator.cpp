@@ -312,6 +312,14 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
   EXPECT_GE(e->co_rounds, 1);
   EXPECT_GT(e->cov_stereo.trace(), 0.0);
   expectCoAccuracy(*e, sim.rig(), "co-calibration from it, 5 keyframes");
+  // Given min_keyframes_co keyframes at once, a fresh calibrator still solves LiDAR-stereo first:
+  // co-calibration waits for a published LiDAR estimate (or a full window).
+  OnlineCalibrator fresh(rig, settings);
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(fresh, sim, 0, 25));
+  ASSERT_EQ(fresh.windowFill(), 5u);
+  ASSERT_TRUE(fresh.solve(&msg)) << msg;
+  EXPECT_EQ(fresh.estimate()->co_rounds, 0);
+  EXPECT_FALSE(fresh.estimate()->stereo_estimated);
 }
 
 TEST(OnlineCalibratorGenerated, CoCalibrationContinuesWarmAfterTheFirstEstimate) {
@@ -330,6 +338,9 @@ TEST(OnlineCalibratorGenerated, CoCalibrationContinuesWarmAfterTheFirstEstimate)
   settings.estimate_stereo = true;
   settings.window_size = 6;
   settings.min_keyframes = 5;
+  // The first solve is the full alternation (with LiDAR first it would be a LiDAR-stereo solve:
+  // co-calibration waits for its estimate; CoCalibrationPublishesLidarFirst tests that).
+  settings.lidar_first = false;
   OnlineCalibrator cal(rig, settings);
   std::string msg;
   auto check = [&](const char* what) {

@@ -203,9 +203,13 @@ bool OnlineCalibrator::solve(std::string* msg) {
              std::to_string(settings_.minKeyframes());
       return false;
     }
+    // LiDAR first: co-calibration once a LiDAR-stereo estimate is published (or, failing that,
+    // once the window is full), so that a start too far off for the alternation gets the
+    // LiDAR-stereo solves' wide-basin search first.
+    const int fill = static_cast<int>(window_.size());
     co = settings_.estimate_stereo &&
          (!settings_.lidar_first ||
-          static_cast<int>(window_.size()) >= settings_.min_keyframes_co);
+          (fill >= settings_.min_keyframes_co && (estimate_ || fill >= settings_.window_size)));
     // Co-calibration recomputes the stereo clouds in place: it gets deep copies. The LiDAR-stereo
     // solve only reads, and the shared keyframes are never modified after insertion.
     for (const auto& k : window_) snapshot.push_back(co ? std::make_shared<Keyframe>(*k) : k);
