@@ -43,7 +43,11 @@ def image(stamp, frame, width=W, height=H, encoding='rgb8', seed=0):
     m.width, m.height, m.encoding = width, height, encoding
     channels = {'rgb8': 3, 'mono8': 1, '32FC1': 4}[encoding]
     m.step = width * channels
-    m.data = random.Random(seed).randbytes(height * m.step)
+    rng = random.Random(seed)
+    if encoding == 'rgb8':  # grey texture: whatever the overlay draws in colour stands out
+        m.data = bytes(v for v in rng.randbytes(height * width) for _ in range(3))
+    else:
+        m.data = rng.randbytes(height * m.step)
     return m
 
 
@@ -81,6 +85,8 @@ class BadInput(unittest.TestCase):
         rospy.Subscriber('/tf', TFMessage, cls.on_tf)
         cls.overlays = []
         rospy.Subscriber('/tescalib_overlay/left/overlay', Image, cls.on_overlay)
+        cls.candidate_pub = rospy.Publisher('/tescalib/candidate/lidar_to_left', ExtrinsicEstimate,
+                                            queue_size=1, latch=True)
         cls.pub = {
             'points': rospy.Publisher('/bad/points', PointCloud2, queue_size=10),
             'left': rospy.Publisher('/bad/left/image_raw', Image, queue_size=10),
@@ -109,8 +115,12 @@ class BadInput(unittest.TestCase):
 
     @classmethod
     def on_overlay(cls, msg):
+        # Pixels below the status band whose colour is not grey: LiDAR points drawn.
+        d = msg.data
+        coloured = sum(1 for i in range(3 * msg.width * 60, len(d) - 2, 3)
+                       if d[i] != d[i + 1] or d[i + 1] != d[i + 2])
         with cls.lock:
-            cls.overlays.append((time.time(), msg.width, msg.height, msg.encoding))
+            cls.overlays.append((time.time(), msg.width, msg.height, msg.encoding, coloured))
 
     @classmethod
     def on_tf(cls, msg):
@@ -234,12 +244,38 @@ class BadInput(unittest.TestCase):
         with self.lock:
             overlays = list(self.overlays)
         self.assertTrue(overlays, 'no overlay image')
-        self.assertEqual(overlays[-1][1:], (W, H, 'bgr8'))
+        self.assertEqual(overlays[-1][1:4], (W, H, 'bgr8'))
+        self.assertEqual(overlays[-1][4], 0, 'LiDAR points drawn without any estimate')
         save = rospy.ServiceProxy('/tescalib/save', Save)
         res = save(path='/tmp/tescalib_bad_input_never_written')
         self.assertFalse(res.success)
         self.assertIn('no converged estimate', res.message)
         self.assertTrue(rospy.ServiceProxy('/tescalib/reset', Reset)().success)
+
+
+    def test_9_overlay_draws_an_untrusted_candidate(self):
+        # Where nothing converges (real KITTI) the overlay draws the last solve, labelled as not
+        # trusted; here a candidate as the calibration nodelet publishes one (the rig's tf).
+        c = ExtrinsicEstimate()
+        c.parent_frame_id, c.child_frame_id = 'tescalib_left', 'velo_link'
+        c.transform.translation.y, c.transform.translation.z = -0.08, -0.27
+        c.transform.rotation.x, c.transform.rotation.y = -0.5, 0.5
+        c.transform.rotation.z, c.transform.rotation.w = -0.5, 0.5
+        c.converged, c.keyframes_used = False, 8
+        c.status = 'not converged: a test candidate'
+        self.candidate_pub.publish(c)
+        deadline = time.time() + 15
+        while time.time() < deadline:
+            self.send()
+            time.sleep(0.5)
+            with self.lock:
+                if self.overlays and self.overlays[-1][4] > 100:
+                    break
+        with self.lock:
+            last = self.overlays[-1]
+        self.assertGreater(last[4], 100, 'the candidate is not drawn into the overlay')
+        with self.lock:
+            self.assertEqual(self.published, [])  # a candidate is never an estimate
 
 
 if __name__ == '__main__':

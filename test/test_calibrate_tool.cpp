@@ -9,6 +9,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "tescalib/core/calibration_io.h"
 #include "tescalib/core/geometry.h"
@@ -126,7 +127,7 @@ TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
   const std::string base = tmp.str() + "/result";
   const ToolRun r = runCalibrate("--sequences " + tmp.str() + "/drive --perturb-rot-deg 2 " +
                                  "--perturb-trans-m 0.2 --seed 3 --window 8 --out " + base +
-                                 " --lidar-frame my_velo");
+                                 " --lidar-frame my_velo --overlay " + base + "_overlay.png");
   std::cout << r.output;
   ASSERT_EQ(r.status, 0) << r.output;
   EXPECT_NE(r.output.find("initial T_cam_lidar"), std::string::npos) << r.output;
@@ -140,6 +141,11 @@ TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
   EXPECT_NE(readAll(base + ".yaml").find("converged: true"), std::string::npos);
   EXPECT_NE(readAll(base + "_static_tf.launch").find(" my_velo tescalib_left\"/>"),
             std::string::npos);
+  // The last keyframe twice, the scan drawn with the initial guess and with the estimate.
+  const cv::Mat overlay = cv::imread(base + "_overlay.png");
+  ASSERT_FALSE(overlay.empty()) << r.output;
+  EXPECT_EQ(overlay.cols, sim->rig().left.width);
+  EXPECT_EQ(overlay.rows, 2 * sim->rig().left.height);
 }
 
 TEST(CalibrateTool, CalibratesFromABagAsFromItsFolder) {
@@ -191,7 +197,8 @@ TEST(CalibrateToolReal, RefusesTheKittiWindowItCannotTrust) {
   TempDir tmp;
   const std::string k = tescalib_test::kittiDir() + "/sequences/";
   const ToolRun r = runCalibrate("--sequences " + k + "04," + k + "05," + k + "06," + k +
-                                 "07 --out " + tmp.str() + "/result");
+                                 "07 --out " + tmp.str() + "/result --overlay " + tmp.str() +
+                                 "/overlay.png");
   std::cout << r.output;
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("8 keyframes, 0 rejected"), std::string::npos) << r.output;
@@ -201,6 +208,9 @@ TEST(CalibrateToolReal, RefusesTheKittiWindowItCannotTrust) {
       << r.output;
   EXPECT_NE(r.output.find("not trusted: "), std::string::npos) << r.output;
   EXPECT_FALSE(tescalib_test::fs::exists(tmp.str() + "/result.yaml"));
+  // The overlay is for a look too: written, with the untrusted solve labelled so.
+  EXPECT_NE(r.output.find("overlay written to"), std::string::npos) << r.output;
+  EXPECT_EQ(cv::imread(tmp.str() + "/overlay.png").rows, 2 * 370);
 }
 
 TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {

@@ -45,6 +45,11 @@ void OverlayNodelet::onInit() {
                                                      std::lock_guard<std::mutex> lock(mutex_);
                                                      lidar_est_ = *m;
                                                    });
+  lidar_candidate_sub_ = nh.subscribe<ExtrinsicEstimate>(
+      "candidate/lidar_to_left", 1, [this](const ExtrinsicEstimate::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        lidar_candidate_ = *m;
+      });
   stereo_est_sub_ = nh.subscribe<ExtrinsicEstimate>("left_to_right", 1,
                                                     [this](const ExtrinsicEstimate::ConstPtr& m) {
                                                       std::lock_guard<std::mutex> lock(mutex_);
@@ -64,10 +69,10 @@ void OverlayNodelet::onSet(const Cloud::ConstPtr& cloud, const Image::ConstPtr& 
                            const Info::ConstPtr& li, const Image::ConstPtr& right,
                            const Info::ConstPtr& ri) {
   if (left_pub_.getNumSubscribers() == 0 && right_pub_.getNumSubscribers() == 0) return;
-  std::optional<ExtrinsicEstimate> le, se;
+  std::optional<ExtrinsicEstimate> le, se, candidate;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    le = lidar_est_, se = stereo_est_;
+    le = lidar_est_, se = stereo_est_, candidate = lidar_candidate_;
   }
   LidarScan scan;
   cv::Mat l, r;
@@ -77,16 +82,23 @@ void OverlayNodelet::onSet(const Cloud::ConstPtr& cloud, const Image::ConstPtr& 
     NODELET_WARN_THROTTLE(10.0, "tescalib overlay: %s", error.c_str());
     return;
   }
-  if (!le) {  // the plain image with the status, so rviz shows what the node is waiting for
-    drawStatusText({"tescalib: waiting for the first converged LiDAR->left estimate"}, &l);
+  const bool have_scan = ros_conv::fromPointCloud2(*cloud, &scan, &error) &&
+                         ros_conv::fromCameraInfo(*li, &lc, &error);
+  if (!have_scan) NODELET_WARN_THROTTLE(10.0, "tescalib overlay: %s", error.c_str());
+  if (!le) {  // what the node waits for, and the last untrusted solve when there is one
+    std::vector<std::string> status{"tescalib: waiting for the first converged LiDAR->left estimate"};
+    if (candidate && have_scan) {
+      drawLidarOverlay(scan, ros_conv::fromTransformMsg(candidate->transform), lc, &l, max_depth_);
+      status.push_back("drawn: the last solve, NOT TRUSTED - " +
+                       statusLine("LiDAR->left", *candidate));
+      for (size_t i = 0; i < candidate->status.size() && i < 360; i += 120)
+        status.push_back((i ? "  " : "  why: ") + candidate->status.substr(i, 120));
+    }
+    drawStatusText(status, &l);
     left_pub_.publish(ros_conv::toImageMsg(l, left->header, "bgr8"));
     return;
   }
-  if (!ros_conv::fromPointCloud2(*cloud, &scan, &error) ||
-      !ros_conv::fromCameraInfo(*li, &lc, &error)) {
-    NODELET_WARN_THROTTLE(10.0, "tescalib overlay: %s", error.c_str());
-    return;
-  }
+  if (!have_scan) return;
   const Eigen::Isometry3d T_cl = ros_conv::fromTransformMsg(le->transform);
   drawLidarOverlay(scan, T_cl, lc, &l, max_depth_);
   std::vector<std::string> status{statusLine("LiDAR->left", *le)};

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <tf2/exceptions.h>
 
 #include "tescalib/core/calibration_io.h"
@@ -19,6 +21,7 @@
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/kitti_reader.h"
 #include "tescalib/core/online_calibrator.h"
+#include "tescalib/core/overlay.h"
 #include "tescalib/ros/bag_sets.h"
 #include "tescalib/ros/conversions.h"
 
@@ -40,6 +43,7 @@ struct Args {
   int deskew = -1;  // -1: as the data say (KittiSequence::sweptScans)
   std::string out;
   std::string lidar_frame = "velo_link";
+  std::string overlay;  // PNG: the last keyframe with the scan drawn, initial guess vs result
 };
 
 void usage() {
@@ -48,7 +52,7 @@ void usage() {
          "       [--mode lidar_stereo|co]\n"
          "       [--window N] [--init CALIB.txt] [--perturb-rot-deg R --perturb-trans-m T "
          "[--seed S]]\n"
-         "       [--deskew 0|1] [--out BASE [--lidar-frame NAME]]\n"
+         "       [--deskew 0|1] [--out BASE [--lidar-frame NAME]] [--overlay FILE.png]\n"
          "Calibrates the recording in DIR (KITTI odometry or raw layout; several folders of one\n"
          "rig are played one after the other) or in a rosbag with the online pipeline.\n"
          "--bag FILE: topics as kitti.launch's (kitti2bag); --points, --left, --right TOPIC\n"
@@ -69,6 +73,9 @@ void usage() {
          "  BASE_static_tf.launch (nothing is written when none converged); --lidar-frame:\n"
          "  the LiDAR's tf frame in them (default velo_link, as kitti2bag; the cameras are\n"
          "  tescalib_left and tescalib_right, as the node publishes them).\n"
+         "--overlay FILE.png: the last keyframe's left image twice, the scan drawn with the\n"
+         "  initial T_cam_lidar (top) and with the estimate (bottom; without one, the last\n"
+         "  solve's, labelled NOT TRUSTED), to look at the alignment without ROS.\n"
          "Exit status: 0 when an estimate converged, 1 when none did or the data are unusable,\n"
          "2 on a usage error.\n";
 }
@@ -95,6 +102,8 @@ bool parse(int argc, char** argv, Args* a) {
       a->out = v;
     else if (k == "--lidar-frame")
       a->lidar_frame = v;
+    else if (k == "--overlay")
+      a->overlay = v;
     else if (k == "--bag")
       a->bag = v;
     else if (k == "--points")
@@ -170,6 +179,7 @@ struct Session {
   bool perturbed = false;
   int keyframes = 0, rejected = 0, solves = 0, published = 0;
   std::string last_solve;
+  Frame last_keyframe;  // its left image and scan, for --overlay
 
   /// The rig with its initial extrinsics; with --perturb-*, T_cam_lidar is moved away from them
   /// (they stay the reference of the printed errors).
@@ -205,6 +215,7 @@ struct Session {
     if (r == FrameResult::kReset) std::printf("  %s: %s\n", label.c_str(), msg.c_str());
     if (r != FrameResult::kKeyframe) return;
     ++keyframes;
+    last_keyframe = frame;
     if (!msg.empty()) std::printf("  %s: %s\n", label.c_str(), msg.c_str());
     if (!calibrator->readyToSolve()) return;
     const bool changed = calibrator->solve(&last_solve);
@@ -220,6 +231,28 @@ struct Session {
     } else {
       std::printf("%s\n", last_solve.c_str());
     }
+  }
+
+  /// --overlay: the last keyframe's left image with the scan drawn with the initial guess (top)
+  /// and with `T` (bottom), `label` saying which estimate that is.
+  void writeOverlay(const std::string& path, const Eigen::Isometry3d& T,
+                    const std::string& label) const {
+    if (last_keyframe.left.empty()) {
+      std::printf("no keyframe: no overlay written\n");
+      return;
+    }
+    const CameraIntrinsics& cam = calibrator->rig().left;
+    cv::Mat before = last_keyframe.left.clone(), after = last_keyframe.left.clone();
+    drawLidarOverlay(last_keyframe.scan, T_initial, cam, &before);
+    drawStatusText({"initial T_cam_lidar"}, &before);
+    drawLidarOverlay(last_keyframe.scan, T, cam, &after);
+    drawStatusText({label}, &after);
+    cv::Mat both;
+    cv::vconcat(before, after, both);
+    if (cv::imwrite(path, both))
+      std::printf("overlay written to %s\n", path.c_str());
+    else
+      std::cerr << "tescalib_calibrate: cannot write " << path << "\n";
   }
 
   /// The final estimate (or the last untrusted solve), the files; the exit status.
@@ -240,6 +273,10 @@ struct Session {
           printExtrinsic("T_right_left", c->T_right_left, c->cov_stereo, c->observable_stereo);
         std::printf("change from the initial guess: %s\n",
                     pose6(poseError(c->T_cam_lidar, T_initial)).c_str());
+        if (!args.overlay.empty())
+          writeOverlay(args.overlay, c->T_cam_lidar,
+                       "the last solve, NOT TRUSTED (weak: " +
+                           untrustedAxes(c->observable_lidar) + ")");
       }
       return 1;
     }
@@ -258,6 +295,9 @@ struct Session {
         std::printf("T_right_left against the data's calibration: %s\n",
                     pose6(poseError(e->T_right_left, T_reference_stereo)).c_str());
     }
+    if (!args.overlay.empty())
+      writeOverlay(args.overlay, e->T_cam_lidar,
+                   "estimate from " + std::to_string(e->keyframes_used) + " keyframes");
     if (!args.out.empty()) {
       std::string msg;
       CalibrationFrames frames;

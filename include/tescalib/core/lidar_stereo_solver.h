@@ -112,9 +112,9 @@ struct LidarStereoSettings {
   int min_keyframes_per_half = 2;
   double halves_chi2_limit = 22.46;
   /// Wide-basin search (solveLidarStereoSearch; 0: off; co-calibration's LiDAR-stereo solves do
-  /// not search): when the solve from the initial guess
-  /// does not converge, solve again from the guess turned by +-`search_step_deg` about the
-  /// camera's x axis, its y axis and both (8 more starts). Beyond about 15 deg a pitch error
+  /// not search): when the solve from the initial guess does not converge, solve again from the
+  /// guess turned by +-`search_step_deg` about the camera's x axis, its y axis and both (8 more
+  /// starts). Beyond about 15 deg a pitch error
   /// puts the LiDAR's faces outside the image (0 associations) and a yaw error slides along the
   /// yaw / lateral-translation valley into a wrong minimum; both are not declared converged.
   /// Generated urban, window 20: from 20 deg / 2 m 90 % instead of 50 %, from 15 deg / 1.5 m

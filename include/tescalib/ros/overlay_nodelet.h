@@ -1,5 +1,6 @@
 // tescalib/OverlayNodelet: the LiDAR scan drawn into the left image with the current LiDAR -> left
-// estimate (and into the right image with the stereo estimate), for rviz.
+// estimate (and into the right image with the stereo estimate), for rviz; before the first
+// estimate, with the last untrusted solve, labelled so.
 #pragma once
 
 #include <memory>
@@ -34,10 +35,14 @@ class OverlayNodelet : public nodelet::Nodelet {
   message_filters::Subscriber<Image> left_sub_, right_sub_;
   message_filters::Subscriber<Info> left_info_sub_, right_info_sub_;
   std::unique_ptr<message_filters::Synchronizer<Policy>> sync_;
-  ros::Subscriber lidar_est_sub_, stereo_est_sub_;
+  ros::Subscriber lidar_est_sub_, stereo_est_sub_, lidar_candidate_sub_;
   ros::Publisher left_pub_, right_pub_;
   std::mutex mutex_;
   std::optional<ExtrinsicEstimate> lidar_est_, stereo_est_;  ///< GUARDED_BY(mutex_)
+  /// The calibration's last solve (candidate/lidar_to_left), drawn only while no estimate has
+  /// been published, labelled as not trusted: on data where nothing converges (real KITTI) the
+  /// overlay still shows where the window puts the LiDAR.
+  std::optional<ExtrinsicEstimate> lidar_candidate_;  ///< GUARDED_BY(mutex_)
   double max_depth_ = 40.0;
 };
 
