@@ -220,6 +220,10 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
   r = runCalibrate("--window 2 --sequences x");
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.output.find("--window must be at least 3"), std::string::npos) << r.output;
+  r = runCalibrate("--search-deg 45 --sequences x");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.output.find("--search-deg must be between 0 (off) and 20"), std::string::npos)
+      << r.output;
   r = runCalibrate("--sequences /nonexistent_drive");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("/nonexistent_drive"), std::string::npos) << r.output;

@@ -44,6 +44,7 @@ struct Args {
   std::string out;
   std::string lidar_frame = "velo_link";
   std::string overlay;  // PNG: the last keyframe with the scan drawn, initial guess vs result
+  double search_deg = -1;  // LidarStereoSettings::search_step_deg; < 0: the default (10)
 };
 
 void usage() {
@@ -53,6 +54,7 @@ void usage() {
          "       [--window N] [--init CALIB.txt] [--perturb-rot-deg R --perturb-trans-m T "
          "[--seed S]]\n"
          "       [--deskew 0|1] [--out BASE [--lidar-frame NAME]] [--overlay FILE.png]\n"
+         "       [--search-deg D]\n"
          "Calibrates the recording in DIR (KITTI odometry or raw layout; several folders of one\n"
          "rig are played one after the other) or in a rosbag with the online pipeline.\n"
          "--bag FILE: topics as kitti.launch's (kitti2bag); --points, --left, --right TOPIC\n"
@@ -73,6 +75,9 @@ void usage() {
          "  BASE_static_tf.launch (nothing is written when none converged); --lidar-frame:\n"
          "  the LiDAR's tf frame in them (default velo_link, as kitti2bag; the cameras are\n"
          "  tescalib_left and tescalib_right, as the node publishes them).\n"
+         "--search-deg D: before the first estimate, a LiDAR-stereo solve that does not\n"
+         "  converge is tried again from the start turned +-D deg about the camera's x and y\n"
+         "  axes (default 10; 0: off), as the node does (lidar_stereo/search_deg).\n"
          "--overlay FILE.png: the last keyframe's left image twice, the scan drawn with the\n"
          "  initial T_cam_lidar (top) and with the estimate (bottom; without one, the last\n"
          "  solve's, labelled NOT TRUSTED), to look at the alignment without ROS.\n"
@@ -104,6 +109,10 @@ bool parse(int argc, char** argv, Args* a) {
       a->lidar_frame = v;
     else if (k == "--overlay")
       a->overlay = v;
+    else if (k == "--search-deg") {
+      a->search_deg = std::stod(v);
+      if (a->search_deg < 0) throw std::invalid_argument(v);
+    }
     else if (k == "--bag")
       a->bag = v;
     else if (k == "--points")
@@ -129,6 +138,10 @@ bool parse(int argc, char** argv, Args* a) {
   }
   if (a->window < 0 || a->window == 1 || a->window == 2) {
     std::cerr << "tescalib_calibrate: --window must be at least 3\n";
+    return false;
+  }
+  if (a->search_deg > 20) {
+    std::cerr << "tescalib_calibrate: --search-deg must be between 0 (off) and 20\n";
     return false;
   }
   if (a->perturb_rot_deg < 0 || a->perturb_trans_m < 0) {
@@ -448,6 +461,7 @@ int main(int argc, char** argv) {
   session.settings.window_size =
       args.window > 0 ? args.window : (session.settings.estimate_stereo ? 10 : 20);
   session.settings.deskew = args.deskew > 0;
+  if (args.search_deg >= 0) session.settings.co.lidar.search_step_deg = args.search_deg;
   const auto t_start = std::chrono::steady_clock::now();
   try {
     if (args.bag.empty())
