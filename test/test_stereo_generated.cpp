@@ -177,19 +177,21 @@ TEST(StereoGenerated, RefinementDoesNotDependOnWhatItRefinedBefore) {
   EXPECT_TRUE(sameBits(on_fresh_thread, first));
 }
 
-/// 8 keyframes of the urban drive of seed 2, built once for the tests that share them.
-const std::vector<Keyframe>& urbanWindowSeed2() {
+/// 8 keyframes of the urban drive of seed 2 (built once for the tests that share them) and its
+/// true T_cam_lidar.
+std::vector<const Keyframe*> urbanWindowSeed2(Eigen::Isometry3d* truth) {
   static const std::vector<Keyframe> kfs = generatedWindow(Scenario::kUrban, 8, 2);
-  return kfs;
+  SimOptions o;
+  o.seed = 2;
+  *truth = Simulator(o).rig().T_cam_lidar;
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : kfs) window.push_back(&kf);
+  return window;
 }
 
 TEST(LidarStereoGenerated, RecoversKnownPerturbationsOnAnUrbanDrive) {
-  const std::vector<Keyframe>& kfs = urbanWindowSeed2();
-  std::vector<const Keyframe*> window;
-  for (const auto& kf : kfs) window.push_back(&kf);
-  SimOptions o;
-  o.seed = 2;
-  const Eigen::Isometry3d truth = Simulator(o).rig().T_cam_lidar;
+  Eigen::Isometry3d truth;
+  const std::vector<const Keyframe*> window = urbanWindowSeed2(&truth);
   std::mt19937_64 rng(5);
   for (int trial = 0; trial < 2; ++trial) {
     const Eigen::Isometry3d init = perturb(truth, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
@@ -208,12 +210,8 @@ TEST(LidarStereoGenerated, WideBasinSearchRecoversAStartTheSolverAloneCannot) {
   // 17.5 deg about the camera's x axis (and 4.3 / 8.7 deg about y / z, 2 m): the LiDAR's faces
   // that fall into the image then lie beyond its lowest beam, so the solve from the guess finds
   // no association at all (trial 0 of tescalib_eval --init-rot-deg 20 --init-trans-m 2 --seed 7).
-  const std::vector<Keyframe>& kfs = urbanWindowSeed2();
-  std::vector<const Keyframe*> window;
-  for (const auto& kf : kfs) window.push_back(&kf);
-  SimOptions o;
-  o.seed = 2;
-  const Eigen::Isometry3d truth = Simulator(o).rig().T_cam_lidar;
+  Eigen::Isometry3d truth;
+  const std::vector<const Keyframe*> window = urbanWindowSeed2(&truth);
   Vector6d delta;
   delta << -17.48 / kDegPerRad, 4.35 / kDegPerRad, 8.69 / kDegPerRad, -1.18, 1.17, -1.11;
   const Eigen::Isometry3d init = perturb(truth, delta);
