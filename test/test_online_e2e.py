@@ -21,6 +21,7 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import Image, PointCloud2
 from tescalib.msg import ExtrinsicEstimate
+from tescalib.srv import Reset, Save
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker
 
@@ -253,6 +254,35 @@ class OnlineEndToEnd(unittest.TestCase):
         self.assertTrue(any(ex.norm(ex.error(ex.from_msg(c.transform), last)[1]) < 1e-9
                             for c in published))
         rospy.loginfo('e2e: %d candidates, %d of them published', len(cands), len(published))
+
+    def test_8_save_writes_the_published_estimate(self):
+        # ~save (the service users call at the end of a drive) writes the published estimate.
+        base = os.path.join(self.tmp, 'rig')
+        res = rospy.ServiceProxy('/tescalib/save', Save)(path=base)
+        self.assertTrue(res.success, res.message)
+        with open(base + '_calib.txt') as f:
+            tr = [line for line in f if line.startswith('Tr:')]
+        self.assertEqual(len(tr), 1)
+        saved = ex.from_3x4([float(v) for v in tr[0].split()[1:]])
+        rot, trans = ex.error(saved, ex.from_msg(self.est['lidar_to_left'][-1].transform))
+        self.assertLess(ex.norm(rot) * DEG, 1e-5)
+        self.assertLess(ex.norm(trans), 1e-6)
+        with open(base + '.yaml') as f:
+            self.assertIn('converged: true', f.read())
+        with open(base + '_static_tf.launch') as f:
+            self.assertIn('tescalib_left', f.read())
+
+    def test_9_reset_clears_the_window(self):
+        self.assertTrue(rospy.ServiceProxy('/tescalib/reset', Reset)().success)
+        t0 = time.time()
+        deadline = t0 + 5
+        while time.time() < deadline:
+            time.sleep(0.5)
+            with self.lock:
+                d = [v for w, v in self.diag if w > t0]
+            if d and d[-1]['window fill'] == '0':
+                break
+        self.assertEqual(d[-1]['window fill'], '0')
 
 
 if __name__ == '__main__':
