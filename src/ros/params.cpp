@@ -121,8 +121,10 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (!(o.co.lidar.halves_chi2_limit > 0))
     e << "lidar_stereo/halves_chi2_limit must be > 0 (got " << o.co.lidar.halves_chi2_limit
       << "); ";
-  if (!(o.co.lidar.search_step_deg >= 0 && o.co.lidar.search_step_deg <= 20))
-    e << "lidar_stereo/search_deg must be between 0 (off) and 20 deg (got "
+  if (!(o.co.lidar.search_step_deg >= 0 &&
+        o.co.lidar.search_step_deg <= LidarStereoSettings::kMaxSearchStepDeg))
+    e << "lidar_stereo/search_deg must be between 0 (off) and "
+      << LidarStereoSettings::kMaxSearchStepDeg << " deg (got "
       << o.co.lidar.search_step_deg << "); ";
   if (o.search_min_keyframes < 1)
     e << "lidar_stereo/search_min_keyframes must be >= 1 (got " << o.search_min_keyframes << "); ";

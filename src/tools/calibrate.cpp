@@ -140,8 +140,9 @@ bool parse(int argc, char** argv, Args* a) {
     std::cerr << "tescalib_calibrate: --window must be at least 3\n";
     return false;
   }
-  if (a->search_deg > 20) {
-    std::cerr << "tescalib_calibrate: --search-deg must be between 0 (off) and 20\n";
+  if (a->search_deg > LidarStereoSettings::kMaxSearchStepDeg) {
+    std::cerr << "tescalib_calibrate: --search-deg must be between 0 (off) and "
+              << LidarStereoSettings::kMaxSearchStepDeg << "\n";
     return false;
   }
   if (a->perturb_rot_deg < 0 || a->perturb_trans_m < 0) {
@@ -192,7 +193,8 @@ struct Session {
   bool perturbed = false;
   int keyframes = 0, rejected = 0, solves = 0, published = 0;
   std::string last_solve;
-  Frame last_keyframe;  // its left image and scan, for --overlay
+  bool keep_last_keyframe = false;  // --overlay
+  Frame last_keyframe;               // its left image and scan, kept only for --overlay
 
   /// The rig with its initial extrinsics; with --perturb-*, T_cam_lidar is moved away from them
   /// (they stay the reference of the printed errors).
@@ -228,7 +230,7 @@ struct Session {
     if (r == FrameResult::kReset) std::printf("  %s: %s\n", label.c_str(), msg.c_str());
     if (r != FrameResult::kKeyframe) return;
     ++keyframes;
-    last_keyframe = frame;
+    if (keep_last_keyframe) last_keyframe = frame;
     if (!msg.empty()) std::printf("  %s: %s\n", label.c_str(), msg.c_str());
     if (!calibrator->readyToSolve()) return;
     const bool changed = calibrator->solve(&last_solve);
@@ -462,6 +464,7 @@ int main(int argc, char** argv) {
       args.window > 0 ? args.window : (session.settings.estimate_stereo ? 10 : 20);
   session.settings.deskew = args.deskew > 0;
   if (args.search_deg >= 0) session.settings.co.lidar.search_step_deg = args.search_deg;
+  session.keep_last_keyframe = !args.overlay.empty();
   const auto t_start = std::chrono::steady_clock::now();
   try {
     if (args.bag.empty())

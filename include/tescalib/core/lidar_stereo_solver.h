@@ -120,6 +120,7 @@ struct LidarStereoSettings {
   /// Generated urban, window 20: from 20 deg / 2 m 90 % instead of 50 %, from 15 deg / 1.5 m
   /// 100 % instead of 65 % (README, "Benchmarks").
   double search_step_deg = 10.0;
+  static constexpr double kMaxSearchStepDeg = 20.0;  ///< the largest step the callers accept
   int threads = 2;
 };
 
