@@ -178,7 +178,7 @@ class BadInput(unittest.TestCase):
         self.wait_problem('camera_info has no rectified projection matrix P',
                           lambda: self.send(left_info=no_p))
         no_baseline = lambda t: camera_info(t, 'camera_color_right', 0.0)
-        self.wait_problem('is not -fx*baseline', lambda: self.send(right_info=no_baseline))
+        self.wait_problem('the right camera must sit to the right of the left one', lambda: self.send(right_info=no_baseline))
         self.assertEqual(self.latest()[1], 'waiting for synchronized data')
 
     def test_3_no_initial_extrinsic(self):

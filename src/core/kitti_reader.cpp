@@ -284,7 +284,8 @@ KittiSequence::KittiSequence(const std::string& dir) : dir_(dir) {
 
 void KittiSequence::openOdometry() {
   const fs::path d(dir_);
-  rig_ = rigFromOdometryCalib(readKittiOdometryCalib((d / "calib.txt").string()));
+  calib_ = readKittiOdometryCalib((d / "calib.txt").string());
+  rig_ = rigFromOdometryCalib(calib_);
   int digits = 6;
   const auto ids = intersect(intersect(listNumbered(d / "image_2", ".png", &digits),
                                        listNumbered(d / "image_3", ".png", nullptr)),
@@ -351,6 +352,7 @@ void KittiSequence::openRaw() {
     velo_to_cam0(r, 3) = T->second[r];
   }
   calib.Tr = (rect * velo_to_cam0).topRows<3>();  // velodyne -> rectified cam0
+  calib_ = calib;
   rig_ = rigFromOdometryCalib(calib);
   const auto size = cam.find("S_rect_02");
   if (size != cam.end() && size->second.size() == 2) {

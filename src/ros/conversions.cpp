@@ -187,7 +187,8 @@ bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::
     *error = "point cloud data is shorter than width*height*point_step";
     return false;
   }
-  const auto* fi = findField(msg, "intensity");
+  const auto* fi = findField(msg, "intensity") ? findField(msg, "intensity")
+                                                : findField(msg, "i");  // kitti2bag's name
   const auto* fr = findField(msg, "ring");
   const std::string time_name = perPointTimeField(msg);
   const auto* ft = time_name.empty() ? nullptr : findField(msg, time_name);
@@ -223,7 +224,7 @@ bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::
   return true;
 }
 
-sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, double Tx,
+sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, const Eigen::Vector3d& p3,
                                      const std_msgs::Header& header) {
   sensor_msgs::CameraInfo info;
   info.header = header;
@@ -233,8 +234,13 @@ sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, double Tx,
   info.D.assign(5, 0.0);
   info.K = {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1};
   info.R = {1, 0, 0, 0, 1, 0, 0, 0, 1};
-  info.P = {c.fx, 0, c.cx, Tx, 0, c.fy, c.cy, 0, 0, 0, 1, 0};
+  info.P = {c.fx, 0, c.cx, p3.x(), 0, c.fy, c.cy, p3.y(), 0, 0, 1, p3.z()};
   return info;
+}
+
+sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, double Tx,
+                                     const std_msgs::Header& header) {
+  return toCameraInfo(c, Eigen::Vector3d(Tx, 0, 0), header);
 }
 
 bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* c, std::string* error) {
@@ -262,13 +268,24 @@ bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs
     return false;
   }
   if (!baseline_from_p) return true;
-  if (right.P[3] >= 0) {
-    *error = "right camera_info P[3] = " + std::to_string(right.P[3]) +
-             " is not -fx*baseline; set initial/T_right_left";
+  // P = K [I | t]: t = K^-1 P[:,3] is the camera's position (negated, in its own axes) in the
+  // frame both P refer to; the rectified cameras share their orientation.
+  const auto position = [](const sensor_msgs::CameraInfo& info) {
+    Eigen::Matrix3d K;
+    K << info.P[0], info.P[1], info.P[2], info.P[4], info.P[5], info.P[6], info.P[8], info.P[9],
+        info.P[10];
+    return Eigen::Vector3d(K.inverse() * Eigen::Vector3d(info.P[3], info.P[7], info.P[11]));
+  };
+  const Eigen::Vector3d t = position(right) - position(left);
+  if (!(t.x() < 0) || !t.allFinite()) {
+    *error = "right camera_info P[3] = " + std::to_string(right.P[3]) + " with the left one's " +
+             std::to_string(left.P[3]) +
+             ": the right camera must sit to the right of the left one (its P[3] = -fx*baseline "
+             "relative to the left camera's); set initial/T_right_left";
     return false;
   }
   rig->T_right_left = Eigen::Isometry3d::Identity();
-  rig->T_right_left.translation() = Eigen::Vector3d(right.P[3] / right.P[0], 0, 0);
+  rig->T_right_left.translation() = t;
   return true;
 }
 

@@ -50,7 +50,9 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
   (*latched)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
   (*latched)["message_definition"] = ros::message_traits::definition<tf2_msgs::TFMessage>();
 
-  const double Tx_right = -rig.right.fx * rig.T_right_left.translation().norm();
+  // camera_info's P as kitti2bag writes it: the dataset's P2 and P3, fourth columns included
+  // (both cameras' positions measured from cam0; stereoFromCameraInfo takes their difference).
+  const Eigen::Vector3d p3_left = seq.calib().P[2].col(3), p3_right = seq.calib().P[3].col(3);
   size_t written = 0;
   for (size_t si = 0; si < seqs.size(); ++si) {
     const KittiSequence& cur = *seqs[si];
@@ -73,12 +75,12 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
 
       h.frame_id = o.left_frame;
       bag.write(o.left_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.left, h, "rgb8"));
-      bag.write(o.left_prefix + "/camera_info", stamp, ros_conv::toCameraInfo(rig.left, 0.0, h));
+      bag.write(o.left_prefix + "/camera_info", stamp, ros_conv::toCameraInfo(rig.left, p3_left, h));
 
       h.frame_id = o.right_frame;
       bag.write(o.right_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.right, h, "rgb8"));
       bag.write(o.right_prefix + "/camera_info", stamp,
-                ros_conv::toCameraInfo(rig.right, Tx_right, h));
+                ros_conv::toCameraInfo(rig.right, p3_right, h));
       ++written;
       if (progress) progress(written, total);
     }

@@ -64,6 +64,9 @@ class KittiSequence {
   const std::string& dir() const { return dir_; }
   KittiLayout layout() const { return layout_; }
   const StereoRig& rig() const { return rig_; }
+  /// The calibration as the dataset gives it (raw layout: P_rect_0N and Tr = R_rect_00 * velo ->
+  /// cam0), e.g. for writing camera_info as kitti2bag does; rig() is derived from it.
+  const KittiOdometryCalib& calib() const { return calib_; }
   size_t size() const { return frame_ids_.size(); }
   int frameId(size_t i) const { return frame_ids_[i]; }
   double stamp(size_t i) const { return stamps_[i]; }
@@ -94,6 +97,7 @@ class KittiSequence {
 
   std::string dir_;
   KittiLayout layout_ = KittiLayout::kOdometry;
+  KittiOdometryCalib calib_;
   StereoRig rig_;
   std::vector<int> frame_ids_;
   std::vector<double> stamps_;

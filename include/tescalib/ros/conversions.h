@@ -36,8 +36,13 @@ bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::
 /// the vehicle's motion skews (deskew/enabled).
 std::string perPointTimeField(const sensor_msgs::PointCloud2& msg);
 
-/// Rectified camera intrinsics -> CameraInfo. `Tx` is P[0,3] (= -fx * baseline for the right
-/// camera of a rectified pair, 0 for the left).
+/// Rectified camera intrinsics -> CameraInfo (K = P's left 3x3, R = I, D = 0). `p3` is P's fourth
+/// column, K times the camera's position in the pair's reference frame: (0, 0, 0) for the left
+/// camera and (-fx * baseline, 0, 0) for the right one in ROS's convention; KITTI's calibration
+/// (P2, P3) and kitti2bag's bags measure both from the grey camera cam0 instead.
+sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, const Eigen::Vector3d& p3,
+                                     const std_msgs::Header& header);
+/// The same with P = [K | (Tx, 0, 0)].
 sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, double Tx,
                                      const std_msgs::Header& header);
 
@@ -46,8 +51,13 @@ sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, double Tx,
 bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* c, std::string* error);
 
 /// Both cameras' intrinsics from their camera_info and, with `baseline_from_p`, the rectified
-/// pair's T_right_left = [I | (P[3] / P[0], 0, 0)] from the right one's P[3] = -fx * baseline.
-/// False with a message when either is unusable or that P[3] is not negative.
+/// pair's T_right_left = [I | K_r^-1 P_r[:,3] - K_l^-1 P_l[:,3]]: the difference of the two
+/// cameras' positions that the fourth columns of their P give. In ROS's convention (left
+/// P[3] = 0, right P[3] = -fx * baseline) that is (-baseline, 0, 0); in kitti2bag's bags, whose P
+/// are KITTI's P_rect_02 / P_rect_03 (both measured from cam0, left P[3] = +44.9 px on
+/// 2011_09_26), it is KITTI's own left-right translation, vertical part included, where the right
+/// P[3] alone would make the baseline 12 % short. False with a message when either camera_info is
+/// unusable or the right camera does not sit to the right of the left one.
 bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs::CameraInfo& right,
                           bool baseline_from_p, StereoRig* rig, std::string* error);
 

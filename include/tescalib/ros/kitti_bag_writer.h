@@ -1,5 +1,7 @@
 // Writes a KITTI sequence (odometry or raw layout) to a rosbag with kitti2bag's topic and frame
-// names, so launch files work the same on bags users already have.
+// names and its camera_info convention (P = the dataset's P2 / P3, fourth columns measured from
+// cam0), so launch files and the node's camera_info parsing work the same on bags users already
+// have.
 #pragma once
 
 #include <functional>
