@@ -9,7 +9,7 @@ JOBS ?= 2
 # <package>/build/, and the package is the repository root.
 DEVEL := $(ROOT)/.devel
 
-.PHONY: all deps build test demo bench format clean
+.PHONY: all deps build test demo bench install-check format clean
 
 all: build
 
@@ -43,6 +43,9 @@ demo: build
 
 bench: build
 	@bash scripts/bench.sh
+
+install-check: deps
+	@bash scripts/check_install.sh
 
 format:
 	@clang-format -i $$(git ls-files '*.cpp' '*.h')
