@@ -103,9 +103,9 @@ def fmt(values, scale=1.0, digits=4):
 
 def print_estimate(title, msg, ref):
     q, t = ex.from_msg(msg.transform)
-    print('  %s (%s -> %s): converged=%s, %d keyframes, %d iterations' % (
+    print('  %s (%s -> %s): converged=%s, %d keyframes, %d iterations%s' % (
         title, msg.child_frame_id, msg.parent_frame_id, msg.converged, msg.keyframes_used,
-        msg.iterations))
+        msg.iterations, '' if msg.estimated else ' (not estimated: the given value)'))
     print('    translation [%s] m, rotation vector [%s] deg' % (
         fmt(t), fmt(ex.rotvec(q), 57.29577951308232)))
     print('    sigma rot [%s] deg, sigma trans [%s] cm' % (

@@ -15,7 +15,7 @@ import unittest
 
 import rospy
 import rostest
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs import point_cloud2
 from sensor_msgs.msg import CameraInfo, Image, PointCloud2, PointField
@@ -77,6 +77,7 @@ class BadInput(unittest.TestCase):
         rospy.init_node('test_bad_input')
         cls.lock = threading.Lock()
         cls.diag = []
+        cls.bad_params_diag = []
         cls.published = []
         cls.tf_children = set()
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diag)
@@ -104,7 +105,10 @@ class BadInput(unittest.TestCase):
     @classmethod
     def on_diag(cls, msg):
         for s in msg.status:
-            if s.hardware_id == 'tescalib':
+            if s.hardware_id == 'tescalib' and 'bad_params' in s.name:
+                with cls.lock:
+                    cls.bad_params_diag.append((s.level, s.message))
+            elif s.hardware_id == 'tescalib':
                 with cls.lock:
                     cls.diag.append((time.time(), s.message, {kv.key: kv.value for kv in s.values}))
 
@@ -162,6 +166,17 @@ class BadInput(unittest.TestCase):
         self.fail('no "%s" in /diagnostics; last problem: "%s"' %
                   (text, self.latest()[2].get('last problem')))
 
+    def test_0_parameters(self):
+        # The misspelled key is named; the node with window/size 0 says so as an error.
+        self.assertEqual(self.latest()[2].get('unknown parameters'), '/tescalib/sync/max_skw')
+        deadline = time.time() + 15
+        while time.time() < deadline and not self.bad_params_diag:
+            time.sleep(0.2)
+        self.assertTrue(self.bad_params_diag, 'the node with invalid parameters is silent')
+        level, message = self.bad_params_diag[-1]
+        self.assertEqual(level, DiagnosticStatus.ERROR)
+        self.assertIn('invalid parameters: window/size must be >= 1 (got 0)', message)
+
     def test_1_images_without_the_other_topics(self):
         for _ in range(25):
             t = self.next_stamp(0.1)
@@ -170,6 +185,9 @@ class BadInput(unittest.TestCase):
             time.sleep(0.03)
         self.wait_problem('images but no synchronized set')
         _, message, values = self.latest()
+        # It names the topics that have had nothing (the cloud and both camera_infos here).
+        self.assertIn('nothing on /bad/points, /bad/left/camera_info, /bad/right/camera_info',
+                      values['last problem'])
         self.assertEqual(message, 'waiting for synchronized data')
         self.assertEqual(values['synchronized sets'], '0')
 

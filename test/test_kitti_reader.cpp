@@ -227,6 +227,22 @@ TEST(KittiReaderErrors, MalformedCalib) {
   expectDataError([&] { KittiSequence s(tmp.str()); }, {"calib.txt", "missing key 'Tr'"});
 }
 
+TEST(KittiReader, CalibWithoutTheGreyCamerasIsRead) {
+  // tescalib_calibrate --init reads a hand-written file with only what it uses: P2, P3, Tr.
+  TempDir tmp;
+  {
+    std::ofstream c(tmp.path / "calib.txt");
+    c << "P2: 700 0 320 42 0 700 120 0 0 0 1 0\nP3: 700 0 320 -308 0 700 120 0 0 0 1 0\n"
+         "Tr: 0 -1 0 0.1 0 0 -1 -0.2 1 0 0 -0.3\n";
+  }
+  const KittiOdometryCalib c = readKittiOdometryCalib((tmp.path / "calib.txt").string());
+  EXPECT_EQ(c.P[0], c.P[2]);
+  EXPECT_EQ(c.P[1], c.P[3]);
+  const StereoRig rig = rigFromOdometryCalib(c);
+  EXPECT_NEAR(rig.T_right_left.translation().x(), -0.5, 1e-12);
+  EXPECT_NEAR(rig.T_cam_lidar.translation().x(), 0.1 + 0.06, 1e-12);
+}
+
 TEST(KittiReaderErrors, TruncatedScan) {
   TempDir tmp;
   tescalib_test::writeSyntheticSequence(tmp.str(), 2);

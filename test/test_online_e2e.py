@@ -153,6 +153,8 @@ class OnlineEndToEnd(unittest.TestCase):
         self.assertLess(ex.norm(tau), 0.03)
         stereo = self.est['left_to_right'][-1]
         phi_s, tau_s = ex.error(ex.from_msg(stereo.transform), self.truth['T_right_left'])
+        self.assertTrue(last.estimated)
+        self.assertEqual(stereo.estimated, self.estimate_stereo)
         if self.estimate_stereo:
             self.assertLess(ex.norm(phi_s) * DEG, 0.2)
             self.assertLess(ex.norm(tau_s), 0.03)

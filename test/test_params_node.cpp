@@ -8,10 +8,13 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   ros::NodeHandle pnh("~kitti");
   tescalib::NodeParams p;
   std::string error;
-  EXPECT_TRUE(tescalib::loadNodeParams(pnh, &p, &error)) << error;
+  std::vector<std::string> unknown{"not cleared"};
+  EXPECT_TRUE(tescalib::loadNodeParams(pnh, &p, &error, &unknown)) << error;
+  // Every key of the shipped config is one the node reads.
+  EXPECT_TRUE(unknown.empty()) << unknown.front();
   EXPECT_EQ(p.online.window_size, 10);
   EXPECT_DOUBLE_EQ(p.online.keyframe_min_dt, 0.5);
-  EXPECT_EQ(p.initial_tf_camera_frame, "camera_color_left");
+  EXPECT_EQ(p.initial_tf_camera_frame, "");  // the left camera_info's frame_id
   EXPECT_EQ(p.left_frame, "tescalib_left");
   EXPECT_DOUBLE_EQ(p.online.co.yaw_handover_deg, 0.2);
   EXPECT_TRUE(p.online.co.lidar.check_window_halves);
@@ -28,6 +31,31 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_EQ(p.online.co.stereo_cloud.refinement.iterations, 1);
   EXPECT_EQ(p.online.co.stereo_cloud.refinement.smoothed_gradient_rounds, 0);
   EXPECT_EQ(p.online.co.stereo_cloud.num_disparities, p.online.keyframe.stereo.num_disparities);
+}
+
+TEST(Params, LiveProfileLoadsOverTheDefaults) {
+  ros::NodeHandle pnh("~live");
+  tescalib::NodeParams p;
+  std::string error;
+  std::vector<std::string> unknown;
+  EXPECT_TRUE(tescalib::loadNodeParams(pnh, &p, &error, &unknown)) << error;
+  EXPECT_TRUE(unknown.empty()) << unknown.front();
+  EXPECT_TRUE(p.online.deskew);
+  EXPECT_TRUE(p.online.estimate_stereo);
+  EXPECT_EQ(p.online.window_size, 10);  // from config/kitti.yaml
+}
+
+TEST(Params, MisspelledKeysAreReported) {
+  ros::NodeHandle pnh("~typo");
+  pnh.setParam("sync/max_skw", 0.1);
+  pnh.setParam("window/size", 12);
+  pnh.setParam("stereo/refine/iterations", 1);
+  tescalib::NodeParams p;
+  std::string error;
+  std::vector<std::string> unknown;
+  EXPECT_TRUE(tescalib::loadNodeParams(pnh, &p, &error, &unknown)) << error;
+  EXPECT_EQ(p.online.window_size, 12);
+  EXPECT_EQ(unknown, (std::vector<std::string>{"stereo/refine/iterations", "sync/max_skw"}));
 }
 
 TEST(Params, InvalidValuesAreNamed) {

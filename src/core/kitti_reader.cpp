@@ -127,7 +127,12 @@ KittiOdometryCalib readKittiOdometryCalib(const std::string& path) {
   if (!fs::exists(path)) throw DataError(path + ": calibration file not found");
   const auto kv = readKeyValueFile(path);
   KittiOdometryCalib c;
-  for (int i = 0; i < 4; ++i) c.P[i] = matrix3x4(kv, "P" + std::to_string(i), path);
+  for (int i = 2; i < 4; ++i) c.P[i] = matrix3x4(kv, "P" + std::to_string(i), path);
+  // The grey cameras' P0 / P1 are not used: a file with only P2, P3 and Tr (a hand-written
+  // --init) is read, with P0 / P1 taken as P2 / P3.
+  for (int i = 0; i < 2; ++i)
+    c.P[i] = kv.count("P" + std::to_string(i)) ? matrix3x4(kv, "P" + std::to_string(i), path)
+                                               : c.P[i + 2];
   c.Tr = matrix3x4(kv, "Tr", path);
   if (c.P[2](0, 0) <= 0 || c.P[3](0, 0) <= 0)
     throw DataError(path + ": P2/P3 have a non-positive focal length");

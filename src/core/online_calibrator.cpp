@@ -306,7 +306,8 @@ bool OnlineCalibrator::solve(std::string* msg) {
     return false;
   };
   if (!e.converged)
-    return notPublished("not converged (" + *msg + "): keeping the previous estimate");
+    return notPublished("not converged (" + *msg + "): " +
+                        (estimate_ ? "keeping the previous estimate" : "nothing published yet"));
   if (estimate_) {
     // Like with like: the stereo part counts only when both estimated it.
     const bool both = e.stereo_estimated && estimate_->stereo_estimated;

@@ -1,5 +1,7 @@
 #include "tescalib/ros/calibration_nodelet.h"
 
+#include <filesystem>
+
 #include <cstdio>
 #include <random>
 
@@ -33,9 +35,27 @@ void CalibrationNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
   std::string error;
-  if (!loadNodeParams(pnh, &params_, &error)) {
+  std::vector<std::string> unknown;
+  start_wall_ = ros::WallTime::now();
+  if (!loadNodeParams(pnh, &params_, &error, &unknown)) {
     NODELET_FATAL("tescalib: invalid parameters: %s", error.c_str());
-    return;  // stays inert; the manager keeps running
+    // Stays inert (the manager and its other nodelets keep running) and says why on
+    // /diagnostics, every second, as an error.
+    param_error_ = "invalid parameters: " + error;
+    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh);
+    diagnostics_->setHardwareID("tescalib");
+    diagnostics_->add("calibration", this, &CalibrationNodelet::diagnose);
+    watchdog_timer_ =
+        nh.createWallTimer(ros::WallDuration(1.0), &CalibrationNodelet::watchdog, this);
+    return;
+  }
+  if (!unknown.empty()) {
+    std::string names;
+    for (const auto& u : unknown) names += (names.empty() ? "" : ", ") + pnh.resolveName(u);
+    unknown_params_ = names;
+    NODELET_WARN("tescalib: unknown parameter(s) ignored: %s (a typo? config/kitti.yaml lists "
+                 "every parameter)",
+                 names.c_str());
   }
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
@@ -60,7 +80,15 @@ void CalibrationNodelet::onInit() {
   right_sub_.subscribe(nh, "right/image_raw", q);
   right_info_sub_.subscribe(nh, "right/camera_info", q);
   left_sub_.registerCallback(boost::function<void(const Image::ConstPtr&)>(
-      [this](const Image::ConstPtr&) { ++images_seen_; }));
+      [this](const Image::ConstPtr&) { ++images_seen_, ++topic_messages_[1]; }));
+  cloud_sub_.registerCallback(boost::function<void(const Cloud::ConstPtr&)>(
+      [this](const Cloud::ConstPtr&) { ++topic_messages_[0]; }));
+  left_info_sub_.registerCallback(boost::function<void(const Info::ConstPtr&)>(
+      [this](const Info::ConstPtr&) { ++topic_messages_[2]; }));
+  right_sub_.registerCallback(boost::function<void(const Image::ConstPtr&)>(
+      [this](const Image::ConstPtr&) { ++topic_messages_[3]; }));
+  right_info_sub_.registerCallback(boost::function<void(const Info::ConstPtr&)>(
+      [this](const Info::ConstPtr&) { ++topic_messages_[4]; }));
   if (params_.approximate_sync) {
     approx_sync_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(
         ApproxPolicy(params_.sync_queue), cloud_sub_, left_sub_, left_info_sub_, right_sub_,
@@ -81,10 +109,13 @@ void CalibrationNodelet::onInit() {
   preprocess_thread_ = std::thread(&CalibrationNodelet::preprocessLoop, this);
   solve_thread_ = std::thread(&CalibrationNodelet::solveLoop, this);
   NODELET_INFO(
-      "tescalib: waiting for synchronized points, left/right image_raw and camera_info "
-      "(window %d keyframes >= %.2f s apart, %s sync)",
-      params_.online.window_size, params_.online.keyframe_min_dt,
-      params_.approximate_sync ? "approximate" : "exact");
+      "tescalib: waiting for synchronized %s, %s + %s, %s + %s (window %d keyframes >= %.2f s "
+      "apart, %s sync)",
+      cloud_sub_.getSubscriber().getTopic().c_str(), left_sub_.getSubscriber().getTopic().c_str(),
+      left_info_sub_.getSubscriber().getTopic().c_str(),
+      right_sub_.getSubscriber().getTopic().c_str(),
+      right_info_sub_.getSubscriber().getTopic().c_str(), params_.online.window_size,
+      params_.online.keyframe_min_dt, params_.approximate_sync ? "approximate" : "exact");
 }
 
 bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_info,
@@ -101,14 +132,30 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
   if (!params_.initial_T_cam_lidar.empty()) {
     rig.T_cam_lidar = fromVector7(params_.initial_T_cam_lidar);
   } else {
-    try {
-      const auto t = tf_buffer_->lookupTransform(params_.initial_tf_camera_frame, lidar_frame_,
-                                                 ros::Time(0), ros::Duration(0.5));
-      rig.T_cam_lidar = tf2::transformToEigen(t.transform);
-    } catch (const tf2::TransformException& ex) {
-      const std::string what = "no initial extrinsic: tf " + lidar_frame_ + " -> " +
-                               params_.initial_tf_camera_frame + ": " + ex.what() +
-                               " (publish it, or set initial/T_cam_lidar)";
+    const bool from_info = params_.initial_tf_camera_frame.empty();
+    const std::string camera_frame =
+        from_info ? left_info.header.frame_id : params_.initial_tf_camera_frame;
+    const std::string which =
+        from_info ? "the left camera_info's frame_id" : "initial/tf_camera_frame";
+    std::string what;
+    if (camera_frame.empty()) {
+      what = "no initial extrinsic: the left camera_info has no frame_id; name the left camera's "
+             "tf frame with camera_frame:=FRAME (initial/tf_camera_frame) or set "
+             "initial/T_cam_lidar";
+    } else {
+      try {
+        const auto t = tf_buffer_->lookupTransform(camera_frame, lidar_frame_, ros::Time(0),
+                                                   ros::Duration(0.5));
+        rig.T_cam_lidar = tf2::transformToEigen(t.transform);
+      } catch (const tf2::TransformException& ex) {
+        what = "no initial extrinsic: tf " + lidar_frame_ + " -> " + camera_frame + " (" + which +
+               "): " + ex.what() +
+               " (publish that transform, e.g. from the URDF or a static_transform_publisher; "
+               "name another camera frame with camera_frame:=FRAME / initial/tf_camera_frame; "
+               "or set initial/T_cam_lidar)";
+      }
+    }
+    if (!what.empty()) {
       NODELET_WARN_THROTTLE(5.0, "tescalib: %s", what.c_str());
       noteProblem(what);
       return false;
@@ -335,12 +382,14 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
 void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
                                              const ros::Publisher& lidar,
                                              const ros::Publisher& stereo) {
-  lidar.publish(ros_conv::toEstimateMsg(
-      h, params_.left_frame, lidar_frame_, e.T_cam_lidar, e.cov_lidar, e.observable_lidar,
-      e.converged, e.keyframes_used, e.cost_lidar, e.iterations_lidar, e.message));
+  lidar.publish(ros_conv::toEstimateMsg(h, params_.left_frame, lidar_frame_, e.T_cam_lidar,
+                                        e.cov_lidar, e.observable_lidar, e.converged,
+                                        e.keyframes_used, e.cost_lidar, e.iterations_lidar,
+                                        e.message, true));
   stereo.publish(ros_conv::toEstimateMsg(
       h, params_.right_frame, params_.left_frame, e.T_right_left, e.cov_stereo, e.observable_stereo,
-      e.converged, e.keyframes_used, e.cost_stereo, e.iterations_stereo, e.message));
+      e.converged, e.keyframes_used, e.cost_stereo, e.iterations_stereo, e.message,
+      e.stereo_estimated));
 }
 
 void CalibrationNodelet::publishKeyframe(const Keyframe& kf) {
@@ -374,16 +423,43 @@ void CalibrationNodelet::publishTf(const ros::Time& stamp) {
   last_tf_stamp_ = stamp;
 }
 
+std::string CalibrationNodelet::silentTopics() const {
+  const std::string topics[5] = {cloud_sub_.getSubscriber().getTopic(),
+                                 left_sub_.getSubscriber().getTopic(),
+                                 left_info_sub_.getSubscriber().getTopic(),
+                                 right_sub_.getSubscriber().getTopic(),
+                                 right_info_sub_.getSubscriber().getTopic()};
+  std::string silent;
+  for (int i = 0; i < 5; ++i)
+    if (topic_messages_[i] == 0) silent += (silent.empty() ? "" : ", ") + topics[i];
+  return silent;
+}
+
 void CalibrationNodelet::watchdog(const ros::WallTimerEvent&) {
   diagnostics_->force_update();
-  if (images_seen_ > 20 && sync_sets_ == 0) {
-    const std::string what =
-        std::to_string(images_seen_.load()) +
-        " images but no synchronized set: check that points, left/right image_raw and both "
-        "camera_info topics are published with matching stamps (sync/approximate, sync/max_skew)";
-    NODELET_WARN_THROTTLE(10.0, "tescalib: %s", what.c_str());
-    noteProblem(what);
+  if (!param_error_.empty()) {
+    NODELET_ERROR_THROTTLE(10.0, "tescalib: %s; the node does nothing", param_error_.c_str());
+    return;
   }
+  if (sync_sets_ > 0) return;
+  const std::string silent = silentTopics();
+  const std::string check =
+      "check the topic names (points:=TOPIC; left:= and right:= are the cameras' namespaces, "
+      "image:= the image's name in them, camera_info beside it) and that their sources run";
+  std::string what;
+  if (images_seen_ > 20) {
+    what = std::to_string(images_seen_.load()) + " images but no synchronized set: " +
+           (silent.empty() ? "check that the cloud, both images and both camera_info topics "
+                             "carry matching stamps (sync/approximate, sync/max_skew)"
+                           : "nothing on " + silent + "; " + check);
+  } else if (!silent.empty() && (ros::WallTime::now() - start_wall_).toSec() > 5.0) {
+    what = "no messages on " + silent + " after " +
+           std::to_string(static_cast<int>((ros::WallTime::now() - start_wall_).toSec())) +
+           " s; " + check;
+  }
+  if (what.empty()) return;
+  NODELET_WARN_THROTTLE(10.0, "tescalib: %s", what.c_str());
+  noteProblem(what);
 }
 
 bool CalibrationNodelet::onReset(Reset::Request&, Reset::Response& res) {
@@ -407,7 +483,12 @@ bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
   frames.lidar = lidar_frame_;
   frames.left = params_.left_frame;
   frames.right = params_.right_frame;
-  res.success = writeCalibrationFiles(base, calibrator()->rig(), *e, frames, &res.message);
+  // Relative paths are relative to the node's working directory, ROS_HOME (~/.ros) under
+  // roslaunch: the reply names the files with their absolute paths.
+  std::error_code ec;
+  const std::filesystem::path absolute = std::filesystem::absolute(base, ec);
+  res.success = writeCalibrationFiles(ec ? base : absolute.string(), calibrator()->rig(), *e,
+                                      frames, &res.message);
   return true;
 }
 
@@ -423,6 +504,10 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
     std::lock_guard<std::mutex> lock(mutex_);
     problem = last_problem_;
     solve_msg = last_solve_message_;
+  }
+  if (!param_error_.empty()) {
+    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::ERROR, param_error_);
+    return;
   }
   if (!calibrator())
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN,
@@ -456,6 +541,7 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
     stat.add("first estimate sensor seconds", first_estimate_sim_s_);
   }
   stat.add("last problem", problem);
+  stat.add("unknown parameters", unknown_params_);
   stat.add("converged", e ? e->converged : false);
 }
 

@@ -358,7 +358,7 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
                                 const std::string& child, const Eigen::Isometry3d& T,
                                 const Matrix6d& cov, const bool observable[6], bool converged,
                                 int keyframes, double cost, int iterations,
-                                const std::string& status) {
+                                const std::string& status, bool estimated) {
   ExtrinsicEstimate m;
   m.header = header;
   m.header.frame_id = parent;
@@ -372,6 +372,7 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
   }
   for (int i = 0; i < 6; ++i) m.observable[i] = observable[i];
   m.converged = converged;
+  m.estimated = estimated;
   m.keyframes_used = static_cast<uint32_t>(keyframes);
   m.final_cost = cost;
   m.iterations = static_cast<uint32_t>(iterations);

@@ -1,14 +1,25 @@
 #include "tescalib/ros/params.h"
 
+#include <algorithm>
+#include <set>
 #include <sstream>
+
+#include <ros/param.h>
 
 namespace tescalib {
 
 namespace {
-template <typename T>
-void get(const ros::NodeHandle& nh, const std::string& name, T* value) {
-  nh.param(name, *value, *value);
-}
+/// Reads private parameters, remembering every name it was asked for, so that the names on the
+/// parameter server it never read (typos) can be reported.
+struct Reader {
+  const ros::NodeHandle& nh;
+  std::set<std::string> names;
+  template <typename T>
+  void operator()(const std::string& name, T* value) {
+    names.insert(name);
+    nh.param(name, *value, *value);
+  }
+};
 
 /// The rounds of a disparity refinement read from `prefix`refine_iterations and
 /// `prefix`refine_smoothed_rounds.
@@ -22,62 +33,76 @@ void checkRefinementRounds(const DisparityRefinementSettings& r, const std::stri
 }
 }  // namespace
 
-bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* error) {
-  get(pnh, "sync/approximate", &p->approximate_sync);
-  get(pnh, "sync/queue_size", &p->sync_queue);
-  get(pnh, "sync/max_skew", &p->online.max_sync_skew);
-  get(pnh, "frames/lidar", &p->lidar_frame);
-  get(pnh, "frames/left", &p->left_frame);
-  get(pnh, "frames/right", &p->right_frame);
-  get(pnh, "window/keyframe_min_dt", &p->online.keyframe_min_dt);
-  get(pnh, "window/size", &p->online.window_size);
-  get(pnh, "window/min_keyframes", &p->online.min_keyframes);
-  get(pnh, "window/min_keyframes_co", &p->online.min_keyframes_co);
-  get(pnh, "window/max_trace_growth", &p->online.max_trace_growth);
-  get(pnh, "window/warm_start_fine_only", &p->online.warm_start_fine_only);
-  get(pnh, "window/keyframe_selection", &p->online.keyframe_selection);
-  get(pnh, "deskew/enabled", &p->online.deskew);
-  get(pnh, "deskew/max_dt", &p->online.deskew_max_dt);
-  get(pnh, "deskew/rate_hz", &p->online.sweep.rate_hz);
-  get(pnh, "deskew/clockwise", &p->online.sweep.clockwise);
-  get(pnh, "co_calibration/estimate_stereo", &p->online.estimate_stereo);
-  get(pnh, "co_calibration/max_rounds", &p->online.co.max_rounds);
-  get(pnh, "co_calibration/warm_co_rounds", &p->online.warm_co_rounds);
-  get(pnh, "co_calibration/lidar_estimates_stereo_yaw", &p->online.co.lidar_estimates_stereo_yaw);
-  get(pnh, "co_calibration/lidar_first", &p->online.lidar_first);
-  get(pnh, "co_calibration/free_depth_rounds", &p->online.co.free_depth_rounds);
-  get(pnh, "co_calibration/rematch_deg", &p->online.co.rematch_deg);
-  get(pnh, "co_calibration/yaw_handover_deg", &p->online.co.yaw_handover_deg);
-  get(pnh, "stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
-  get(pnh, "stereo/block_size", &p->online.keyframe.stereo.block_size);
-  get(pnh, "stereo/max_depth", &p->online.keyframe.stereo.max_depth);
-  get(pnh, "stereo/max_row_offset_px", &p->online.max_row_offset_px);
-  get(pnh, "stereo/disparity_sigma", &p->online.keyframe.stereo.disparity_sigma);
-  get(pnh, "stereo/refine_iterations", &p->online.keyframe.stereo.refinement.iterations);
-  get(pnh, "stereo/refine_window_radius", &p->online.keyframe.stereo.refinement.window_radius);
-  get(pnh, "stereo/refine_smoothed_rounds",
+bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* error,
+                    std::vector<std::string>* unknown) {
+  Reader get{pnh, {}};
+  get("sync/approximate", &p->approximate_sync);
+  get("sync/queue_size", &p->sync_queue);
+  get("sync/max_skew", &p->online.max_sync_skew);
+  get("frames/lidar", &p->lidar_frame);
+  get("frames/left", &p->left_frame);
+  get("frames/right", &p->right_frame);
+  get("window/keyframe_min_dt", &p->online.keyframe_min_dt);
+  get("window/size", &p->online.window_size);
+  get("window/min_keyframes", &p->online.min_keyframes);
+  get("window/min_keyframes_co", &p->online.min_keyframes_co);
+  get("window/max_trace_growth", &p->online.max_trace_growth);
+  get("window/warm_start_fine_only", &p->online.warm_start_fine_only);
+  get("window/keyframe_selection", &p->online.keyframe_selection);
+  get("deskew/enabled", &p->online.deskew);
+  get("deskew/max_dt", &p->online.deskew_max_dt);
+  get("deskew/rate_hz", &p->online.sweep.rate_hz);
+  get("deskew/clockwise", &p->online.sweep.clockwise);
+  get("co_calibration/estimate_stereo", &p->online.estimate_stereo);
+  get("co_calibration/max_rounds", &p->online.co.max_rounds);
+  get("co_calibration/warm_co_rounds", &p->online.warm_co_rounds);
+  get("co_calibration/lidar_estimates_stereo_yaw", &p->online.co.lidar_estimates_stereo_yaw);
+  get("co_calibration/lidar_first", &p->online.lidar_first);
+  get("co_calibration/free_depth_rounds", &p->online.co.free_depth_rounds);
+  get("co_calibration/rematch_deg", &p->online.co.rematch_deg);
+  get("co_calibration/yaw_handover_deg", &p->online.co.yaw_handover_deg);
+  get("stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
+  get("stereo/block_size", &p->online.keyframe.stereo.block_size);
+  get("stereo/max_depth", &p->online.keyframe.stereo.max_depth);
+  get("stereo/max_row_offset_px", &p->online.max_row_offset_px);
+  get("stereo/disparity_sigma", &p->online.keyframe.stereo.disparity_sigma);
+  get("stereo/refine_iterations", &p->online.keyframe.stereo.refinement.iterations);
+  get("stereo/refine_window_radius", &p->online.keyframe.stereo.refinement.window_radius);
+  get("stereo/refine_smoothed_rounds",
       &p->online.keyframe.stereo.refinement.smoothed_gradient_rounds);
-  get(pnh, "lidar_stereo/normal_weight", &p->online.co.lidar.normal_weight);
-  get(pnh, "lidar_stereo/lidar_range_sigma", &p->online.co.lidar.lidar_range_sigma);
-  get(pnh, "lidar_stereo/max_depth", &p->online.co.lidar.max_depth);
-  get(pnh, "lidar_stereo/check_window_halves", &p->online.co.lidar.check_window_halves);
-  get(pnh, "lidar_stereo/halves_chi2_limit", &p->online.co.lidar.halves_chi2_limit);
-  get(pnh, "lidar_stereo/measure_disparity_offset", &p->online.co.lidar.measure_disparity_offset);
-  get(pnh, "lidar_stereo/search_deg", &p->online.co.lidar.search_step_deg);
-  get(pnh, "lidar_stereo/search_min_keyframes", &p->online.search_min_keyframes);
-  get(pnh, "photometric/pyramid_levels", &p->online.co.stereo.pyramid_levels);
-  get(pnh, "photometric/huber", &p->online.co.stereo.huber);
-  get(pnh, "initial/T_cam_lidar", &p->initial_T_cam_lidar);
-  get(pnh, "initial/T_right_left", &p->initial_T_right_left);
-  get(pnh, "initial/tf_camera_frame", &p->initial_tf_camera_frame);
-  get(pnh, "initial/perturb_rot_deg", &p->initial_perturb_rot_deg);
-  get(pnh, "initial/perturb_trans_m", &p->initial_perturb_trans_m);
-  get(pnh, "initial/perturb_seed", &p->initial_perturb_seed);
-  get(pnh, "save_path", &p->save_path);
+  get("lidar_stereo/normal_weight", &p->online.co.lidar.normal_weight);
+  get("lidar_stereo/lidar_range_sigma", &p->online.co.lidar.lidar_range_sigma);
+  get("lidar_stereo/max_depth", &p->online.co.lidar.max_depth);
+  get("lidar_stereo/check_window_halves", &p->online.co.lidar.check_window_halves);
+  get("lidar_stereo/halves_chi2_limit", &p->online.co.lidar.halves_chi2_limit);
+  get("lidar_stereo/measure_disparity_offset", &p->online.co.lidar.measure_disparity_offset);
+  get("lidar_stereo/search_deg", &p->online.co.lidar.search_step_deg);
+  get("lidar_stereo/search_min_keyframes", &p->online.search_min_keyframes);
+  get("photometric/pyramid_levels", &p->online.co.stereo.pyramid_levels);
+  get("photometric/huber", &p->online.co.stereo.huber);
+  get("initial/T_cam_lidar", &p->initial_T_cam_lidar);
+  get("initial/T_right_left", &p->initial_T_right_left);
+  get("initial/tf_camera_frame", &p->initial_tf_camera_frame);
+  get("initial/perturb_rot_deg", &p->initial_perturb_rot_deg);
+  get("initial/perturb_trans_m", &p->initial_perturb_trans_m);
+  get("initial/perturb_seed", &p->initial_perturb_seed);
+  get("save_path", &p->save_path);
   p->online.co.stereo_cloud = coStereoCloudSettings(p->online.keyframe.stereo);
-  get(pnh, "co_calibration/refine_iterations", &p->online.co.stereo_cloud.refinement.iterations);
-  get(pnh, "co_calibration/refine_smoothed_rounds",
+  get("co_calibration/refine_iterations", &p->online.co.stereo_cloud.refinement.iterations);
+  get("co_calibration/refine_smoothed_rounds",
       &p->online.co.stereo_cloud.refinement.smoothed_gradient_rounds);
+  if (unknown) {
+    unknown->clear();
+    std::vector<std::string> all;
+    ros::param::getParamNames(all);
+    const std::string prefix = pnh.getNamespace() + "/";
+    for (const std::string& name : all) {
+      if (name.compare(0, prefix.size(), prefix) != 0) continue;
+      const std::string key = name.substr(prefix.size());
+      if (!get.names.count(key)) unknown->push_back(key);
+    }
+    std::sort(unknown->begin(), unknown->end());
+  }
   return validateNodeParams(*p, error);
 }
 
@@ -136,9 +161,6 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (!p.initial_T_right_left.empty() && p.initial_T_right_left.size() != 7)
     e << "initial/T_right_left must be [x, y, z, qx, qy, qz, qw] (7 values, got "
       << p.initial_T_right_left.size() << "); ";
-  if (p.initial_T_cam_lidar.empty() && p.initial_tf_camera_frame.empty())
-    e << "set initial/T_cam_lidar or initial/tf_camera_frame (an initial LiDAR extrinsic is "
-         "required); ";
   if (p.left_frame.empty() || p.right_frame.empty())
     e << "frames/left and frames/right must be set; ";
   *error = e.str();

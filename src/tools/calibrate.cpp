@@ -9,11 +9,14 @@
 #include <iostream>
 #include <memory>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <rosbag/bag.h>
+#include <rosbag/view.h>
 #include <tf2/exceptions.h>
 
 #include "tescalib/core/calibration_io.h"
@@ -42,7 +45,7 @@ struct Args {
   unsigned seed = 1;
   int deskew = -1;  // -1: as the data say (KittiSequence::sweptScans)
   std::string out;
-  std::string lidar_frame = "velo_link";
+  std::string lidar_frame;  // empty: the bag's cloud frame, velo_link for folders
   std::string overlay;  // PNG: the last keyframe with the scan drawn, initial guess vs result
   double search_deg = -1;  // LidarStereoSettings::search_step_deg; < 0: the default (10)
 };
@@ -50,6 +53,7 @@ struct Args {
 void usage() {
   std::cout
       << "usage: rosrun tescalib tescalib_calibrate --sequences DIR[,DIR...] | --bag FILE\n"
+         "       [--points TOPIC --left IMAGE_TOPIC --right IMAGE_TOPIC --max-skew S]\n"
          "       [--mode lidar_stereo|co]\n"
          "       [--window N] [--init CALIB.txt] [--perturb-rot-deg R --perturb-trans-m T "
          "[--seed S]]\n"
@@ -58,7 +62,8 @@ void usage() {
          "Calibrates the recording in DIR (KITTI odometry or raw layout; several folders of one\n"
          "rig are played one after the other) or in a rosbag with the online pipeline.\n"
          "--bag FILE: topics as kitti.launch's (kitti2bag); --points, --left, --right TOPIC\n"
-         "  change them (camera_info: the image topic's folder + /camera_info); --max-skew S\n"
+         "  change them: the image topics themselves (the launch files take the namespace and\n"
+         "  image:= instead); camera_info is the image topic's folder + /camera_info; --max-skew S\n"
          "  (default 0.05). Initial guess: camera_info and /tf_static (left camera frame <-\n"
          "  cloud frame), or --init.\n"
          "--mode lidar_stereo: T_cam_lidar only (the stereo pair as calibrated); co: both\n"
@@ -73,8 +78,9 @@ void usage() {
          "  generated scans).\n"
          "--out BASE: write the last converged estimate to BASE.yaml, BASE_calib.txt and\n"
          "  BASE_static_tf.launch (nothing is written when none converged); --lidar-frame:\n"
-         "  the LiDAR's tf frame in them (default velo_link, as kitti2bag; the cameras are\n"
-         "  tescalib_left and tescalib_right, as the node publishes them).\n"
+         "  the LiDAR's tf frame in them (default: a bag's cloud frame_id, velo_link for\n"
+         "  folders, as kitti2bag; the cameras are tescalib_left and tescalib_right, as the\n"
+         "  node publishes them).\n"
          "--search-deg D: before the first estimate, a LiDAR-stereo solve that does not\n"
          "  converge is tried again from the start turned +-D deg about the camera's x and y\n"
          "  axes (default 10; 0: off), as the node does (lidar_stereo/search_deg).\n"
@@ -101,8 +107,10 @@ bool parse(int argc, char** argv, Args* a) {
       a->perturb_trans_m = std::stod(v);
     else if (k == "--seed")
       a->seed = static_cast<unsigned>(std::stoul(v));
-    else if (k == "--deskew")
+    else if (k == "--deskew") {
       a->deskew = std::stoi(v);
+      if (a->deskew != 0 && a->deskew != 1) throw std::invalid_argument(v);
+    }
     else if (k == "--out")
       a->out = v;
     else if (k == "--lidar-frame")
@@ -129,7 +137,7 @@ bool parse(int argc, char** argv, Args* a) {
   };
   if (!cli::parseOptions(argc, argv, "tescalib_calibrate", usage, option)) return false;
   if (a->sequences.empty() == a->bag.empty()) {
-    std::cerr << "tescalib_calibrate: give --sequences or --bag\n";
+    std::cerr << "tescalib_calibrate: give exactly one of --sequences and --bag\n";
     return false;
   }
   if (a->mode != "lidar_stereo" && a->mode != "co") {
@@ -193,6 +201,7 @@ struct Session {
   bool perturbed = false;
   int keyframes = 0, rejected = 0, solves = 0, published = 0;
   std::string last_solve;
+  std::string lidar_frame = "velo_link";  // the data's (a bag's cloud frame); --lidar-frame wins
   bool keep_last_keyframe = false;  // --overlay
   Frame last_keyframe;               // its left image and scan, kept only for --overlay
 
@@ -316,7 +325,7 @@ struct Session {
     if (!args.out.empty()) {
       std::string msg;
       CalibrationFrames frames;
-      frames.lidar = args.lidar_frame;
+      frames.lidar = args.lidar_frame.empty() ? lidar_frame : args.lidar_frame;
       if (!writeCalibrationFiles(args.out, calibrator->rig(), *e, frames, &msg)) {
         std::cerr << "tescalib_calibrate: " << msg << "\n";
         return 1;
@@ -373,6 +382,22 @@ void runSequences(const Args& args, Session* session) {
   }
 }
 
+/// The bag's point cloud, image and camera_info topics with their types, for error messages.
+std::string bagSensorTopics(const std::string& path) {
+  rosbag::Bag bag(path, rosbag::bagmode::Read);
+  rosbag::View view(bag);
+  std::set<std::string> listed;
+  for (const rosbag::ConnectionInfo* c : view.getConnections()) {
+    const std::string& type = c->datatype;
+    if (type == "sensor_msgs/PointCloud2" || type == "sensor_msgs/Image" ||
+        type == "sensor_msgs/CameraInfo")
+      listed.insert(c->topic + " (" + type.substr(type.find('/') + 1) + ")");
+  }
+  std::string out;
+  for (const auto& t : listed) out += (out.empty() ? "" : ", ") + t;
+  return out.empty() ? "no PointCloud2, Image or CameraInfo topic" : out;
+}
+
 /// A rosbag: its synchronized sets in order; keyframe candidates (>= min_dt after the last one)
 /// are converted, the others skipped (with de-skewing, their scans are kept for the next one).
 void runBag(const Args& args, Session* session) {
@@ -406,6 +431,7 @@ void runBag(const Args& args, Session* session) {
         }
       }
       session->start(rig, args, "bag " + args.bag);
+      if (!set.cloud->header.frame_id.empty()) session->lidar_frame = set.cloud->header.frame_id;
       const std::string time_field = ros_conv::perPointTimeField(*set.cloud);
       if (!time_field.empty() && !session->settings.deskew)
         std::printf(
@@ -443,7 +469,10 @@ void runBag(const Args& args, Session* session) {
                     " clouds on " + args.topics.points + ", " + std::to_string(n.left) +
                     " images on " + args.topics.left + ", " + std::to_string(n.right) + " on " +
                     args.topics.right + "; camera_info on " + args.topics.left_info + " and " +
-                    args.topics.right_info + "): check --points, --left, --right, --max-skew");
+                    args.topics.right_info +
+                    "): check --points, --left, --right (the image topics themselves, camera_info "
+                    "is read beside them), --max-skew; the bag has " +
+                    bagSensorTopics(args.bag));
   std::printf(
       "bag: %d clouds, %d left and %d right images, %d synchronized sets, %d clouds "
       "without images within %.3f s\n",

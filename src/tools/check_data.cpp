@@ -14,10 +14,22 @@
 #include "tescalib/core/stereo_cloud.h"
 
 int main(int argc, char** argv) {
+  const char* usage =
+      "usage: rosrun tescalib tescalib_check_data DIR [DIR...]\n"
+      "  DIR: a KITTI sequence (odometry or raw layout, or tescalib_simulate output). Prints the\n"
+      "  frames, keyframes and rings the reader sees, how well the data's own calibration\n"
+      "  predicts the stereo disparity (SGBM minus the LiDAR-predicted disparity by depth) and\n"
+      "  whether the right image's rows are where that calibration puts them.\n";
   if (argc < 2 || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help") {
-    std::cout << "usage: rosrun tescalib tescalib_check_data DIR [DIR...]\n";
+    std::cout << usage;
     return argc < 2 ? 2 : 0;
   }
+  for (int a = 1; a < argc; ++a)
+    if (std::string(argv[a]).rfind("--", 0) == 0) {
+      std::cerr << "tescalib_check_data: unknown option " << argv[a] << " (give folders only)\n"
+                << usage;
+      return 2;
+    }
   int bad = 0;
   for (int a = 1; a < argc; ++a) {
     try {

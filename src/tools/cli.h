@@ -34,7 +34,7 @@ inline bool parseOptions(
       std::exit(0);
     }
     if (i + 1 >= argc) {
-      std::cerr << tool << ": " << k << " needs a value\n";
+      std::cerr << tool << ": " << k << " has no value, or is not an option (--help lists them)\n";
       return false;
     }
     const std::string v = argv[++i];

@@ -75,7 +75,8 @@ struct Args {
 
 void usage() {
   std::cout
-      << "usage: rosrun tescalib tescalib_eval --sequences DIR[,DIR...] [--mode lidar_stereo]\n"
+      << "usage: rosrun tescalib tescalib_eval --sequences DIR[,DIR...]\n"
+         "         [--mode lidar_stereo|stereo|co|joint]\n"
          "         [--method tescalib|pcl_gicp] [--trials N] [--init-rot-deg R] [--init-trans-m "
          "T]\n"
          "         [--init-stereo-rot-deg R] [--init-stereo-trans-m T] [--seed S] [--window W]\n"
@@ -87,15 +88,14 @@ void usage() {
          "         [--coarse-nuisances 0|1] [--coarse-gates M,M,...] [--search-deg D]\n"
          "         [--lidar-sigma DEG,M]\n"
          "         [--refine-iterations N] [--refine-smoothed-rounds N]\n"
-         "         [--deskew 0|1]\n"
+         "         [--deskew 0|1] [--depth-prior SIGMA] [--free-depth-rounds N] [--rematch-deg X]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
          "(both: LiDAR from the --init sizes, stereo from the --init-stereo sizes), joint (as co,\n"
          "one Ceres problem over both extrinsics).\n"
-         "Sequences are KITTI-odometry-layout folders sharing one calibration (real, or written "
-         "by\n"
-         "tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds the first W.\n"
+         "Sequences are KITTI folders (odometry or raw layout) sharing one calibration (real, or\n"
+         "written by tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds the first W.\n"
          "A trial perturbs the ground truth by exactly R deg about a random axis and T m in a "
          "random\n"
          "direction and succeeds when the error is below 0.2 deg and 3 cm.\n"

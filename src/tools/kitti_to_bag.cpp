@@ -43,8 +43,17 @@ int main(int argc, char** argv) {
       in = next();
     else if (a == "--out")
       out = next();
-    else if (a == "--max-frames")
-      options.max_frames = std::stoi(next());
+    else if (a == "--max-frames") {
+      const std::string v = next();
+      try {
+        size_t used = 0;
+        options.max_frames = std::stoi(v, &used);
+        if (used != v.size() || options.max_frames < 1) throw std::invalid_argument(v);
+      } catch (const std::exception&) {
+        std::cerr << "kitti_to_bag: --max-frames needs a whole number >= 1, not '" << v << "'\n";
+        return 2;
+      }
+    }
     else if (a == "-h" || a == "--help") {
       usage();
       return 0;

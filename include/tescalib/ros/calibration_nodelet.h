@@ -123,6 +123,16 @@ class CalibrationNodelet : public nodelet::Nodelet {
   std::thread preprocess_thread_, solve_thread_;
 
   std::atomic<int> sync_sets_{0}, dropped_{0}, rejected_{0}, keyframes_{0}, images_seen_{0};
+  /// Messages received per subscribed topic (points, left image, left info, right image, right
+  /// info), for the watchdog's "nothing on this topic" message.
+  std::atomic<int> topic_messages_[5] = {};
+  ros::WallTime start_wall_;
+  /// Names of the subscribed topics whose count is still 0 (empty: all have had messages).
+  std::string silentTopics() const;
+  /// Set when the parameters are invalid: the node stays inert and says so in /diagnostics.
+  std::string param_error_;
+  /// Names under the node's namespace it does not read (typos), for /diagnostics.
+  std::string unknown_params_;
   std::atomic<double> last_solve_seconds_{0};
   std::atomic<bool> solving_{false};
   // Timing, GUARDED_BY(mutex_). The update latency of a keyframe runs from the arrival of its

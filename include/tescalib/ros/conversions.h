@@ -80,12 +80,13 @@ namespace ros_conv {
 
 /// Fills an ExtrinsicEstimate: `T` maps child-frame points into the parent frame, `cov` is over
 /// [phi; tau] in the parent frame (our convention), copied as is. `status`: empty for a
-/// published estimate, why it was not published for a candidate.
+/// published estimate, why it was not published for a candidate. `estimated` false: `T` is the
+/// given extrinsic (left_to_right without co-calibration), not an estimate.
 ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::string& parent,
                                 const std::string& child, const Eigen::Isometry3d& T,
                                 const Matrix6d& cov, const bool observable[6], bool converged,
                                 int keyframes, double cost, int iterations,
-                                const std::string& status = "");
+                                const std::string& status = "", bool estimated = true);
 
 /// The same as a PoseWithCovarianceStamped (header.frame_id = parent). ROS orders the pose
 /// covariance [x y z rx ry rz]; ours is [phi; tau]: the blocks are swapped.

@@ -22,7 +22,9 @@ struct NodeParams {
   std::vector<double> initial_T_cam_lidar;
   /// Initial T_right_left as [x y z qx qy qz qw]; empty: from the right camera_info (P[3]).
   std::vector<double> initial_T_right_left;
-  std::string initial_tf_camera_frame;  ///< with an empty initial_T_cam_lidar: look this up in tf
+  /// With an empty initial_T_cam_lidar: the initial extrinsic is tf's transform from the cloud's
+  /// frame to this one; empty: the left image's frame_id.
+  std::string initial_tf_camera_frame;
   double initial_perturb_rot_deg = 0;   ///< demo/testing: perturb the initial guesses by this
   double initial_perturb_trans_m = 0;
   int initial_perturb_seed = 1;
@@ -30,8 +32,10 @@ struct NodeParams {
 };
 
 /// Loads and validates the private parameters. Returns false and a message naming the
-/// parameter on any invalid value.
-bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* params, std::string* error);
+/// parameter on any invalid value. `unknown`, when given, receives the names under `pnh` that
+/// are not parameters of the node (typos: they would otherwise be ignored without a word).
+bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* params, std::string* error,
+                    std::vector<std::string>* unknown = nullptr);
 
 /// Validates a loaded parameter set (also used by the test of config/*.yaml).
 bool validateNodeParams(const NodeParams& p, std::string* error);
