@@ -177,6 +177,43 @@ TEST(CalibrateTool, CalibratesFromABagAsFromItsFolder) {
   EXPECT_LT(err.tail<3>().norm(), 0.015);
 }
 
+TEST(CalibrateTool, CalibratesAKitti2bagLaidOutBagAsItsFolder) {
+  // The bag as kitti2bag's raw mode writes it: the initial guess through imu_link on
+  // /tf_static, bgr8 images, x y z i clouds whose rings must be recovered, the left camera_info's
+  // P with KITTI's cam0 offset. The estimate and the result files' LiDAR frame must be those of
+  // the folder and of the bag.
+  TempDir tmp;
+  const auto sim = writeDrive(tmp, 31, 8);
+  KittiBagOptions o;
+  o.like_kitti2bag = true;
+  o.velo_frame = "velodyne";  // not kitti2bag's name: the result files must take the bag's
+  writeKittiBag(KittiSequence(tmp.str() + "/drive"), tmp.str() + "/drive.bag", o);
+  const ToolRun folder =
+      runCalibrate("--sequences " + tmp.str() + "/drive --perturb-rot-deg 2 --perturb-trans-m 0.2");
+  const ToolRun bag = runCalibrate("--bag " + tmp.str() + "/drive.bag --perturb-rot-deg 2 " +
+                                   "--perturb-trans-m 0.2 --out " + tmp.str() + "/result");
+  std::cout << bag.output;
+  ASSERT_EQ(folder.status, 0) << folder.output;
+  ASSERT_EQ(bag.status, 0) << bag.output;
+  EXPECT_NE(bag.output.find("7 keyframes, 0 rejected"), std::string::npos);
+  const StereoRig back =
+      rigFromOdometryCalib(readKittiOdometryCalib(tmp.str() + "/result_calib.txt"));
+  const Vector6d err = poseError(back.T_cam_lidar, sim->rig().T_cam_lidar);
+  EXPECT_LT(err.head<3>().norm() * kDegPerRad, 0.1);
+  EXPECT_LT(err.tail<3>().norm(), 0.015);
+  // The pair's baseline from the camera_infos is the generator's, not the right P[3] alone.
+  EXPECT_LT((back.T_right_left.translation() - sim->rig().T_right_left.translation()).norm(),
+            1e-6);
+  const auto last = [](const std::string& out) {
+    return out.substr(out.find("error against the data's calibration"), 90);
+  };
+  EXPECT_EQ(last(bag.output), last(folder.output));
+  std::ifstream launch(tmp.str() + "/result_static_tf.launch");
+  const std::string text((std::istreambuf_iterator<char>(launch)), {});
+  EXPECT_NE(text.find("velodyne"), std::string::npos) << text;
+  EXPECT_EQ(text.find("velo_link"), std::string::npos) << text;
+}
+
 TEST(CalibrateTool, WritesNothingItDoesNotTrust) {
   // Random images (no disparity to match) and a LiDAR sphere: nothing to calibrate on.
   TempDir tmp;

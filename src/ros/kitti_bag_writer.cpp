@@ -2,12 +2,35 @@
 
 #include <geometry_msgs/TransformStamped.h>
 #include <rosbag/bag.h>
+#include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_msgs/TFMessage.h>
 #include <boost/make_shared.hpp>
 
 #include "tescalib/ros/conversions.h"
 
 namespace tescalib {
+
+namespace {
+/// A cloud as kitti2bag writes it: float32 x y z i, no ring (the reader recovers it).
+sensor_msgs::PointCloud2 xyziCloud(const LidarScan& scan, const std_msgs::Header& header) {
+  sensor_msgs::PointCloud2 msg;
+  msg.header = header;
+  msg.height = 1;
+  sensor_msgs::PointCloud2Modifier mod(msg);
+  mod.setPointCloud2Fields(4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
+                           sensor_msgs::PointField::FLOAT32, "z", 1,
+                           sensor_msgs::PointField::FLOAT32, "i", 1,
+                           sensor_msgs::PointField::FLOAT32);
+  mod.resize(scan.size());
+  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), i(msg, "i");
+  for (const auto& p : scan) {
+    x[0] = p.x, x[1] = p.y, x[2] = p.z;
+    *i = p.intensity;
+    ++x, ++i;
+  }
+  return msg;
+}
+}  // namespace
 
 void writeKittiBag(const KittiSequence& seq, const std::string& bag_path, const KittiBagOptions& o,
                    const std::function<void(size_t, size_t)>& progress) {
@@ -39,9 +62,26 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
     ts.transform = ros_conv::toTransformMsg(T);
     tf_static.transforms.push_back(ts);
   };
-  add(o.base_frame, o.velo_frame, Eigen::Isometry3d::Identity());
-  add(o.velo_frame, o.left_frame, rig.T_cam_lidar.inverse());
-  add(o.velo_frame, o.right_frame, (rig.T_right_left * rig.T_cam_lidar).inverse());
+  if (o.like_kitti2bag) {
+    // kitti2bag: base_link -> imu_link (T_base_link_to_imu), imu_link -> velo_link and the
+    // cameras (the inverses of T_velo_imu and T_camN_imu). KITTI's T_velo_imu is about
+    // (-0.81, 0.32, -0.80) m with a rotation of a few hundredths of a degree.
+    Eigen::Isometry3d T_velo_imu = Eigen::Isometry3d::Identity();
+    T_velo_imu.linear() = Eigen::AngleAxisd(0.0009, Eigen::Vector3d(0.3, -0.5, 0.8).normalized())
+                              .toRotationMatrix();
+    T_velo_imu.translation() = Eigen::Vector3d(-0.808, 0.319, -0.800);
+    Eigen::Isometry3d T_base_imu = Eigen::Isometry3d::Identity();
+    T_base_imu.translation() = Eigen::Vector3d(2.71, 0, 0.93);
+    add(o.base_frame, o.imu_frame, T_base_imu);
+    add(o.imu_frame, o.velo_frame, T_velo_imu.inverse());
+    add(o.imu_frame, o.left_frame, (rig.T_cam_lidar * T_velo_imu).inverse());
+    add(o.imu_frame, o.right_frame, (rig.T_right_left * rig.T_cam_lidar * T_velo_imu).inverse());
+  } else {
+    add(o.base_frame, o.velo_frame, Eigen::Isometry3d::Identity());
+    add(o.velo_frame, o.left_frame, rig.T_cam_lidar.inverse());
+    add(o.velo_frame, o.right_frame, (rig.T_right_left * rig.T_cam_lidar).inverse());
+  }
+  const std::string encoding = o.like_kitti2bag ? "bgr8" : "rgb8";
   // Latched, and repeated with every frame as kitti2bag does, so a late subscriber gets it.
   auto latched = boost::make_shared<ros::M_string>();
   (*latched)["latching"] = "1";
@@ -71,14 +111,15 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
       bag.write("/tf_static", stamp, tf_static, latched);
 
       h.frame_id = o.velo_frame;
-      bag.write(o.velo_topic, stamp, ros_conv::toPointCloud2(f.scan, h));
+      bag.write(o.velo_topic, stamp,
+                o.like_kitti2bag ? xyziCloud(f.scan, h) : ros_conv::toPointCloud2(f.scan, h));
 
       h.frame_id = o.left_frame;
-      bag.write(o.left_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.left, h, "rgb8"));
+      bag.write(o.left_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.left, h, encoding));
       bag.write(o.left_prefix + "/camera_info", stamp, ros_conv::toCameraInfo(rig.left, p3_left, h));
 
       h.frame_id = o.right_frame;
-      bag.write(o.right_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.right, h, "rgb8"));
+      bag.write(o.right_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.right, h, encoding));
       bag.write(o.right_prefix + "/camera_info", stamp,
                 ros_conv::toCameraInfo(rig.right, p3_right, h));
       ++written;

@@ -18,12 +18,17 @@ namespace {
 void usage() {
   std::cout
       << "usage: rosrun tescalib kitti_to_bag --in DIR[,DIR...] --out FILE.bag [--max-frames N]\n"
+         "         [--like-kitti2bag 0|1]\n"
          "  DIR: a KITTI odometry sequence (calib.txt, times.txt, image_2/, image_3/,\n"
          "       velodyne/) or a KITTI raw drive folder (image_02/data, image_03/data,\n"
          "       velodyne_points/data; calib_*.txt in it or in its parent).\n"
          "  Several DIRs (one rig) are written one after the other, 1 s apart.\n"
          "  Topics: /kitti/velo/pointcloud (velo_link; x y z intensity ring),\n"
-         "          /kitti/camera_color_{left,right}/{image_raw,camera_info}, /tf_static\n";
+         "          /kitti/camera_color_{left,right}/{image_raw,camera_info} (P = the data's\n"
+         "          P2 / P3), /tf_static (base_link -> velo_link -> cameras)\n"
+         "  --like-kitti2bag 1: as kitti2bag's raw mode lays a bag out (imu_link above\n"
+         "  velo_link and the cameras, bgr8 images, x y z i clouds without ring), to check a\n"
+         "  pipeline against such bags.\n";
 }
 }  // namespace
 
@@ -54,7 +59,14 @@ int main(int argc, char** argv) {
         return 2;
       }
     }
-    else if (a == "-h" || a == "--help") {
+    else if (a == "--like-kitti2bag") {
+      const std::string v = next();
+      if (v != "0" && v != "1") {
+        std::cerr << "kitti_to_bag: --like-kitti2bag takes 0 or 1, not '" << v << "'\n";
+        return 2;
+      }
+      options.like_kitti2bag = v == "1";
+    } else if (a == "-h" || a == "--help") {
       usage();
       return 0;
     } else {

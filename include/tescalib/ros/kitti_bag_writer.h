@@ -24,6 +24,14 @@ struct KittiBagOptions {
   /// start here (seconds since the epoch). Raw-layout stamps are absolute and kept as they are.
   double odometry_start_stamp = 1317384000.0;
   int max_frames = -1;  ///< -1: all frames
+  /// Lay the bag out exactly as kitti2bag's raw mode does, for testing a pipeline against the
+  /// bags users have: the LiDAR and the cameras hang off an `imu_link` in /tf_static
+  /// (base_link -> imu_link -> velo_link, imu_link -> camera_color_left/right, with a fixed
+  /// IMU-to-LiDAR transform like KITTI's), images bgr8, clouds x y z i (float32) without a ring
+  /// field. Default: velo_link is the root below base_link, images rgb8, clouds with intensity
+  /// and ring.
+  bool like_kitti2bag = false;
+  std::string imu_frame = "imu_link";
 };
 
 /// Writes the bag. Throws tescalib::DataError on unreadable input, rosbag::BagException on an
