@@ -236,6 +236,12 @@ class BadInput(unittest.TestCase):
     def test_6_lidar_and_images_not_synchronized(self):
         self.wait_problem('frame rejected: LiDAR and image stamps differ by',
                           lambda: self.send(cloud_offset=0.2))
+        # A right image from another moment (a dropped frame paired with the one before).
+        late_right = lambda t: image(t + rospy.Duration(0.2), 'camera_color_right', seed=2)
+        late_info = lambda t: camera_info(t + rospy.Duration(0.2), 'camera_color_right',
+                                          -FX * BASELINE)
+        self.wait_problem('left and right image stamps differ by 0.2',
+                          lambda: self.send(right=late_right, right_info=late_info))
 
     def test_7_time_going_backwards(self):
         # A set accepted as far as its stamps go (its toy scan then gives a keyframe or not), and

@@ -71,6 +71,7 @@ OnlineEstimate someEstimate() {
   e.converged = true;
   e.stereo_estimated = true;
   e.keyframes_used = 7;
+  e.stamp = 1317384000.123456789;
   return e;
 }
 
@@ -87,16 +88,20 @@ TEST(CalibrationIo, FilesReadBackAsTheEstimate) {
   ASSERT_TRUE(writeCalibrationFiles(base, rig, e, frames, &msg)) << msg;
   EXPECT_NE(msg.find("result_static_tf.launch"), std::string::npos) << msg;
 
-  // The KITTI file gives back both extrinsics (the right camera's translation; a rectified
-  // P3 holds no rotation) and the rig's intrinsics.
+  // The KITTI file gives back both extrinsics (the right camera's translation in P3; its
+  // rotation, which a rectified P3 cannot hold, in tescalib's extra R_right_left line) and the
+  // rig's intrinsics.
   const StereoRig back = rigFromOdometryCalib(readKittiOdometryCalib(base + "_calib.txt"));
   EXPECT_LT(poseError(back.T_cam_lidar, e.T_cam_lidar).norm(), 1e-9);
-  EXPECT_LT((back.T_right_left.translation() - e.T_right_left.translation()).norm(), 1e-9);
+  EXPECT_LT(poseError(back.T_right_left, e.T_right_left).norm(), 1e-9);
+  EXPECT_GT(Eigen::AngleAxisd(e.T_right_left.linear()).angle(), 1e-4);  // a rotated pair
+  EXPECT_NE(readAll(base + "_calib.txt").find("R_right_left:"), std::string::npos);
   EXPECT_NEAR(back.left.fx, rig.left.fx, 1e-9);
 
   const std::string yaml = readAll(base + ".yaml");
   EXPECT_NE(yaml.find("converged: true"), std::string::npos);
   EXPECT_NE(yaml.find("keyframes_used: 7"), std::string::npos);
+  EXPECT_NE(yaml.find("stamp: 1317384000.123456"), std::string::npos) << yaml;  // not 1.3e9
   EXPECT_NE(yaml.find("child_frame: my_lidar"), std::string::npos);
   EXPECT_NE(yaml.find("sigma_trans_m: [0.001, 0.001, 0.02]"), std::string::npos) << yaml;
   EXPECT_NE(yaml.find("trusted_axes: [true, true, true, true, true, false]"), std::string::npos);

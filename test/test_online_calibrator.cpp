@@ -4,6 +4,7 @@
 #include <iostream>
 #include <map>
 #include <random>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -320,6 +321,43 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
   ASSERT_TRUE(fresh.solve(&msg)) << msg;
   EXPECT_EQ(fresh.estimate()->co_rounds, 0);
   EXPECT_FALSE(fresh.estimate()->stereo_estimated);
+}
+
+TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
+  // ~reset while a solve runs: the solve's result belongs to the window that was cleared and
+  // must not come back as the published estimate (nor as the warm start of the next window).
+  SimOptions o;
+  o.frames = 21;
+  o.seed = 4;
+  const Simulator sim(o);
+  StereoRig rig = sim.rig();
+  std::mt19937_64 rng(3);
+  rig.T_cam_lidar = perturb(rig.T_cam_lidar, randomPerturbation(1.0 / kDegPerRad, 0.1, rng));
+  OnlineSettings settings;
+  settings.window_size = 5;
+  OnlineCalibrator cal(rig, settings);
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  ASSERT_TRUE(cal.readyToSolve());
+  std::string msg;
+  bool updated = true;
+  std::thread solver([&] { updated = cal.solve(&msg); });
+  // The solve has taken its snapshot once the window is no longer "ready" (no new keyframes).
+  while (cal.readyToSolve()) std::this_thread::yield();
+  cal.reset();
+  solver.join();
+  EXPECT_FALSE(updated);
+  EXPECT_NE(msg.find("cleared during the solve"), std::string::npos) << msg;
+  EXPECT_FALSE(cal.estimate().has_value());
+  EXPECT_FALSE(cal.lastSolve().has_value());
+  // The calibrator goes on: the same keyframes again give an estimate.
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  OnlineEstimate published;
+  ASSERT_TRUE(cal.solve(&msg, &published)) << msg;
+  ASSERT_TRUE(cal.estimate().has_value());
+  EXPECT_TRUE(cal.estimate()->T_cam_lidar.isApprox(published.T_cam_lidar));
+  const Vector6d err = poseError(published.T_cam_lidar, sim.rig().T_cam_lidar);
+  EXPECT_LT(err.head<3>().norm() * kDegPerRad, 0.2);
+  EXPECT_LT(err.tail<3>().norm(), 0.03);
 }
 
 TEST(OnlineCalibratorGenerated, CoCalibrationContinuesWarmAfterTheFirstEstimate) {

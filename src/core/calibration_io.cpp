@@ -51,7 +51,8 @@ std::string calibrationYaml(const OnlineEstimate& e, const CalibrationFrames& fr
        << "# [phi_x phi_y phi_z tau_x tau_y tau_z] in rad and m, R = Exp(phi) R_est, t = t_est + "
           "tau)\n"
        << "converged: " << (e.converged ? "true" : "false")
-       << "\nkeyframes_used: " << e.keyframes_used << "\nstamp: " << e.stamp << "\n";
+       << "\nkeyframes_used: " << e.keyframes_used << "\nstamp: " << std::fixed
+       << std::setprecision(9) << e.stamp << std::defaultfloat << std::setprecision(12) << "\n";
   yamlBlock(yaml, "T_cam_lidar", frames.left, frames.lidar, e.T_cam_lidar, e.cov_lidar,
             e.observable_lidar, true);
   yamlBlock(yaml, "T_right_left", frames.right, frames.left, e.T_right_left, e.cov_stereo,
@@ -79,6 +80,7 @@ KittiOdometryCalib calibrationAsKitti(const StereoRig& rig, const OnlineEstimate
   c.P[0] = c.P[2] = P2;
   c.P[1] = c.P[3] = P3;
   c.Tr = e.T_cam_lidar.matrix().topRows<3>();
+  c.R_right_left = e.T_right_left.linear();
   return c;
 }
 

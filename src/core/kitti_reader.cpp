@@ -134,6 +134,15 @@ KittiOdometryCalib readKittiOdometryCalib(const std::string& path) {
     c.P[i] = kv.count("P" + std::to_string(i)) ? matrix3x4(kv, "P" + std::to_string(i), path)
                                                : c.P[i + 2];
   c.Tr = matrix3x4(kv, "Tr", path);
+  if (const auto r = kv.find("R_right_left"); r != kv.end()) {
+    if (r->second.size() != 9)
+      throw DataError(path + ": key 'R_right_left' has " + std::to_string(r->second.size()) +
+                      " values, expected 9 (a 3x3 rotation)");
+    for (int i = 0; i < 9; ++i) c.R_right_left(i / 3, i % 3) = r->second[i];
+    if (!c.R_right_left.allFinite() ||
+        !(c.R_right_left * c.R_right_left.transpose()).isIdentity(1e-6))
+      throw DataError(path + ": key 'R_right_left' is not a rotation");
+  }
   if (c.P[2](0, 0) <= 0 || c.P[3](0, 0) <= 0)
     throw DataError(path + ": P2/P3 have a non-positive focal length");
   return c;
@@ -150,6 +159,11 @@ std::string kittiOdometryCalibText(const KittiOdometryCalib& calib) {
   };
   for (int i = 0; i < 4; ++i) row("P" + std::to_string(i), calib.P[i]);
   row("Tr", calib.Tr);
+  if (!calib.R_right_left.isIdentity(1e-12)) {
+    out << "R_right_left:";
+    for (int i = 0; i < 9; ++i) out << " " << calib.R_right_left(i / 3, i % 3);
+    out << "\n";
+  }
   return out.str();
 }
 
@@ -174,8 +188,12 @@ StereoRig rigFromOdometryCalib(const KittiOdometryCalib& calib) {
   // Re-orthonormalise (calib.txt has 6-7 significant digits).
   rig.T_cam_lidar.linear() =
       Eigen::Quaterniond(rig.T_cam_lidar.linear()).normalized().toRotationMatrix();
+  // Each P = K [I | t]: the cameras' positions K^-1 P[:,3] (each with its own K), and the
+  // rotation a rectified pair does not have (identity unless tescalib wrote R_right_left).
   rig.T_right_left = Eigen::Isometry3d::Identity();
-  rig.T_right_left.translation() = K_inv * (calib.P[3].col(3) - calib.P[2].col(3));
+  rig.T_right_left.linear() = calib.R_right_left;
+  rig.T_right_left.translation() = calib.P[3].leftCols<3>().inverse() * calib.P[3].col(3) -
+                                   K_inv * calib.P[2].col(3);
   return rig;
 }
 

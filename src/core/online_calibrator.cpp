@@ -47,6 +47,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
       window_.clear();
       keyframe_information_.clear();
       previous_scan_.reset();
+      ++generation_;
       last_stamp_ = frame.stamp;
       last_keyframe_stamp_ = -1e300;
       new_keyframes_ = 0;
@@ -191,13 +192,15 @@ size_t OnlineCalibrator::windowFill() const {
   return window_.size();
 }
 
-bool OnlineCalibrator::solve(std::string* msg) {
+bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
   std::vector<std::shared_ptr<Keyframe>> snapshot;
   Eigen::Isometry3d T_cl, T_rl;
   std::optional<OnlineEstimate> current;
   bool co = false;
+  uint64_t generation = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
+    generation = generation_;
     if (static_cast<int>(window_.size()) < settings_.minKeyframes()) {
       *msg = "window has " + std::to_string(window_.size()) + " keyframes, needs " +
              std::to_string(settings_.minKeyframes());
@@ -236,10 +239,11 @@ bool OnlineCalibrator::solve(std::string* msg) {
       // Keep the re-rectified or rescaled clouds: swap those keyframes into the window (the
       // window's keyframes are shared and never modified in place).
       std::lock_guard<std::mutex> lock(mutex_);
-      for (const auto& k : snapshot)
-        for (auto& w : window_)
-          if (w->stamp == k->stamp && !w->T_right_left_used.isApprox(k->T_right_left_used))
-            w = k;
+      if (generation_ == generation)
+        for (const auto& k : snapshot)
+          for (auto& w : window_)
+            if (w->stamp == k->stamp && !w->T_right_left_used.isApprox(k->T_right_left_used))
+              w = k;
     }
     keyframe_info = r.lidar.keyframe_information;
     e.T_cam_lidar = r.lidar.T_cam_lidar;
@@ -287,18 +291,19 @@ bool OnlineCalibrator::solve(std::string* msg) {
     e.iterations_lidar = r.iterations;
     *msg = r.message;
   }
-  if (keyframe_info.size() == snapshot.size()) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    for (size_t i = 0; i < snapshot.size(); ++i) {
-      // Only keyframes still in the window (a reset may have cleared it meanwhile).
-      for (const auto& k : window_)
-        if (k->stamp == snapshot[i]->stamp) keyframe_information_[k->stamp] = keyframe_info[i];
-    }
-  }
   e.keyframes_used = static_cast<int>(snapshot.size());
   e.stamp = snapshot.back()->stamp;
   e.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::lock_guard<std::mutex> lock(mutex_);
+  if (generation_ != generation) {
+    *msg = "the window was cleared during the solve (reset, or time went backwards): its result "
+           "was discarded";
+    return false;
+  }
+  if (keyframe_info.size() == snapshot.size())
+    for (size_t i = 0; i < snapshot.size(); ++i)
+      for (const auto& k : window_)  // only keyframes still in the window (it slides meanwhile)
+        if (k->stamp == snapshot[i]->stamp) keyframe_information_[k->stamp] = keyframe_info[i];
   auto notPublished = [&](const std::string& why) {
     *msg = why;
     last_solve_ = e;
@@ -320,6 +325,7 @@ bool OnlineCalibrator::solve(std::string* msg) {
                           "): kept the old one");
   }
   estimate_ = last_solve_ = e;
+  if (published) *published = e;
   return true;
 }
 
@@ -339,6 +345,7 @@ void OnlineCalibrator::reset() {
   last_stamp_ = -1e300;
   last_keyframe_stamp_ = -1e300;
   new_keyframes_ = 0;
+  ++generation_;
 }
 
 std::optional<OnlineEstimate> OnlineCalibrator::estimate() const {

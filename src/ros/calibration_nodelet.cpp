@@ -2,6 +2,7 @@
 
 #include <filesystem>
 
+#include <cmath>
 #include <cstdio>
 #include <random>
 
@@ -25,7 +26,19 @@ Eigen::Isometry3d fromVector7(const std::vector<double>& v) {
 }  // namespace
 
 CalibrationNodelet::~CalibrationNodelet() {
-  running_ = false;
+  // No new callbacks into members about to go: the timer and the inputs stop first.
+  watchdog_timer_.stop();
+  approx_sync_.reset();
+  exact_sync_.reset();
+  cloud_sub_.unsubscribe();
+  left_sub_.unsubscribe();
+  left_info_sub_.unsubscribe();
+  right_sub_.unsubscribe();
+  right_info_sub_.unsubscribe();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    running_ = false;
+  }
   cv_.notify_all();
   if (preprocess_thread_.joinable()) preprocess_thread_.join();
   if (solve_thread_.joinable()) solve_thread_.join();
@@ -129,6 +142,23 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
     return false;
   }
   lidar_frame_ = params_.lidar_frame.empty() ? cloud.header.frame_id : params_.lidar_frame;
+  {
+    // tescalib works in the rectified frame P describes. ROS's convention puts the unrectified
+    // optical frame on tf, R rotating it into the rectified one; kitti2bag's bags put the
+    // rectified frame on tf and KITTI's R_rect_0N into R. Both are taken as they come; say so.
+    Eigen::Matrix3d R;
+    for (int i = 0; i < 9; ++i) R(i / 3, i % 3) = left_info.R[i];
+    const double deg = R.isZero() ? 0.0 : Eigen::AngleAxisd(R).angle() * kDegPerRad;
+    if (deg > 0.01)
+      NODELET_WARN(
+          "tescalib: the left camera_info's R is a rotation of %.2f deg: the calibration is "
+          "relative to the rectified left camera (the frame P describes, published as '%s'), and "
+          "the initial guess from tf is taken as that frame's. If your tf frame is the "
+          "unrectified optical one (stereo_image_proc), the guess is %.2f deg off (the solver "
+          "corrects that) and T_optical_lidar = R^T T_cam_lidar; kitti2bag's frames are the "
+          "rectified ones already",
+          deg, params_.left_frame.c_str(), deg);
+  }
   if (!params_.initial_T_cam_lidar.empty()) {
     rig.T_cam_lidar = fromVector7(params_.initial_T_cam_lidar);
   } else {
@@ -195,6 +225,18 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
       stamp < last_enqueued_stamp_ || !params_.online.tooClose(stamp, last_enqueued_stamp_);
   // De-skewing registers a keyframe's scan to the set before it: keep every set's scan.
   if (!candidate && !params_.online.deskew) return;
+  // The sync pairs each cloud with the nearest left and right images but bounds neither
+  // interval: a dropped right frame would pair the left image with the one before.
+  const double right_skew = right->header.stamp.toSec() - stamp;
+  if (candidate && std::fabs(right_skew) > params_.online.max_sync_skew) {
+    ++rejected_;
+    const std::string what = "frame rejected: left and right image stamps differ by " +
+                             std::to_string(right_skew) + " s (sync/max_skew " +
+                             std::to_string(params_.online.max_sync_skew) + " s)";
+    NODELET_WARN_THROTTLE(5.0, "tescalib: %s", what.c_str());
+    noteProblem(what);
+    return;
+  }
   PendingFrame pf;
   std::string error;
   bool ring_recovered = false;
@@ -286,7 +328,12 @@ void CalibrationNodelet::preprocessLoop() {
         noteProblem(msg);
       }
       ++keyframes_;
-      solve_requested_ = true;
+      {
+        // Under the lock the solve thread waits with: the wake-up cannot fall between its check
+        // of the flag and its wait.
+        std::lock_guard<std::mutex> lock(mutex_);
+        solve_requested_ = true;
+      }
       cv_.notify_all();
     } else if (r == FrameResult::kReset) {
       NODELET_WARN("tescalib: %s", msg.c_str());
@@ -320,12 +367,15 @@ void CalibrationNodelet::solveLoop() {
     std::string msg;
     solving_ = true;
     const auto t0 = ros::WallTime::now();
-    const bool updated = calibrator()->solve(&msg);
+    OnlineEstimate published;
+    const bool updated = calibrator()->solve(&msg, &published);
     const auto t1 = ros::WallTime::now();
     solving_ = false;
     last_solve_seconds_ = (t1 - t0).toSec();
     double latency = 0;  // of the oldest keyframe this solve answered
-    const auto e = calibrator()->estimate();
+    // What this solve published (a ~reset right after it must not leave us without it).
+    const std::optional<OnlineEstimate> e =
+        updated ? std::optional<OnlineEstimate>(published) : std::nullopt;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       last_solve_message_ = updated ? "updated" : msg;
@@ -371,12 +421,7 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
   stereo_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_right_left, e.cov_stereo));
   // The keyframe's stamp usually has a tf already (sent with its synchronized set): a second one
   // at the same stamp is rejected by every listener (TF_REPEATED_DATA). Just after the newest.
-  ros::Time tf_stamp = stamp;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (!last_tf_stamp_.isZero()) tf_stamp = last_tf_stamp_ + ros::Duration(0, 1000);
-  }
-  publishTf(tf_stamp);
+  publishTf(stamp, true);
 }
 
 void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
@@ -405,12 +450,16 @@ void CalibrationNodelet::publishKeyframe(const Keyframe& kf) {
   }
 }
 
-void CalibrationNodelet::publishTf(const ros::Time& stamp) {
+void CalibrationNodelet::publishTf(const ros::Time& stamp, bool after_newest) {
   if (!calibrator()) return;
   const auto e = calibrator()->estimate();
   if (!e) return;  // nothing is published before the first converged estimate
+  // One lock from choosing the stamp to recording it: the callback thread (every set) and the
+  // solve thread (each new estimate, just after the newest stamp) never send out of order.
+  std::lock_guard<std::mutex> lock(tf_mutex_);
   geometry_msgs::TransformStamped a, b;
-  a.header.stamp = b.header.stamp = stamp;
+  a.header.stamp = b.header.stamp =
+      after_newest && !last_tf_stamp_.isZero() ? last_tf_stamp_ + ros::Duration(0, 1000) : stamp;
   // tf: the transform maps child points into the parent frame.
   a.header.frame_id = lidar_frame_;
   a.child_frame_id = params_.left_frame;
@@ -419,8 +468,7 @@ void CalibrationNodelet::publishTf(const ros::Time& stamp) {
   b.child_frame_id = params_.right_frame;
   b.transform = ros_conv::toTransformMsg(e->T_right_left.inverse());
   tf_pub_->sendTransform({a, b});
-  std::lock_guard<std::mutex> lock(mutex_);
-  last_tf_stamp_ = stamp;
+  last_tf_stamp_ = a.header.stamp;
 }
 
 std::string CalibrationNodelet::silentTopics() const {

@@ -27,6 +27,11 @@ enum class KittiLayout { kOdometry, kRaw };
 struct KittiOdometryCalib {
   Eigen::Matrix<double, 3, 4> P[4];  ///< rectified projection matrices P0..P3
   Eigen::Matrix<double, 3, 4> Tr;    ///< velodyne -> rectified cam0
+  /// Not part of KITTI's format: the rotation of the right camera relative to the left one,
+  /// which a rectified P3 cannot hold. tescalib writes it as an extra line `R_right_left:` (9
+  /// values, row major) when a co-calibrated pair is not exactly rectified, so that its
+  /// `_calib.txt` reads back as the estimate; KITTI's files have none (identity).
+  Eigen::Matrix3d R_right_left = Eigen::Matrix3d::Identity();
 };
 
 /// Parses a KITTI odometry calib.txt. Throws DataError naming the file and the bad key.

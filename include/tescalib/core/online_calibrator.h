@@ -131,8 +131,12 @@ class OnlineCalibrator {
   void setPreviousScan(std::shared_ptr<const LidarScan> scan, double stamp);
 
   /// Runs co-calibration on a snapshot of the window. Returns true when the published estimate
-  /// changed. Thread-safe; the window keeps filling while it runs.
-  bool solve(std::string* message);
+  /// changed; `published` then receives it (read under the same lock, so a reset right after
+  /// cannot leave the caller without it). Thread-safe; the window keeps filling while it runs.
+  /// A solve during which the window was cleared (reset(), or time going backwards) discards
+  /// its result: it belongs to data that are gone, and a reset must not bring back the estimate
+  /// it cleared.
+  bool solve(std::string* message, OnlineEstimate* published = nullptr);
 
   /// Clears the window and returns to the initial extrinsics.
   void reset();
@@ -160,6 +164,9 @@ class OnlineCalibrator {
   double last_stamp_ = -1e300;                    ///< GUARDED_BY(mutex_)
   double last_keyframe_stamp_ = -1e300;           ///< GUARDED_BY(mutex_)
   int new_keyframes_ = 0;                         ///< GUARDED_BY(mutex_) since the last solve
+  /// GUARDED_BY(mutex_): counts window clears (reset, time going backwards); a solve that sees it
+  /// change between its snapshot and its result discards the result.
+  uint64_t generation_ = 0;
   /// The last frame's scan, for the next keyframe's de-skewing (OnlineSettings::deskew).
   std::shared_ptr<const LidarScan> previous_scan_;  ///< GUARDED_BY(mutex_)
   double previous_scan_stamp_ = -1e300;             ///< GUARDED_BY(mutex_)

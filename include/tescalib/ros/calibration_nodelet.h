@@ -77,7 +77,8 @@ class CalibrationNodelet : public nodelet::Nodelet {
   void preprocessLoop();
   void solveLoop();
   void publish(const OnlineEstimate& e, const ros::Time& stamp);
-  void publishTf(const ros::Time& stamp);
+  /// tf of the current estimate at `stamp`, or (after_newest) 1 us after the newest stamp sent.
+  void publishTf(const ros::Time& stamp, bool after_newest = false);
   void watchdog(const ros::WallTimerEvent&);
   bool onReset(Reset::Request& req, Reset::Response& res);
   bool onSave(Save::Request& req, Save::Response& res);
@@ -150,7 +151,8 @@ class CalibrationNodelet : public nodelet::Nodelet {
   /// deskew/enabled: the last set's scan (callback thread only) and its stamp.
   std::shared_ptr<const LidarScan> last_scan_;
   double last_scan_stamp_ = -1e300;
-  ros::Time last_tf_stamp_;         ///< GUARDED_BY(mutex_), of the newest tf sent
+  std::mutex tf_mutex_;
+  ros::Time last_tf_stamp_;         ///< GUARDED_BY(tf_mutex_), of the last tf sent
   std::string last_problem_;        ///< GUARDED_BY(mutex_)
   std::string last_solve_message_;  ///< GUARDED_BY(mutex_)
 };
