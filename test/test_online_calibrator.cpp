@@ -1,5 +1,6 @@
 // The online state machine without ROS: bad input gives a clear message and a safe state, time
 // going backwards resets the window, and an estimate is only replaced by a trustworthy one.
+#include <chrono>
 #include <cmath>
 #include <iostream>
 #include <map>
@@ -358,6 +359,41 @@ TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
   const Vector6d err = poseError(published.T_cam_lidar, sim.rig().T_cam_lidar);
   EXPECT_LT(err.head<3>().norm() * kDegPerRad, 0.2);
   EXPECT_LT(err.tail<3>().norm(), 0.03);
+}
+
+TEST(OnlineCalibratorGenerated, CancelStopsARunningCoCalibration) {
+  // A node shutting down cancels its calibrator: a cold co-calibration (seconds) stops at its
+  // next round or re-association, unpublished, and later solves return at once.
+  SimOptions o;
+  o.frames = 21;
+  o.seed = 4;
+  const Simulator sim(o);
+  StereoRig rig = sim.rig();
+  std::mt19937_64 rng(5);
+  rig.T_cam_lidar = perturb(rig.T_cam_lidar, randomPerturbation(2.0 / kDegPerRad, 0.2, rng));
+  rig.T_right_left = perturb(rig.T_right_left, randomPerturbation(0.5 / kDegPerRad, 0.05, rng));
+  OnlineSettings settings;
+  settings.estimate_stereo = true;
+  settings.lidar_first = false;
+  settings.window_size = 5;
+  settings.min_keyframes_co = 5;
+  OnlineCalibrator cal(rig, settings);
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  std::string msg;
+  bool updated = true;
+  const auto t0 = std::chrono::steady_clock::now();
+  std::thread solver([&] { updated = cal.solve(&msg); });
+  while (cal.readyToSolve()) std::this_thread::yield();
+  cal.cancel();
+  solver.join();
+  std::cout << "[ online   ] cancelled co-calibration returned after "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()
+            << " s\n";
+  EXPECT_FALSE(updated);
+  EXPECT_EQ(msg, "cancelled");
+  EXPECT_FALSE(cal.estimate().has_value());
+  EXPECT_FALSE(cal.solve(&msg));
+  EXPECT_EQ(msg, "cancelled");
 }
 
 TEST(OnlineCalibratorGenerated, CoCalibrationContinuesWarmAfterTheFirstEstimate) {

@@ -231,6 +231,11 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   };
   LidarStereoSettings ls_last = s.lidar;  // the settings of the last LiDAR-stereo solve
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
+    if (s.cancel && s.cancel->load(std::memory_order_relaxed)) {
+      res.converged = false;
+      res.message = "cancelled";
+      return res;
+    }
     const bool warm = s.warm_start && (res.rounds > 1 || s.warm_first_round);
     Eigen::Isometry3d T_rl_new = T_rl;
     // 1. Left-right from the LiDAR depth.

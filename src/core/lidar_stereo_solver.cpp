@@ -224,6 +224,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     }
     for (double gate : s.coarse_gates) {
       for (int it = 0; it < s.coarse_reassociations; ++it) {
+        if (s.cancelled()) {
+          res.message = "cancelled";
+          return res;
+        }
         ++res.iterations;
         const Eigen::Matrix3d R = T.linear();
         auto associate = [&](int k, std::vector<Association>* kf_as) {
@@ -288,6 +292,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       face_index[k] = sampleFaces(window[k]->mesh, s.fine_faces_per_keyframe);
     Vector6d d_prev = Vector6d::Zero();
     for (int it = 0; it < s.fine_reassociations; ++it) {
+      if (s.cancelled()) {
+        res.message = "cancelled";
+        return res;
+      }
       ++res.iterations;
       const Eigen::Matrix3d R = T.linear();
       auto associate = [&](int kf, std::vector<Association>* kf_as) {
@@ -531,11 +539,16 @@ LidarStereoResult solveLidarStereoSearch(const std::vector<const Keyframe*>& win
   const double offsets[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
   std::optional<LidarStereoResult> best;
   for (const auto& o : offsets) {
+    if (s.cancelled()) break;
     Vector6d d = Vector6d::Zero();
     d(0) = o[0] * step, d(1) = o[1] * step;
     LidarStereoResult r = solveLidarStereo(window, perturb(T_init, d), s);
     r.search_offset_rad = d.head<3>();
     if (r.converged && (!best || r.fine_inliers > best->fine_inliers)) best = std::move(r);
+  }
+  if (s.cancelled()) {
+    first.message = "cancelled";
+    return first;
   }
   if (best) {
     best->search_starts = 9;

@@ -198,6 +198,10 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
   std::optional<OnlineEstimate> current;
   bool co = false;
   uint64_t generation = 0;
+  if (cancel_) {
+    *msg = "cancelled";
+    return false;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     generation = generation_;
@@ -228,6 +232,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
   for (auto& k : snapshot) win.push_back(k.get());
   if (co) {
     CoCalibrationSettings cs = settings_.co;
+    cs.cancel = cs.lidar.cancel = &cancel_;
     // Warm only from a co-calibration: a LiDAR-first estimate has the stereo pair at its start.
     const bool warm = current && current->stereo_estimated && settings_.warm_start_fine_only;
     if (warm) {
@@ -268,6 +273,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
   } else {
     std::vector<const Keyframe*> cwin(win.begin(), win.end());
     LidarStereoSettings ls = settings_.co.lidar;
+    ls.cancel = &cancel_;
     ls.disparity_sigma = settings_.keyframe.stereo.disparity_sigma;
     if (current && settings_.warm_start_fine_only) ls.run_coarse = false;
     if (current || static_cast<int>(cwin.size()) <
@@ -295,6 +301,10 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
   e.stamp = snapshot.back()->stamp;
   e.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::lock_guard<std::mutex> lock(mutex_);
+  if (cancel_) {
+    *msg = "cancelled";
+    return false;
+  }
   if (generation_ != generation) {
     *msg = "the window was cleared during the solve (reset, or time went backwards): its result "
            "was discarded";

@@ -35,6 +35,8 @@ CalibrationNodelet::~CalibrationNodelet() {
   left_info_sub_.unsubscribe();
   right_sub_.unsubscribe();
   right_info_sub_.unsubscribe();
+  // A cold co-calibration can run 10-30 s: make it stop within about a second.
+  if (calibrator()) calibrator()->cancel();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     running_ = false;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <string>
 #include <vector>
 
@@ -122,6 +123,10 @@ struct LidarStereoSettings {
   double search_step_deg = 10.0;
   static constexpr double kMaxSearchStepDeg = 20.0;  ///< the largest step the callers accept
   int threads = 2;
+  /// When set and true: stop at the next re-association or search start, not converged, message
+  /// "cancelled" (a node shutting down does not wait for a long solve).
+  const std::atomic<bool>* cancel = nullptr;
+  bool cancelled() const { return cancel && cancel->load(std::memory_order_relaxed); }
 };
 
 struct LidarStereoResult {

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <deque>
 #include <map>
 #include <memory>
@@ -141,6 +142,11 @@ class OnlineCalibrator {
   /// Clears the window and returns to the initial extrinsics.
   void reset();
 
+  /// Makes a running solve stop at its next re-association, search start or co-calibration
+  /// round (within about a second) and every later one return at once, unpublished: for a node
+  /// shutting down. Irreversible.
+  void cancel() { cancel_ = true; }
+
   std::optional<OnlineEstimate> estimate() const;  ///< the current published estimate
   /// The last solve's result, published or not: `converged` and `message` say which and why.
   /// What the window gives when nothing is trusted (a user's first question on their data);
@@ -167,6 +173,7 @@ class OnlineCalibrator {
   /// GUARDED_BY(mutex_): counts window clears (reset, time going backwards); a solve that sees it
   /// change between its snapshot and its result discards the result.
   uint64_t generation_ = 0;
+  std::atomic<bool> cancel_{false};
   /// The last frame's scan, for the next keyframe's de-skewing (OnlineSettings::deskew).
   std::shared_ptr<const LidarScan> previous_scan_;  ///< GUARDED_BY(mutex_)
   double previous_scan_stamp_ = -1e300;             ///< GUARDED_BY(mutex_)
