@@ -153,33 +153,45 @@ TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
   EXPECT_EQ(overlay.rows, 2 * sim->rig().left.height);
 }
 
+/// A generated drive (31 frames, 7 keyframes) calibrated from 2 deg / 0.2 m off twice, from its
+/// folder and from its bag written with `o`; the bag run writes TMP/result*.
+struct BagAndFolder {
+  std::unique_ptr<Simulator> sim;
+  ToolRun folder, bag;
+  StereoRig back;  ///< read from the bag run's result_calib.txt
+};
+
+void calibrateBagAndFolder(const TempDir& tmp, const KittiBagOptions& o, BagAndFolder* r) {
+  r->sim = writeDrive(tmp, 31, 8);
+  writeKittiBag(KittiSequence(tmp.str() + "/drive"), tmp.str() + "/drive.bag", o);
+  r->folder =
+      runCalibrate("--sequences " + tmp.str() + "/drive --perturb-rot-deg 2 --perturb-trans-m 0.2");
+  r->bag = runCalibrate("--bag " + tmp.str() + "/drive.bag --perturb-rot-deg 2 " +
+                        "--perturb-trans-m 0.2 --out " + tmp.str() + "/result");
+  std::cout << r->bag.output;
+  ASSERT_EQ(r->folder.status, 0) << r->folder.output;
+  ASSERT_EQ(r->bag.status, 0) << r->bag.output;
+  EXPECT_NE(r->bag.output.find("7 keyframes, 0 rejected"), std::string::npos);
+  // The generator's pair is rectified along x: camera_info's baseline is the whole extrinsic, so
+  // bag and folder give the same estimate.
+  const auto last = [](const std::string& out) {
+    return out.substr(out.find("error against the data's calibration"), 90);
+  };
+  EXPECT_EQ(last(r->bag.output), last(r->folder.output));
+  r->back = rigFromOdometryCalib(readKittiOdometryCalib(tmp.str() + "/result_calib.txt"));
+  const Vector6d err = poseError(r->back.T_cam_lidar, r->sim->rig().T_cam_lidar);
+  EXPECT_LT(err.head<3>().norm() * kDegPerRad, 0.1);
+  EXPECT_LT(err.tail<3>().norm(), 0.015);
+}
+
 TEST(CalibrateTool, CalibratesFromABagAsFromItsFolder) {
   // The same drive as a kitti2bag-style bag: intrinsics from camera_info, the initial guess from
   // /tf_static, the sets read in order without playing the bag.
   TempDir tmp;
-  const auto sim = writeDrive(tmp, 31, 8);  // 7 keyframes
-  writeKittiBag(KittiSequence(tmp.str() + "/drive"), tmp.str() + "/drive.bag");
-  const ToolRun folder =
-      runCalibrate("--sequences " + tmp.str() + "/drive --perturb-rot-deg 2 --perturb-trans-m 0.2");
-  const ToolRun bag = runCalibrate("--bag " + tmp.str() + "/drive.bag --perturb-rot-deg 2 " +
-                                   "--perturb-trans-m 0.2 --out " + tmp.str() + "/result");
-  std::cout << bag.output;
-  ASSERT_EQ(folder.status, 0) << folder.output;
-  ASSERT_EQ(bag.status, 0) << bag.output;
-  EXPECT_NE(bag.output.find("31 clouds, 31 left and 31 right images, 31 synchronized sets"),
+  BagAndFolder r;
+  ASSERT_NO_FATAL_FAILURE(calibrateBagAndFolder(tmp, KittiBagOptions{}, &r));
+  EXPECT_NE(r.bag.output.find("31 clouds, 31 left and 31 right images, 31 synchronized sets"),
             std::string::npos);
-  EXPECT_NE(bag.output.find("7 keyframes, 0 rejected"), std::string::npos);
-  // The generator's pair is rectified along x: camera_info's baseline is the whole extrinsic, so
-  // bag and folder give the same estimate.
-  const auto last = [](const std::string& out) {
-    return out.substr(out.find("error against the data's calibration"));
-  };
-  EXPECT_EQ(last(bag.output).substr(0, 90), last(folder.output).substr(0, 90));
-  const StereoRig back =
-      rigFromOdometryCalib(readKittiOdometryCalib(tmp.str() + "/result_calib.txt"));
-  const Vector6d err = poseError(back.T_cam_lidar, sim->rig().T_cam_lidar);
-  EXPECT_LT(err.head<3>().norm() * kDegPerRad, 0.1);
-  EXPECT_LT(err.tail<3>().norm(), 0.015);
 }
 
 TEST(CalibrateTool, CalibratesAKitti2bagLaidOutBagAsItsFolder) {
@@ -188,31 +200,14 @@ TEST(CalibrateTool, CalibratesAKitti2bagLaidOutBagAsItsFolder) {
   // P with KITTI's cam0 offset. The estimate and the result files' LiDAR frame must be those of
   // the folder and of the bag.
   TempDir tmp;
-  const auto sim = writeDrive(tmp, 31, 8);
   KittiBagOptions o;
   o.like_kitti2bag = true;
   o.velo_frame = "velodyne";  // not kitti2bag's name: the result files must take the bag's
-  writeKittiBag(KittiSequence(tmp.str() + "/drive"), tmp.str() + "/drive.bag", o);
-  const ToolRun folder =
-      runCalibrate("--sequences " + tmp.str() + "/drive --perturb-rot-deg 2 --perturb-trans-m 0.2");
-  const ToolRun bag = runCalibrate("--bag " + tmp.str() + "/drive.bag --perturb-rot-deg 2 " +
-                                   "--perturb-trans-m 0.2 --out " + tmp.str() + "/result");
-  std::cout << bag.output;
-  ASSERT_EQ(folder.status, 0) << folder.output;
-  ASSERT_EQ(bag.status, 0) << bag.output;
-  EXPECT_NE(bag.output.find("7 keyframes, 0 rejected"), std::string::npos);
-  const StereoRig back =
-      rigFromOdometryCalib(readKittiOdometryCalib(tmp.str() + "/result_calib.txt"));
-  const Vector6d err = poseError(back.T_cam_lidar, sim->rig().T_cam_lidar);
-  EXPECT_LT(err.head<3>().norm() * kDegPerRad, 0.1);
-  EXPECT_LT(err.tail<3>().norm(), 0.015);
+  BagAndFolder r;
+  ASSERT_NO_FATAL_FAILURE(calibrateBagAndFolder(tmp, o, &r));
   // The pair's baseline from the camera_infos is the generator's, not the right P[3] alone.
-  EXPECT_LT((back.T_right_left.translation() - sim->rig().T_right_left.translation()).norm(),
-            1e-6);
-  const auto last = [](const std::string& out) {
-    return out.substr(out.find("error against the data's calibration"), 90);
-  };
-  EXPECT_EQ(last(bag.output), last(folder.output));
+  EXPECT_LT(
+      (r.back.T_right_left.translation() - r.sim->rig().T_right_left.translation()).norm(), 1e-6);
   std::ifstream launch(tmp.str() + "/result_static_tf.launch");
   const std::string text((std::istreambuf_iterator<char>(launch)), {});
   EXPECT_NE(text.find("velodyne"), std::string::npos) << text;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <random>
 #include <thread>
 
@@ -239,6 +240,26 @@ void addKeyframes(OnlineCalibrator& cal, const Simulator& sim, int first, int en
     ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
   }
 }
+/// The generated drive of the co-calibration tests: 21 frames, 5 keyframes 0.5 s apart.
+std::unique_ptr<Simulator> coDrive() {
+  SimOptions o;
+  o.frames = 21;
+  o.seed = 4;
+  return std::make_unique<Simulator>(o);
+}
+
+/// The drive's rig with T_cam_lidar and T_right_left started that far off (random directions).
+StereoRig perturbedRig(const Simulator& sim, unsigned seed, double lidar_deg, double lidar_m,
+                       double stereo_deg = 0, double stereo_m = 0) {
+  StereoRig rig = sim.rig();
+  std::mt19937_64 rng(seed);
+  rig.T_cam_lidar =
+      perturb(rig.T_cam_lidar, randomPerturbation(lidar_deg / kDegPerRad, lidar_m, rng));
+  if (stereo_deg > 0 || stereo_m > 0)
+    rig.T_right_left =
+        perturb(rig.T_right_left, randomPerturbation(stereo_deg / kDegPerRad, stereo_m, rng));
+  return rig;
+}
 }  // namespace
 
 // A pair whose right image sits a pixel lower than camera_info says: the first keyframe is taken
@@ -278,14 +299,9 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
   // The stereo start is 0.02 deg / 2 mm off (a slightly wrong camera_info); with 0.2 deg / 1 cm
   // the LiDAR-stereo solve on the misrectified clouds is flagged unobservable, and nothing is
   // published before the first co-calibration.
-  SimOptions o;
-  o.frames = 21;
-  o.seed = 4;
-  const Simulator sim(o);
-  StereoRig rig = sim.rig();
-  std::mt19937_64 rng(8);
-  rig.T_cam_lidar = perturb(rig.T_cam_lidar, randomPerturbation(1.0 / kDegPerRad, 0.05, rng));
-  rig.T_right_left = perturb(rig.T_right_left, randomPerturbation(0.02 / kDegPerRad, 0.002, rng));
+  const auto drive = coDrive();
+  const Simulator& sim = *drive;
+  const StereoRig rig = perturbedRig(sim, 8, 1.0, 0.05, 0.02, 0.002);
   OnlineSettings settings;
   settings.estimate_stereo = true;
   settings.window_size = 6;
@@ -327,13 +343,9 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
 TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
   // ~reset while a solve runs: the solve's result belongs to the window that was cleared and
   // must not come back as the published estimate (nor as the warm start of the next window).
-  SimOptions o;
-  o.frames = 21;
-  o.seed = 4;
-  const Simulator sim(o);
-  StereoRig rig = sim.rig();
-  std::mt19937_64 rng(3);
-  rig.T_cam_lidar = perturb(rig.T_cam_lidar, randomPerturbation(1.0 / kDegPerRad, 0.1, rng));
+  const auto drive = coDrive();
+  const Simulator& sim = *drive;
+  const StereoRig rig = perturbedRig(sim, 3, 1.0, 0.1);
   OnlineSettings settings;
   settings.window_size = 5;
   OnlineCalibrator cal(rig, settings);
@@ -364,14 +376,9 @@ TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
 TEST(OnlineCalibratorGenerated, CancelStopsARunningCoCalibration) {
   // A node shutting down cancels its calibrator: a cold co-calibration (seconds) stops at its
   // next round or re-association, unpublished, and later solves return at once.
-  SimOptions o;
-  o.frames = 21;
-  o.seed = 4;
-  const Simulator sim(o);
-  StereoRig rig = sim.rig();
-  std::mt19937_64 rng(5);
-  rig.T_cam_lidar = perturb(rig.T_cam_lidar, randomPerturbation(2.0 / kDegPerRad, 0.2, rng));
-  rig.T_right_left = perturb(rig.T_right_left, randomPerturbation(0.5 / kDegPerRad, 0.05, rng));
+  const auto drive = coDrive();
+  const Simulator& sim = *drive;
+  const StereoRig rig = perturbedRig(sim, 5, 2.0, 0.2, 0.5, 0.05);
   OnlineSettings settings;
   settings.estimate_stereo = true;
   settings.lidar_first = false;
