@@ -41,27 +41,51 @@ sensor_msgs::PointCloud2 toPointCloud2(const LidarScan& scan, const std_msgs::He
   return msg;
 }
 
-sensor_msgs::PointCloud2 toPointCloud2(const StereoCloud& cloud, const std_msgs::Header& header) {
+namespace {
+/// `n` points of float32 x y z and one more float32 field `fourth`, dense, little-endian: fill
+/// them with xyzf().
+sensor_msgs::PointCloud2 xyzfCloud(const std_msgs::Header& header, size_t n, const char* fourth) {
   sensor_msgs::PointCloud2 msg;
   msg.header = header;
   msg.height = 1;
   sensor_msgs::PointCloud2Modifier mod(msg);
   mod.setPointCloud2Fields(4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
                            sensor_msgs::PointField::FLOAT32, "z", 1,
-                           sensor_msgs::PointField::FLOAT32, "disparity", 1,
+                           sensor_msgs::PointField::FLOAT32, fourth, 1,
                            sensor_msgs::PointField::FLOAT32);
-  mod.resize(cloud.points.size());
+  mod.resize(n);
   msg.is_dense = true;
   msg.is_bigendian = false;
-  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), y(msg, "y"), z(msg, "z"),
-      d(msg, "disparity");
-  for (const StereoPoint& p : cloud.points) {
-    *x = p.p.x();
-    *y = p.p.y();
-    *z = p.p.z();
-    *d = p.disparity;
-    ++x, ++y, ++z, ++d;
+  return msg;
+}
+
+template <typename Points, typename Xyzf>
+void fillXyzf(const Points& points, const char* fourth, Xyzf xyzf, sensor_msgs::PointCloud2* msg) {
+  sensor_msgs::PointCloud2Iterator<float> it(*msg, "x"), f(*msg, fourth);
+  for (const auto& p : points) {
+    xyzf(p, &it[0], &it[1], &it[2], &*f);
+    ++it, ++f;
   }
+}
+}  // namespace
+
+sensor_msgs::PointCloud2 toPointCloud2(const StereoCloud& cloud, const std_msgs::Header& header) {
+  sensor_msgs::PointCloud2 msg = xyzfCloud(header, cloud.points.size(), "disparity");
+  fillXyzf(cloud.points, "disparity",
+           [](const StereoPoint& p, float* x, float* y, float* z, float* d) {
+             *x = p.p.x(), *y = p.p.y(), *z = p.p.z(), *d = p.disparity;
+           },
+           &msg);
+  return msg;
+}
+
+sensor_msgs::PointCloud2 toPointCloud2Xyzi(const LidarScan& scan, const std_msgs::Header& header) {
+  sensor_msgs::PointCloud2 msg = xyzfCloud(header, scan.size(), "i");
+  fillXyzf(scan, "i",
+           [](const LidarPoint& p, float* x, float* y, float* z, float* i) {
+             *x = p.x, *y = p.y, *z = p.z, *i = p.intensity;
+           },
+           &msg);
   return msg;
 }
 

@@ -2,35 +2,12 @@
 
 #include <geometry_msgs/TransformStamped.h>
 #include <rosbag/bag.h>
-#include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_msgs/TFMessage.h>
 #include <boost/make_shared.hpp>
 
 #include "tescalib/ros/conversions.h"
 
 namespace tescalib {
-
-namespace {
-/// A cloud as kitti2bag writes it: float32 x y z i, no ring (the reader recovers it).
-sensor_msgs::PointCloud2 xyziCloud(const LidarScan& scan, const std_msgs::Header& header) {
-  sensor_msgs::PointCloud2 msg;
-  msg.header = header;
-  msg.height = 1;
-  sensor_msgs::PointCloud2Modifier mod(msg);
-  mod.setPointCloud2Fields(4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
-                           sensor_msgs::PointField::FLOAT32, "z", 1,
-                           sensor_msgs::PointField::FLOAT32, "i", 1,
-                           sensor_msgs::PointField::FLOAT32);
-  mod.resize(scan.size());
-  sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), i(msg, "i");
-  for (const auto& p : scan) {
-    x[0] = p.x, x[1] = p.y, x[2] = p.z;
-    *i = p.intensity;
-    ++x, ++i;
-  }
-  return msg;
-}
-}  // namespace
 
 void writeKittiBag(const KittiSequence& seq, const std::string& bag_path, const KittiBagOptions& o,
                    const std::function<void(size_t, size_t)>& progress) {
@@ -112,7 +89,7 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
 
       h.frame_id = o.velo_frame;
       bag.write(o.velo_topic, stamp,
-                o.like_kitti2bag ? xyziCloud(f.scan, h) : ros_conv::toPointCloud2(f.scan, h));
+                o.like_kitti2bag ? ros_conv::toPointCloud2Xyzi(f.scan, h) : ros_conv::toPointCloud2(f.scan, h));
 
       h.frame_id = o.left_frame;
       bag.write(o.left_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.left, h, encoding));

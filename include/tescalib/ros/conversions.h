@@ -24,6 +24,8 @@ namespace ros_conv {
 /// LidarScan -> PointCloud2 with fields x y z intensity (float32) and ring (uint16), as the
 /// velodyne driver publishes them.
 sensor_msgs::PointCloud2 toPointCloud2(const LidarScan& scan, const std_msgs::Header& header);
+/// The scan as kitti2bag writes it: float32 x y z i, no ring field.
+sensor_msgs::PointCloud2 toPointCloud2Xyzi(const LidarScan& scan, const std_msgs::Header& header);
 
 /// PointCloud2 -> LidarScan. Needs float32 x y z; intensity (float32 or uint8/uint16) is
 /// optional; a missing ring field is recovered from scan order (recoverRings). Non-finite points
