@@ -23,7 +23,7 @@ env -i HOME="$HOME" PATH="$PATH" WORK="$WORK" bash -euo pipefail -c '
   [ "$(rospack find tescalib)" = "$WORK/install/share/tescalib" ] || fail "rospack find tescalib"
   rospack plugins --attrib=plugin nodelet | grep -q "^tescalib " || fail "nodelet plugins not registered"
   for f in launch/kitti.launch launch/live.launch launch/calibration.launch launch/overlay.launch \
-           config/kitti.yaml rviz/tescalib.rviz; do
+           config/kitti.yaml config/live.yaml rviz/tescalib.rviz; do
     [ -f "$WORK/install/share/tescalib/$f" ] || fail "$f not installed"
   done
   python3 -c "import tescalib.msg, tescalib.srv" || fail "python messages"
