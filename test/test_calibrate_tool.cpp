@@ -35,9 +35,9 @@ struct ToolRun {
   std::string output;  // stdout and stderr
 };
 
-ToolRun runCalibrate(const std::string& args) {
+ToolRun runTool(const std::string& binary, const std::string& args) {
   ToolRun r;
-  const std::string cmd = std::string(TESCALIB_CALIBRATE_BIN) + " " + args + " 2>&1";
+  const std::string cmd = binary + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   if (!p) return r;
   std::array<char, 512> buf;
@@ -46,6 +46,8 @@ ToolRun runCalibrate(const std::string& args) {
   r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
+
+ToolRun runCalibrate(const std::string& args) { return runTool(TESCALIB_CALIBRATE_BIN, args); }
 
 /// A generated urban drive written to TMP/drive; its simulator holds the ground truth.
 std::unique_ptr<Simulator> writeDrive(const TempDir& tmp, int frames, uint64_t seed) {
@@ -269,4 +271,43 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
   r = runCalibrate("--sequences " + tmp.str() + "/seq --init " + tmp.str() + "/missing.txt");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("missing.txt"), std::string::npos) << r.output;
+}
+
+TEST(EvalTool, WritesTheJsonOfTheContract) {
+  // DESIGN.md's contract: every trial has a "lidar" and a "stereo" block with the same fields,
+  // the summary both keys. An extrinsic the mode does not estimate says so, and a covariance
+  // that does not exist is null, never zeros (which would read as exact).
+  TempDir tmp;
+  writeDrive(tmp, 11, 8);  // 3 keyframes
+  const std::string common = "--sequences " + tmp.str() + "/drive --trials 1 --init-rot-deg 3 " +
+                             "--init-trans-m 0.3 --seed 1 --window 3 --search-deg 0 --json ";
+  const ToolRun ls = runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/ls.json");
+  ASSERT_EQ(ls.status, 0) << ls.output;
+  const std::string j = readAll(tmp.str() + "/ls.json");
+  EXPECT_NE(j.find("\"mode\": \"lidar_stereo\", \"method\": \"tescalib\", \"window\": 3"),
+            std::string::npos)
+      << j;
+  EXPECT_NE(j.find("\"lidar\": {\"estimated\": true, \"init_rot_deg\": ["), std::string::npos);
+  EXPECT_NE(j.find("\"stereo\": {\"estimated\": false, \"init_rot_deg\": [0, 0, 0]"),
+            std::string::npos)
+      << j;
+  EXPECT_NE(j.find("\"sigma_rot_deg\": [null, null, null]"), std::string::npos);
+  EXPECT_NE(j.find("\"summary\": {\"lidar\": {\"median_abs_rot_err_deg\": ["), std::string::npos);
+  EXPECT_NE(j.find("\"stereo\": {\"estimated\": false}, \"success_rate\": "), std::string::npos);
+  EXPECT_NE(j.find("\"seconds\": {\"preprocess\": "), std::string::npos);
+  // The GICP baseline has no covariance: null, and no NEES.
+  const ToolRun gicp =
+      runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/g.json --method pcl_gicp");
+  ASSERT_EQ(gicp.status, 0) << gicp.output;
+  const std::string g = readAll(tmp.str() + "/g.json");
+  EXPECT_NE(g.find("\"lidar\": {\"estimated\": true"), std::string::npos) << g;
+  EXPECT_NE(g.find("\"covariance\": [null, null"), std::string::npos) << g;
+  EXPECT_EQ(g.find("\"covariance\": [0, 0"), std::string::npos) << g;
+  EXPECT_NE(g.find("\"mean_nees\": null"), std::string::npos) << g;
+  // A baseline of LiDAR-stereo only: asked for another mode, the tool refuses.
+  const ToolRun wrong = runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/w.json --mode stereo " +
+                                                       "--method pcl_gicp");
+  EXPECT_EQ(wrong.status, 2) << wrong.output;
+  EXPECT_NE(wrong.output.find("a baseline of --mode lidar_stereo only"), std::string::npos)
+      << wrong.output;
 }

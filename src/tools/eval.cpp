@@ -251,6 +251,12 @@ bool parse(int argc, char** argv, Args* a) {
     std::cerr << "tescalib_eval: unknown method '" << a->method << "' (tescalib, pcl_gicp)\n";
     return false;
   }
+  if (a->method == "pcl_gicp" && a->mode != "lidar_stereo") {
+    std::cerr << "tescalib_eval: --method pcl_gicp registers LiDAR scans to stereo clouds: it is "
+                 "a baseline of --mode lidar_stereo only (not of "
+              << a->mode << ")\n";
+    return false;
+  }
   if (a->trials < 1 || a->window < 1) {
     std::cerr << "tescalib_eval: --trials and --window must be positive\n";
     return false;
@@ -268,12 +274,32 @@ double median(std::vector<double> v) {
 std::string jsonArray(const double* v, int n) {
   std::ostringstream o;
   o << std::setprecision(10) << "[";
-  for (int i = 0; i < n; ++i) o << (i ? ", " : "") << (std::isfinite(v[i]) ? v[i] : 0.0);
+  // Not-a-number (no covariance: a baseline without one, an extrinsic the mode does not
+  // estimate) is JSON's null, never 0 (which would read as exact).
+  for (int i = 0; i < n; ++i) {
+    o << (i ? ", " : "");
+    if (std::isfinite(v[i]))
+      o << v[i];
+    else
+      o << "null";
+  }
   o << "]";
   return o.str();
 }
 
+/// A number, or null when there is none (not a number).
+std::string jsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream o;
+  o << std::setprecision(10) << v;
+  return o.str();
+}
+
 struct ExtrinsicOutcome {
+  /// false: the mode does not estimate this extrinsic (it is given: ground truth, or perturbed
+  /// by --lidar-* in stereo mode); `err` is then the given value's error, and there is no
+  /// covariance (null in the JSON).
+  bool estimated = true;
   Vector6d init = Vector6d::Zero();
   Vector6d err = Vector6d::Zero();
   Matrix6d cov = Matrix6d::Identity();
@@ -292,8 +318,14 @@ struct ExtrinsicOutcome {
       sr[i] = std::sqrt(cov(i, i)) * kDegPerRad, st[i] = std::sqrt(cov(3 + i, 3 + i));
     }
     for (int i = 0; i < 36; ++i) c[i] = cov(i / 6, i % 6);
+    if (!estimated) {
+      std::fill(std::begin(c), std::end(c), std::nan(""));
+      std::fill(std::begin(sr), std::end(sr), std::nan(""));
+      std::fill(std::begin(st), std::end(st), std::nan(""));
+    }
     std::ostringstream o;
-    o << "{\"init_rot_deg\": " << jsonArray(ir, 3) << ", \"init_trans_m\": " << jsonArray(it, 3)
+    o << "{\"estimated\": " << (estimated ? "true" : "false")
+      << ", \"init_rot_deg\": " << jsonArray(ir, 3) << ", \"init_trans_m\": " << jsonArray(it, 3)
       << ", \"rot_err_deg\": " << jsonArray(er, 3) << ", \"trans_err_m\": " << jsonArray(et, 3)
       << ", \"sigma_rot_deg\": " << jsonArray(sr, 3) << ", \"sigma_trans_m\": " << jsonArray(st, 3)
       << ", \"covariance\": " << jsonArray(c, 36);
@@ -504,6 +536,9 @@ int main(int argc, char** argv) {
       tr.lidar.init = main_delta;
     }
     T_init = perturb(rig.T_cam_lidar, tr.lidar.init);
+    // The extrinsic the mode does not estimate is given: its error is where it was put.
+    if (stereo_mode) tr.lidar.estimated = false, tr.lidar.err = tr.lidar.init;
+    if (!stereo_mode && !co_mode) tr.stereo.estimated = false;
     // Per-trial meshes, view-filtered with the initial guess (never the ground truth).
     const auto t_pre = Clock::now();
     const LidarMeshSettings ms = meshSettingsForView(rig, T_init, kfs);
@@ -756,10 +791,14 @@ int main(int argc, char** argv) {
     if (std::isfinite(stat_rot[0]))
       summary_json << ", \"median_sigma_statistical_rot_deg\": " << jsonArray(stat_rot, 3)
                    << ", \"median_sigma_statistical_trans_m\": " << jsonArray(stat_trans, 3);
-    summary_json
-                 << ", \"median_rot_err_norm_deg\": " << median(rn)
+    summary_json << std::setprecision(10) << ", \"median_rot_err_norm_deg\": " << median(rn)
                  << ", \"median_trans_err_norm_m\": " << median(tn) << "}, ";
   }
+  // The extrinsic the mode does not estimate: named, so that both keys are always there.
+  for (const char* name : {"lidar", "stereo"})
+    if (std::none_of(estimated.begin(), estimated.end(),
+                     [&](const auto& e) { return e.first == name; }))
+      summary_json << "\"" << name << "\": {\"estimated\": false}, ";
   std::printf(
       "  time per window: preprocess %.2f s (stereo %.2f s, %zu keyframes), solve median %.2f s\n",
       median(pre), stereo_seconds / n_windows, window_size, median(sol));
@@ -837,16 +876,16 @@ int main(int argc, char** argv) {
       js << "  {\"seed\": " << tr.seed << ", \"window_index\": " << tr.window_index
          << ", \"converged\": " << (tr.converged ? "true" : "false")
          << ", \"success\": " << (trialSuccess(tr) ? "true" : "false")
-         << ", \"lidar\": " << tr.lidar.json();
+         << ", \"lidar\": " << tr.lidar.json() << ", \"stereo\": " << tr.stereo.json();
       if (stereo_mode || co_mode) {
-        js << ", \"stereo\": " << tr.stereo.json() << ", \"brightness\": [";
+        js << ", \"brightness\": [";
         for (size_t b = 0; b < tr.brightness.size(); ++b)
           js << (b ? ", " : "") << "[" << tr.brightness[b].x() << ", " << tr.brightness[b].y()
              << "]";
         js << "]";
       }
-      js << ", \"nees\": " << (std::isfinite(tr.nees) ? tr.nees : -1.0)
-         << ", \"nees_model\": " << (std::isfinite(tr.nees_model) ? tr.nees_model : -1.0)
+      js << ", \"nees\": " << jsonNumber(tr.nees)
+         << ", \"nees_model\": " << jsonNumber(tr.nees_model)
          << ", \"iterations\": " << tr.iterations;
       if (tr.rematches >= 0) js << ", \"rematches\": " << tr.rematches;
       if (tr.yaw_handovers >= 0) js << ", \"yaw_handovers\": " << tr.yaw_handovers;
@@ -876,10 +915,9 @@ int main(int argc, char** argv) {
     }
     js << "], \"summary\": {" << summary_json.str()
        << "\"success_rate\": " << double(ok_all) / trials.size()
-       << ", \"mean_nees\": " << (std::isfinite(mean_nees) ? mean_nees : -1.0)
-       << ", \"mean_nees_converged\": "
-       << (std::isfinite(mean_nees_converged) ? mean_nees_converged : -1.0)
-       << ", \"mean_nees_model\": " << (std::isfinite(mean_nees_model) ? mean_nees_model : -1.0)
+       << ", \"mean_nees\": " << jsonNumber(mean_nees)
+       << ", \"mean_nees_converged\": " << jsonNumber(mean_nees_converged)
+       << ", \"mean_nees_model\": " << jsonNumber(mean_nees_model)
        << ", \"seconds\": {\"preprocess\": " << median(pre) << ", \"solve\": " << median(sol)
        << "}}}\n";
     std::cout << "wrote " << args.json << "\n";
