@@ -235,6 +235,7 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     int used = 0, occluded = 0;
     const bool free_depth = s.depth_prior_sigma > 0 && L < s.depth_free_levels;
     std::vector<double> rho;  // per key point; never reallocated while the problem holds it
+    std::vector<ceres::ResidualBlockId> photometric_blocks;  // for the consistency check
     // The LiDAR extrinsic's error shared by the key points' depths (lidar_error_sigma_*).
     const bool lidar_nuisance =
         free_depth && s.lidar_error_sigma_rot_deg > 0 && s.lidar_error_sigma_trans_m > 0;
@@ -286,8 +287,8 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
                                     lv.right_cam.cy);
         if (free_depth) {
           rho.push_back(0.0);
-          problem.AddResidualBlock(PhotometricDepthResidual::Create(r), &huber, delta,
-                                   ab[k].data(), &rho.back());
+          photometric_blocks.push_back(problem.AddResidualBlock(
+              PhotometricDepthResidual::Create(r), &huber, delta, ab[k].data(), &rho.back()));
           if (lidar_nuisance)
             problem.AddResidualBlock(
                 new ceres::AutoDiffCostFunction<LogDepthLidarPrior, 1, 1, 6>(
@@ -298,10 +299,10 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
                                          new LogDepthPrior(s.depth_prior_sigma)),
                                      &depth_loss, &rho.back());
         } else {
-          problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PhotometricResidual,
-                                                                   kPatternSize, 6, 2>(
-                                       new PhotometricResidual(r)),
-                                   &huber, delta, ab[k].data());
+          photometric_blocks.push_back(problem.AddResidualBlock(
+              new ceres::AutoDiffCostFunction<PhotometricResidual, kPatternSize, 6, 2>(
+                  new PhotometricResidual(r)),
+              &huber, delta, ab[k].data()));
           if (sensitivity) links.push_back({r, static_cast<int>(k), depthRow(f, T_cam_lidar, X)});
         }
         ++used;
@@ -341,6 +342,40 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     if (lidar_nuisance)
       for (int i = 0; i < 6; ++i) res.lidar_error[i] = xi[i];
     if (L == 0) {
+      // Photo-consistency at the estimate: the share of key points whose pattern residual is
+      // within the Huber threshold. A pose that matched nothing (a start beyond the basin) leaves
+      // few, while its covariance, from the same residuals' curvature, can still look tight.
+      ceres::Problem::EvaluateOptions eo;
+      eo.residual_blocks = photometric_blocks;
+      eo.apply_loss_function = false;
+      // The median pattern residual at the estimate against the same with the right image
+      // looked up a few pixels off (the pose turned about y and x): texture alone gives a ratio
+      // near 1, a photo-consistent pose far less.
+      auto medianNorm = [&](double* fraction) {
+        std::vector<double> rv;
+        if (photometric_blocks.empty() || !problem.Evaluate(eo, nullptr, &rv, nullptr, nullptr))
+          return std::nan("");
+        const int per = static_cast<int>(rv.size() / photometric_blocks.size());
+        std::vector<double> norms(photometric_blocks.size());
+        int within = 0;
+        for (size_t b = 0; b < norms.size(); ++b) {
+          norms[b] = Eigen::Map<const Eigen::VectorXd>(rv.data() + b * per, per).norm();
+          within += norms[b] < s.huber;
+        }
+        if (fraction) *fraction = double(within) / norms.size();
+        std::nth_element(norms.begin(), norms.begin() + norms.size() / 2, norms.end());
+        return norms[norms.size() / 2];
+      };
+      const double at_estimate = medianNorm(&res.consistent_fraction);
+      double shifted = 0;
+      const double off = 4.0 / rig.right.fx;  // 4 px
+      for (int axis : {0, 1})
+        for (double sign : {-1.0, 1.0}) {
+          delta[axis] += sign * off;
+          shifted += 0.25 * medianNorm(nullptr);
+          delta[axis] -= sign * off;
+        }
+      res.consistency_ratio = at_estimate / shifted;
       const int n = problem.NumResiduals();
       res.final_cost = 2.0 * summary.final_cost / std::max(1, n);
       // Covariance of the pose marginalised over the brightness parameters.
@@ -378,6 +413,10 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
   if (corr.head<3>().norm() * kDegPerRad > s.max_correction_rot_deg ||
       corr.tail<3>().norm() > s.max_correction_trans_m)
     res.message = "diverged: the correction from the initial guess is implausibly large";
+  else if (!(res.consistency_ratio <= s.max_consistency_ratio))
+    res.message = "not photo-consistent: the median key point residual is " +
+                  std::to_string(res.consistency_ratio) +
+                  " of its value with the right image 4 px off (a start beyond the basin?)";
   else if (!all)
     res.message = "the window does not constrain every axis";
   else

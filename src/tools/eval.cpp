@@ -639,6 +639,9 @@ int main(int argc, char** argv) {
       tr.iterations = r.iterations;
       tr.stereo.cov = r.covariance;
       tr.stereo.err = poseError(r.T_right_left, rig.T_right_left);
+      if (std::getenv("TESCALIB_DEBUG"))
+        std::fprintf(stderr, "photo-consistent key points: %.3f of %d, ratio %.3f\n",
+                     r.consistent_fraction, r.inliers, r.consistency_ratio);
       tr.message = r.message;
       tr.brightness = r.brightness;
       if (!r.lidar_error.isZero()) tr.lidar_error_found = r.lidar_error;
