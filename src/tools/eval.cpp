@@ -384,12 +384,15 @@ int main(int argc, char** argv) {
   // ------------------------------------------------------------------ data
   std::vector<std::unique_ptr<KittiSequence>> seqs;
   std::vector<std::pair<size_t, size_t>> keyframes;  // (sequence, frame index)
+  size_t available = 0;                              // keyframes in all the sequences
   try {
     seqs = openSequences(args.sequences);
     for (size_t si = 0; si < seqs.size(); ++si)
-      for (size_t i : seqs[si]->keyframes(0.5))
+      for (size_t i : seqs[si]->keyframes(0.5)) {
+        ++available;
         if (args.windows == "disjoint" || static_cast<int>(keyframes.size()) < args.window)
           keyframes.emplace_back(si, i);
+      }
   } catch (const DataError& e) {
     std::cerr << "tescalib_eval: " << e.what() << "\n";
     return 1;
@@ -405,7 +408,8 @@ int main(int argc, char** argv) {
   }
   keyframes.resize(n_windows * window_size);
   std::cout << "tescalib_eval: mode " << args.mode << ", method " << args.method << ", "
-            << keyframes.size() << " keyframes from " << seqs.size() << " sequence(s), "
+            << keyframes.size() << " of the " << available << " keyframes of " << seqs.size()
+            << " sequence(s), "
             << n_windows << " window(s) of " << window_size << ", " << args.trials
             << " trials, init " << args.init_rot_deg << " deg / " << args.init_trans_m
             << " m, seed " << args.seed << "\n";
