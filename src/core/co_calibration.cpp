@@ -231,7 +231,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   };
   LidarStereoSettings ls_last = s.lidar;  // the settings of the last LiDAR-stereo solve
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
-    if (s.cancel && s.cancel->load(std::memory_order_relaxed)) {
+    if (s.lidar.cancelled()) {  // LidarStereoSettings::cancel: before each round too
       res.converged = false;
       res.message = "cancelled";
       return res;

@@ -536,7 +536,8 @@ LidarStereoResult solveLidarStereoSearch(const std::vector<const Keyframe*>& win
   LidarStereoResult first = solveLidarStereo(window, T_init, s);
   if (first.converged || s.search_step_deg <= 0 || window.empty()) return first;
   const double step = s.search_step_deg / kDegPerRad;
-  const double offsets[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
+  const double offsets[8][2] = {{1, 0},  {-1, 0}, {0, 1},  {0, -1},
+                                {1, 1},  {1, -1}, {-1, 1}, {-1, -1}};
   std::optional<LidarStereoResult> best;
   for (const auto& o : offsets) {
     if (s.cancelled()) break;

@@ -232,7 +232,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
   for (auto& k : snapshot) win.push_back(k.get());
   if (co) {
     CoCalibrationSettings cs = settings_.co;
-    cs.cancel = cs.lidar.cancel = &cancel_;
+    cs.lidar.cancel = &cancel_;
     // Warm only from a co-calibration: a LiDAR-first estimate has the stereo pair at its start.
     const bool warm = current && current->stereo_estimated && settings_.warm_start_fine_only;
     if (warm) {

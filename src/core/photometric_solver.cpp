@@ -342,37 +342,31 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     if (lidar_nuisance)
       for (int i = 0; i < 6; ++i) res.lidar_error[i] = xi[i];
     if (L == 0) {
-      // Photo-consistency at the estimate: the share of key points whose pattern residual is
-      // within the Huber threshold. A pose that matched nothing (a start beyond the basin) leaves
-      // few, while its covariance, from the same residuals' curvature, can still look tight.
+      // Photo-consistency: the median pattern residual at the estimate against the same with
+      // the right image looked up a few pixels off (the pose turned about y and x). Texture alone
+      // gives a ratio near 1, a photo-consistent pose far less; a pose that matched nothing (a
+      // start beyond the basin) can still have a tight covariance from its residuals' curvature.
       ceres::Problem::EvaluateOptions eo;
       eo.residual_blocks = photometric_blocks;
       eo.apply_loss_function = false;
-      // The median pattern residual at the estimate against the same with the right image
-      // looked up a few pixels off (the pose turned about y and x): texture alone gives a ratio
-      // near 1, a photo-consistent pose far less.
-      auto medianNorm = [&](double* fraction) {
+      auto medianNorm = [&]() {
         std::vector<double> rv;
         if (photometric_blocks.empty() || !problem.Evaluate(eo, nullptr, &rv, nullptr, nullptr))
           return std::nan("");
         const int per = static_cast<int>(rv.size() / photometric_blocks.size());
         std::vector<double> norms(photometric_blocks.size());
-        int within = 0;
-        for (size_t b = 0; b < norms.size(); ++b) {
+        for (size_t b = 0; b < norms.size(); ++b)
           norms[b] = Eigen::Map<const Eigen::VectorXd>(rv.data() + b * per, per).norm();
-          within += norms[b] < s.huber;
-        }
-        if (fraction) *fraction = double(within) / norms.size();
         std::nth_element(norms.begin(), norms.begin() + norms.size() / 2, norms.end());
         return norms[norms.size() / 2];
       };
-      const double at_estimate = medianNorm(&res.consistent_fraction);
+      const double at_estimate = medianNorm();
       double shifted = 0;
       const double off = 4.0 / rig.right.fx;  // 4 px
       for (int axis : {0, 1})
         for (double sign : {-1.0, 1.0}) {
           delta[axis] += sign * off;
-          shifted += 0.25 * medianNorm(nullptr);
+          shifted += 0.25 * medianNorm();
           delta[axis] -= sign * off;
         }
       res.consistency_ratio = at_estimate / shifted;

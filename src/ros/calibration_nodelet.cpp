@@ -95,7 +95,7 @@ void CalibrationNodelet::onInit() {
   right_sub_.subscribe(nh, "right/image_raw", q);
   right_info_sub_.subscribe(nh, "right/camera_info", q);
   left_sub_.registerCallback(boost::function<void(const Image::ConstPtr&)>(
-      [this](const Image::ConstPtr&) { ++images_seen_, ++topic_messages_[1]; }));
+      [this](const Image::ConstPtr&) { ++topic_messages_[1]; }));
   cloud_sub_.registerCallback(boost::function<void(const Cloud::ConstPtr&)>(
       [this](const Cloud::ConstPtr&) { ++topic_messages_[0]; }));
   left_info_sub_.registerCallback(boost::function<void(const Info::ConstPtr&)>(
@@ -497,14 +497,15 @@ void CalibrationNodelet::watchdog(const ros::WallTimerEvent&) {
       "check the topic names (points:=TOPIC; left:= and right:= are the cameras' namespaces, "
       "image:= the image's name in them, camera_info beside it) and that their sources run";
   std::string what;
-  if (images_seen_ > 20) {
-    what = std::to_string(images_seen_.load()) + " images but no synchronized set: " +
+  const int left_images = topic_messages_[1];
+  const double waited = (ros::WallTime::now() - start_wall_).toSec();
+  if (left_images > 20) {
+    what = std::to_string(left_images) + " images but no synchronized set: " +
            (silent.empty() ? "check that the cloud, both images and both camera_info topics "
                              "carry matching stamps (sync/approximate, sync/max_skew)"
                            : "nothing on " + silent + "; " + check);
-  } else if (!silent.empty() && (ros::WallTime::now() - start_wall_).toSec() > 5.0) {
-    what = "no messages on " + silent + " after " +
-           std::to_string(static_cast<int>((ros::WallTime::now() - start_wall_).toSec())) +
+  } else if (!silent.empty() && waited > 5.0) {
+    what = "no messages on " + silent + " after " + std::to_string(static_cast<int>(waited)) +
            " s; " + check;
   }
   if (what.empty()) return;

@@ -211,8 +211,8 @@ bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::
     *error = "point cloud data is shorter than width*height*point_step";
     return false;
   }
-  const auto* fi = findField(msg, "intensity") ? findField(msg, "intensity")
-                                                : findField(msg, "i");  // kitti2bag's name
+  const auto* fi = findField(msg, "intensity");
+  if (!fi) fi = findField(msg, "i");  // kitti2bag's name
   const auto* fr = findField(msg, "ring");
   const std::string time_name = perPointTimeField(msg);
   const auto* ft = time_name.empty() ? nullptr : findField(msg, time_name);
@@ -294,13 +294,10 @@ bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs
   if (!baseline_from_p) return true;
   // P = K [I | t]: t = K^-1 P[:,3] is the camera's position (negated, in its own axes) in the
   // frame both P refer to; the rectified cameras share their orientation.
-  const auto position = [](const sensor_msgs::CameraInfo& info) {
-    Eigen::Matrix3d K;
-    K << info.P[0], info.P[1], info.P[2], info.P[4], info.P[5], info.P[6], info.P[8], info.P[9],
-        info.P[10];
-    return Eigen::Vector3d(K.inverse() * Eigen::Vector3d(info.P[3], info.P[7], info.P[11]));
+  const auto position = [](const sensor_msgs::CameraInfo& info, const CameraIntrinsics& c) {
+    return Eigen::Vector3d(c.K().inverse() * Eigen::Vector3d(info.P[3], info.P[7], info.P[11]));
   };
-  const Eigen::Vector3d t = position(right) - position(left);
+  const Eigen::Vector3d t = position(right, rig->right) - position(left, rig->left);
   if (!(t.x() < 0) || !t.allFinite()) {
     *error = "right camera_info P[3] = " + std::to_string(right.P[3]) + " with the left one's " +
              std::to_string(left.P[3]) +

@@ -89,11 +89,13 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
 
       h.frame_id = o.velo_frame;
       bag.write(o.velo_topic, stamp,
-                o.like_kitti2bag ? ros_conv::toPointCloud2Xyzi(f.scan, h) : ros_conv::toPointCloud2(f.scan, h));
+                o.like_kitti2bag ? ros_conv::toPointCloud2Xyzi(f.scan, h)
+                                 : ros_conv::toPointCloud2(f.scan, h));
 
       h.frame_id = o.left_frame;
       bag.write(o.left_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.left, h, encoding));
-      bag.write(o.left_prefix + "/camera_info", stamp, ros_conv::toCameraInfo(rig.left, p3_left, h));
+      bag.write(o.left_prefix + "/camera_info", stamp,
+                ros_conv::toCameraInfo(rig.left, p3_left, h));
 
       h.frame_id = o.right_frame;
       bag.write(o.right_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.right, h, encoding));

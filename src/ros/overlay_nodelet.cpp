@@ -86,7 +86,8 @@ void OverlayNodelet::onSet(const Cloud::ConstPtr& cloud, const Image::ConstPtr& 
                          ros_conv::fromCameraInfo(*li, &lc, &error);
   if (!have_scan) NODELET_WARN_THROTTLE(10.0, "tescalib overlay: %s", error.c_str());
   if (!le) {  // what the node waits for, and the last untrusted solve when there is one
-    std::vector<std::string> status{"tescalib: waiting for the first converged LiDAR->left estimate"};
+    std::vector<std::string> status{
+        "tescalib: waiting for the first converged LiDAR->left estimate"};
     if (candidate && have_scan) {
       drawLidarOverlay(scan, ros_conv::fromTransformMsg(candidate->transform), lc, &l, max_depth_);
       status.push_back("drawn: the last solve, NOT TRUSTED - " +

@@ -95,7 +95,8 @@ void usage() {
          "(both: LiDAR from the --init sizes, stereo from the --init-stereo sizes), joint (as co,\n"
          "one Ceres problem over both extrinsics).\n"
          "Sequences are KITTI folders (odometry or raw layout) sharing one calibration (real, or\n"
-         "written by tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds the first W.\n"
+         "written by tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds\n"
+         "the first W.\n"
          "A trial perturbs the ground truth by exactly R deg about a random axis and T m in a "
          "random\n"
          "direction and succeeds when the error is below 0.2 deg and 3 cm.\n"
@@ -644,8 +645,8 @@ int main(int argc, char** argv) {
       tr.stereo.cov = r.covariance;
       tr.stereo.err = poseError(r.T_right_left, rig.T_right_left);
       if (std::getenv("TESCALIB_DEBUG"))
-        std::fprintf(stderr, "photo-consistent key points: %.3f of %d, ratio %.3f\n",
-                     r.consistent_fraction, r.inliers, r.consistency_ratio);
+        std::fprintf(stderr, "photo-consistency ratio %.3f over %d key points\n",
+                     r.consistency_ratio, r.inliers);
       tr.message = r.message;
       tr.brightness = r.brightness;
       if (!r.lidar_error.isZero()) tr.lidar_error_found = r.lidar_error;

@@ -24,7 +24,7 @@ inline StereoSettings coStereoCloudSettings(StereoSettings s = {}) {
 }
 
 struct CoCalibrationSettings {
-  LidarStereoSettings lidar;
+  LidarStereoSettings lidar;  ///< its `cancel` also stops the alternation before each round
   PhotometricSettings stereo;
   StereoSettings stereo_cloud = coStereoCloudSettings();  ///< clouds matched again each round
   int max_rounds = 15;
@@ -109,9 +109,6 @@ struct CoCalibrationSettings {
   std::array<double, 3> model_sigma_lidar_trans_m = {0.0019, 0.0019, 0.00275};
   std::array<double, 3> model_sigma_stereo_rot_deg = {0.0, 0.0, 0.0};
   std::array<double, 3> model_sigma_stereo_trans_m = {0.0007, 0.00027, 0.00019};
-  /// When set and true: stop before the next round, not converged, message "cancelled"
-  /// (`lidar.cancel` stops the LiDAR-stereo solves inside a round).
-  const std::atomic<bool>* cancel = nullptr;
 };
 
 struct CoCalibrationResult {

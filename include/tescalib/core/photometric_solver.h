@@ -93,9 +93,6 @@ struct PhotometricResult {
   int keypoints = 0;                        ///< key points with LiDAR depth (all keyframes)
   int occluded = 0;                         ///< key points hidden in the right image (last level)
   int inliers = 0;                          ///< key points used at the last level
-  /// Of those, the share whose pattern residual at the estimate is within the Huber threshold
-  /// (photo-consistent key points); see PhotometricSettings::min_consistent_fraction.
-  double consistent_fraction = 0;
   /// Median pattern residual at the estimate over the same with the right image looked up 4 px
   /// off (mean of +-x, +-y): near 1 when the pose matched nothing but texture.
   double consistency_ratio = std::numeric_limits<double>::quiet_NaN();

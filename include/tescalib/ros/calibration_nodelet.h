@@ -123,9 +123,9 @@ class CalibrationNodelet : public nodelet::Nodelet {
   std::atomic<bool> solve_requested_{false};
   std::thread preprocess_thread_, solve_thread_;
 
-  std::atomic<int> sync_sets_{0}, dropped_{0}, rejected_{0}, keyframes_{0}, images_seen_{0};
+  std::atomic<int> sync_sets_{0}, dropped_{0}, rejected_{0}, keyframes_{0};
   /// Messages received per subscribed topic (points, left image, left info, right image, right
-  /// info), for the watchdog's "nothing on this topic" message.
+  /// info), for the watchdog's messages.
   std::atomic<int> topic_messages_[5] = {};
   ros::WallTime start_wall_;
   /// Names of the subscribed topics whose count is still 0 (empty: all have had messages).
