@@ -1,0 +1,201 @@
+#include "eval_args.h"
+
+#include <iostream>
+#include <string>
+
+#include "cli.h"
+
+namespace tescalib::eval {
+
+void usage() {
+  std::cout
+      << "usage: rosrun tescalib tescalib_eval --sequences DIR[,DIR...]\n"
+         "         [--mode lidar_stereo|stereo|co|joint]\n"
+         "         [--method tescalib|pcl_gicp] [--trials N] [--init-rot-deg R] [--init-trans-m "
+         "T]\n"
+         "         [--init-stereo-rot-deg R] [--init-stereo-trans-m T] [--seed S] [--window W]\n"
+         "         [--json FILE] [--stages coarse,fine] [--lidar-rot-deg R --lidar-trans-m T]\n"
+         "         [--windows first|disjoint] [--cov-cells XxY] [--cov-model-scale K] "
+         "[--first-trial K]\n"
+         "         [--co-model-scale K] [--smooth-keypoints PX] [--stereo-yaw 0|1]\n"
+         "         [--stereo-scale 0|1] [--check-halves 0|1] [--measure-offset 0|1]\n"
+         "         [--coarse-nuisances 0|1] [--coarse-gates M,M,...] [--search-deg D]\n"
+         "         [--lidar-sigma DEG,M]\n"
+         "         [--refine-iterations N] [--refine-smoothed-rounds N]\n"
+         "         [--deskew 0|1] [--depth-prior SIGMA] [--free-depth-rounds N] [--rematch-deg X]\n"
+         "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
+         "(T_right_left\n"
+         "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
+         "(both: LiDAR from the --init sizes, stereo from the --init-stereo sizes), joint (as co,\n"
+         "one Ceres problem over both extrinsics).\n"
+         "Sequences are KITTI folders (odometry or raw layout) sharing one calibration (real, or\n"
+         "written by tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds\n"
+         "the first W.\n"
+         "A trial perturbs the ground truth by exactly R deg about a random axis and T m in a "
+         "random\n"
+         "direction and succeeds when the error is below 0.2 deg and 3 cm.\n"
+         "--windows disjoint splits all keyframes into consecutive windows of W and trial t uses\n"
+         "window t mod (number of windows): independent windows, so mean NEES means something.\n"
+         "--smooth-keypoints PX: full-resolution photometric key points only where the LiDAR "
+         "depth\n"
+         "is smooth within PX pixels (PhotometricSettings::smooth_depth_radius_px; 0: off).\n"
+         "--depth-prior SIGMA: photometric key points' depth free at full resolution with a\n"
+         "log-depth prior of SIGMA (PhotometricSettings::depth_prior_sigma; 0: the LiDAR's).\n"
+         "(co: the prior of the rounds with free depth, "
+         "CoCalibrationSettings::free_depth_prior_sigma)\n"
+         "--free-depth-rounds N: co: photometric solves of rounds 1..N with free key point depth.\n"
+         "--rematch-deg X: co: SGBM matches again beyond X deg about x/z (and 5 X of baseline\n"
+         "direction) from its last matches, re-triangulates below (< 0: always matches again).\n"
+         "--stereo-yaw 0|1: the LiDAR-stereo solve also estimates the right camera's yaw relative\n"
+         "to the clouds' rectification (a disparity offset; LidarStereoSettings::\n"
+         "estimate_stereo_yaw, co: CoCalibrationSettings::lidar_estimates_stereo_yaw).\n"
+         "--stereo-scale 0|1: lidar_stereo mode: the solve also estimates a scale of the stereo\n"
+         "clouds (LidarStereoSettings::estimate_stereo_scale; always on in co).\n"
+         "--refine-iterations N: rounds of the stereo clouds' disparity refinement\n"
+         "(StereoSettings::refinement.iterations; 0 keeps SGBM's disparities; default 2 in\n"
+         "lidar_stereo mode, 1 for the clouds co and joint match, coStereoCloudSettings).\n"
+         "--refine-smoothed-rounds N: of those rounds, the first N take the smoothed gradient\n"
+         "(DisparityRefinementSettings::smoothed_gradient_rounds; default 1 in lidar_stereo\n"
+         "mode, 0 in co and joint).\n"
+         "--deskew 0|1: motion-compensate each keyframe's scan to the camera trigger with the\n"
+         "velocity registered against the sequence's next frame (default: on for KITTI raw\n"
+         "recordings and tescalib_simulate --lidar-sweep 1 output; off for KITTI odometry\n"
+         "sequences, which KITTI compensated, and the generator's default output).\n"
+         "--check-halves 0|1: the split-window check of the LiDAR-stereo noise model after a\n"
+         "converged solve (LidarStereoSettings::check_window_halves; on by default).\n"
+         "--measure-offset 0|1: measure the disparity offset the LiDAR-stereo residuals show and\n"
+         "widen the covariance's bias term with it "
+         "(LidarStereoSettings::measure_disparity_offset;\n"
+         "on by default).\n"
+         "--coarse-nuisances 0|1: the LiDAR-stereo coarse stage also estimates the clouds' scale\n"
+         "and yaw where they are estimated (co; LidarStereoSettings::\n"
+         "coarse_estimates_stereo_nuisances; off by default: only the fine stage does).\n"
+         "--coarse-gates M,M,...: the coarse stage's 6-D association gates, one stage each\n"
+         "(LidarStereoSettings::coarse_gates; default 2,1,0.5).\n"
+         "--search-deg D: lidar_stereo mode: a solve that does not converge is tried again from\n"
+         "the start turned by +-D deg about the camera's x and y axes, 8 more starts\n"
+         "(LidarStereoSettings::search_step_deg; default 10; 0: off).\n"
+         "--lidar-sigma DEG,M: stereo mode: the given LiDAR extrinsic's 1-sigma per axis; the\n"
+         "left-right covariance adds what it does to the key points' depth (default 0: exact);\n"
+         "with --depth-prior its error is also a nuisance of the key points' depths, with this\n"
+         "prior (PhotometricSettings::lidar_error_sigma_*).\n";
+}
+
+bool parse(int argc, char** argv, Args* a) {
+  auto option = [a](const std::string& k, const std::string& v) {
+    if (k == "--sequences")
+      a->sequences = cli::splitList(v);
+    else if (k == "--mode")
+      a->mode = v;
+    else if (k == "--method")
+      a->method = v;
+    else if (k == "--trials")
+      a->trials = std::stoi(v);
+    else if (k == "--first-trial")
+      a->first_trial = std::stoi(v);
+    else if (k == "--init-rot-deg")
+      a->init_rot_deg = std::stod(v);
+    else if (k == "--init-trans-m")
+      a->init_trans_m = std::stod(v);
+    else if (k == "--init-stereo-rot-deg")
+      a->init_stereo_rot_deg = std::stod(v);
+    else if (k == "--init-stereo-trans-m")
+      a->init_stereo_trans_m = std::stod(v);
+    else if (k == "--seed")
+      a->seed = std::stoull(v);
+    else if (k == "--window")
+      a->window = std::stoi(v);
+    else if (k == "--json")
+      a->json = v;
+    else if (k == "--stages")
+      a->stages = v;
+    else if (k == "--lidar-rot-deg")
+      a->lidar_rot_deg = std::stod(v);
+    else if (k == "--lidar-trans-m")
+      a->lidar_trans_m = std::stod(v);
+    else if (k == "--windows")
+      a->windows = v;
+    else if (k == "--cov-cells") {
+      const auto x = v.find('x');
+      if (x == std::string::npos) throw std::invalid_argument(v);
+      a->cov_cells_x = std::stoi(v.substr(0, x));
+      a->cov_cells_y = std::stoi(v.substr(x + 1));
+    } else if (k == "--cov-model-scale")
+      a->cov_model_scale = std::stod(v);
+    else if (k == "--smooth-keypoints")
+      a->smooth_keypoints_px = std::stoi(v);
+    else if (k == "--depth-prior")
+      a->depth_prior = std::stod(v);
+    else if (k == "--free-depth-rounds")
+      a->free_depth_rounds = std::stoi(v);
+    else if (k == "--rematch-deg")
+      a->rematch_deg = std::stod(v);
+    else if (k == "--co-model-scale")
+      a->co_model_scale = std::stod(v);
+    else if (k == "--stereo-yaw")
+      a->stereo_yaw = std::stoi(v);
+    else if (k == "--stereo-scale")
+      a->stereo_scale = std::stoi(v);
+    else if (k == "--deskew")
+      a->deskew = std::stoi(v);
+    else if (k == "--check-halves")
+      a->check_halves = std::stoi(v);
+    else if (k == "--measure-offset")
+      a->measure_offset = std::stoi(v);
+    else if (k == "--coarse-nuisances")
+      a->coarse_nuisances = std::stoi(v);
+    else if (k == "--search-deg")
+      a->search_deg = std::stod(v);
+    else if (k == "--coarse-gates") {
+      a->coarse_gates.clear();
+      for (const auto& g : cli::splitList(v)) a->coarse_gates.push_back(std::stod(g));
+      if (a->coarse_gates.empty()) throw std::invalid_argument(v);
+    } else if (k == "--refine-smoothed-rounds") {
+      a->refine_smoothed = std::stoi(v);
+      if (a->refine_smoothed < 0) throw std::invalid_argument(v);
+    } else if (k == "--refine-iterations") {
+      a->refine_iterations = std::stoi(v);
+      if (a->refine_iterations < 0) throw std::invalid_argument(v);
+    } else if (k == "--lidar-sigma") {
+      const auto parts = cli::splitList(v);
+      if (parts.size() != 2) throw std::invalid_argument(v);
+      a->lidar_sigma_deg = std::stod(parts[0]);
+      a->lidar_sigma_m = std::stod(parts[1]);
+      if (!(a->lidar_sigma_deg >= 0 && a->lidar_sigma_m >= 0)) throw std::invalid_argument(v);
+    } else {
+      return false;
+    }
+    return true;
+  };
+  if (!cli::parseOptions(argc, argv, "tescalib_eval", usage, option)) return false;
+  if (a->windows != "first" && a->windows != "disjoint") {
+    std::cerr << "tescalib_eval: --windows must be first or disjoint\n";
+    return false;
+  }
+  if (a->sequences.empty()) {
+    std::cerr << "tescalib_eval: --sequences is required\n";
+    return false;
+  }
+  if (a->mode != "lidar_stereo" && a->mode != "stereo" && a->mode != "co" && a->mode != "joint") {
+    std::cerr << "tescalib_eval: mode '" << a->mode
+              << "' is not available in this build (available: lidar_stereo, stereo, co, joint)\n";
+    return false;
+  }
+  if (a->method != "tescalib" && a->method != "pcl_gicp") {
+    std::cerr << "tescalib_eval: unknown method '" << a->method << "' (tescalib, pcl_gicp)\n";
+    return false;
+  }
+  if (a->method == "pcl_gicp" && a->mode != "lidar_stereo") {
+    std::cerr << "tescalib_eval: --method pcl_gicp registers LiDAR scans to stereo clouds: it is "
+                 "a baseline of --mode lidar_stereo only (not of "
+              << a->mode << ")\n";
+    return false;
+  }
+  if (a->trials < 1 || a->window < 1) {
+    std::cerr << "tescalib_eval: --trials and --window must be positive\n";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace tescalib::eval

@@ -1,0 +1,397 @@
+#include "eval_trial.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+#include <memory>
+#include <random>
+
+#include <opencv2/imgproc.hpp>
+
+#include "tescalib/core/co_calibration.h"
+#include "tescalib/core/error.h"
+#include "tescalib/core/gicp_baseline.h"
+#include "tescalib/core/joint_calibration.h"
+#include "tescalib/core/kitti_reader.h"
+#include "tescalib/core/parallel.h"
+#include "tescalib/core/photometric_solver.h"
+#include "tescalib/core/scan_motion.h"
+
+namespace tescalib::eval {
+
+using Clock = std::chrono::steady_clock;
+
+bool loadData(const Args& args, EvalData* d) {
+  std::vector<std::unique_ptr<KittiSequence>> seqs;
+  std::vector<std::pair<size_t, size_t>> picked;  // (sequence, frame index) of the windows
+  try {
+    seqs = openSequences(args.sequences);
+    for (size_t si = 0; si < seqs.size(); ++si)
+      for (size_t i : seqs[si]->keyframes(0.5)) {
+        ++d->available;
+        if (args.windows == "disjoint" || static_cast<int>(picked.size()) < args.window)
+          picked.emplace_back(si, i);
+      }
+  } catch (const DataError& e) {
+    std::cerr << "tescalib_eval: " << e.what() << "\n";
+    return false;
+  }
+  d->rig = seqs.front()->rig();
+  d->window_size = args.windows == "disjoint" ? static_cast<size_t>(args.window) : picked.size();
+  d->n_windows = d->window_size > 0 ? picked.size() / d->window_size : 0;
+  if (d->n_windows == 0) {
+    std::cerr << "tescalib_eval: not enough keyframes (" << picked.size() << ") for one window of "
+              << d->window_size << "\n";
+    return false;
+  }
+  picked.resize(d->n_windows * d->window_size);
+  std::cout << "tescalib_eval: mode " << args.mode << ", method " << args.method << ", "
+            << picked.size() << " of the " << d->available << " keyframes of " << seqs.size()
+            << " sequence(s), " << d->n_windows << " window(s) of " << d->window_size << ", "
+            << args.trials << " trials, init " << args.init_rot_deg << " deg / "
+            << args.init_trans_m << " m, seed " << args.seed << "\n";
+
+  // Stereo clouds do not depend on the LiDAR extrinsic: computed once (stereo fixed at the
+  // ground truth in lidar_stereo mode). Meshes depend on the view filter of the initial guess and
+  // are rebuilt per trial.
+  d->kfs = KeyframeSettings{};
+  // The joint problem's photometric residuals intersect rays with any key point's face along its
+  // normal: it needs every face's normal fitted, not only the solvers' sample (held-out starts:
+  // 81.5 % with every face fitted, 72.2 % with the sample).
+  if (args.mode == "joint") d->kfs.mesh.sampled_faces = 0;
+  // The command line's refinement rounds, over the LiDAR-stereo clouds' default and over the one
+  // co / joint match their clouds with (co-calibration's own: one exact round).
+  auto withRefineArgs = [&](DisparityRefinementSettings r) {
+    if (args.refine_iterations >= 0) r.iterations = args.refine_iterations;
+    if (args.refine_smoothed >= 0) r.smoothed_gradient_rounds = args.refine_smoothed;
+    return r;
+  };
+  d->kfs.stereo.refinement = withRefineArgs(d->kfs.stereo.refinement);
+  d->co_refinement = withRefineArgs(CoCalibrationSettings{}.stereo_cloud.refinement);
+  const bool co_clouds = args.mode == "co" || args.mode == "joint";
+  d->used_refinement = co_clouds ? d->co_refinement : d->kfs.stereo.refinement;
+  if (args.mode != "stereo")  // stereo mode matches no clouds
+    std::cout << "  stereo clouds: disparity refinement " << d->used_refinement.iterations
+              << " round(s), " << d->used_refinement.smoothed_gradient_rounds
+              << " of them with the smoothed gradient\n";
+  std::vector<Frame> frames;
+  try {
+    for (const auto& [si, fi] : picked) {
+      frames.push_back(seqs[si]->load(fi));
+      if (args.deskew > 0 || (args.deskew < 0 && seqs[si]->sweptScans())) {
+        // Constant velocity from this scan to the next frame's (or from the previous one's).
+        const KittiSequence& seq = *seqs[si];
+        if (seq.size() < 2) throw DataError(seq.dir() + ": --deskew needs two frames");
+        const size_t j = fi + 1 < seq.size() ? fi + 1 : fi - 1;
+        const LidarScan other = seq.loadScan(j);
+        const auto t_dk = std::chrono::steady_clock::now();
+        const ScanMotion m =
+            j > fi ? estimateScanMotion(frames.back().scan, other, seq.stamp(j) - seq.stamp(fi))
+                   : estimateScanMotion(other, frames.back().scan, seq.stamp(fi) - seq.stamp(j));
+        const double s_dk =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t_dk).count();
+        if (m.valid)
+          std::printf(
+              "  keyframe %zu: de-skewed, %.2f m/s, %.2f deg/s (registered with frame %d, "
+              "RMS %.3f m, %.2f s)\n",
+              frames.size() - 1, m.velocity.norm(), m.angular_velocity.norm() * kDegPerRad,
+              seq.frameId(j), m.rms_m, s_dk);
+        else
+          std::printf("  keyframe %zu: not de-skewed: %s\n", frames.size() - 1, m.message.c_str());
+        deskewScan(&frames.back().scan, m);  // Velodyne: clockwise, 10 Hz, triggered forward
+      }
+      Keyframe kf;
+      kf.stamp = frames.back().stamp;
+      kf.scan = frames.back().scan;
+      cv::cvtColor(frames.back().left, kf.left_gray, cv::COLOR_BGR2GRAY);
+      cv::cvtColor(frames.back().right, kf.right_gray, cv::COLOR_BGR2GRAY);
+      d->keyframes.push_back(std::move(kf));
+    }
+  } catch (const DataError& e) {
+    std::cerr << "tescalib_eval: " << e.what() << "\n";
+    return false;
+  }
+  if (args.mode == "lidar_stereo") {  // stereo: no cloud needed; co: computed per trial
+    // One keyframe per core at a time (as a window is preprocessed in a batch); the time
+    // charged to each window is its share of the wall-clock time.
+    const auto t_stereo = Clock::now();
+    parallelFor(static_cast<int>(d->keyframes.size()), resolveThreads(d->kfs.stereo.threads),
+                [&](int k) {
+                  d->keyframes[k].stereo = computeStereoCloud(
+                      frames[k].left, frames[k].right, d->rig, d->rig.T_right_left, d->kfs.stereo);
+                  d->keyframes[k].T_right_left_used = d->rig.T_right_left;
+                });
+    d->stereo_seconds = std::chrono::duration<double>(Clock::now() - t_stereo).count();
+    for (size_t k = 0; k < d->keyframes.size(); ++k) {
+      d->kf_stereo_seconds.push_back(d->stereo_seconds / d->keyframes.size());
+      const cv::Mat& disp = d->keyframes[k].stereo.disparity;
+      const double valid = double(cv::countNonZero(disp == disp)) / disp.total();  // NaN != NaN
+      std::printf("  keyframe %zu: %zu stereo points, %.0f %% valid disparity, SGBM %.3f s\n", k,
+                  d->keyframes[k].stereo.points.size(), 100 * valid,
+                  d->keyframes[k].stereo.seconds_sgbm);
+    }
+  }
+  return true;
+}
+
+LidarStereoSettings lidarSettings(const Args& args, const KeyframeSettings& kfs) {
+  LidarStereoSettings solver_settings;
+  solver_settings.disparity_sigma = kfs.stereo.disparity_sigma;
+  solver_settings.run_coarse = args.stages.find("coarse") != std::string::npos;
+  solver_settings.run_fine = args.stages.find("fine") != std::string::npos;
+  if (args.cov_cells_x > 0) solver_settings.cov_cells_x = args.cov_cells_x;
+  if (args.stereo_yaw >= 0) solver_settings.estimate_stereo_yaw = args.stereo_yaw > 0;
+  if (args.stereo_scale >= 0) solver_settings.estimate_stereo_scale = args.stereo_scale > 0;
+  if (args.check_halves >= 0) solver_settings.check_window_halves = args.check_halves > 0;
+  if (args.measure_offset >= 0) solver_settings.measure_disparity_offset = args.measure_offset > 0;
+  if (args.coarse_nuisances >= 0)
+    solver_settings.coarse_estimates_stereo_nuisances = args.coarse_nuisances > 0;
+  if (!args.coarse_gates.empty()) solver_settings.coarse_gates = args.coarse_gates;
+  if (args.search_deg >= 0) solver_settings.search_step_deg = args.search_deg;
+  if (args.cov_cells_y > 0) solver_settings.cov_cells_y = args.cov_cells_y;
+  if (args.cov_model_scale >= 0) {
+    for (double& v : solver_settings.model_sigma_rot_deg) v *= args.cov_model_scale;
+    for (double& v : solver_settings.model_sigma_trans_m) v *= args.cov_model_scale;
+    solver_settings.model_sigma_disparity_px *= args.cov_model_scale;
+    solver_settings.model_sigma_range_m *= args.cov_model_scale;
+  }
+  return solver_settings;
+}
+
+namespace {
+
+/// Co-calibration's settings: its defaults, the LiDAR-stereo study options and its own.
+CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& solver_settings,
+                                 const DisparityRefinementSettings& refinement) {
+  CoCalibrationSettings cs;
+  cs.stereo_cloud.refinement = refinement;
+  cs.lidar.cov_cells_x = solver_settings.cov_cells_x;
+  cs.lidar.cov_cells_y = solver_settings.cov_cells_y;
+  cs.lidar.model_sigma_rot_deg = solver_settings.model_sigma_rot_deg;
+  cs.lidar.model_sigma_trans_m = solver_settings.model_sigma_trans_m;
+  cs.lidar.model_sigma_disparity_px = solver_settings.model_sigma_disparity_px;
+  cs.lidar.model_sigma_range_m = solver_settings.model_sigma_range_m;
+  cs.lidar.check_window_halves = solver_settings.check_window_halves;
+  cs.lidar.coarse_estimates_stereo_nuisances = solver_settings.coarse_estimates_stereo_nuisances;
+  cs.lidar.measure_disparity_offset = solver_settings.measure_disparity_offset;
+  if (args.smooth_keypoints_px >= 0) cs.stereo.smooth_depth_radius_px = args.smooth_keypoints_px;
+  if (args.depth_prior >= 0) cs.free_depth_prior_sigma = args.depth_prior;
+  if (args.free_depth_rounds >= 0) cs.free_depth_rounds = args.free_depth_rounds;
+  if (args.rematch_deg != 0) {
+    cs.rematch_deg = args.rematch_deg;
+    cs.rematch_direction_deg = 5 * args.rematch_deg;
+  }
+  if (args.stereo_yaw >= 0) cs.lidar_estimates_stereo_yaw = args.stereo_yaw > 0;
+  if (args.co_model_scale >= 0) {
+    for (auto* v : {&cs.model_sigma_lidar_rot_deg, &cs.model_sigma_lidar_trans_m,
+                    &cs.model_sigma_stereo_rot_deg, &cs.model_sigma_stereo_trans_m})
+      for (double& x : *v) x *= args.co_model_scale;
+  }
+  return cs;
+}
+
+/// co / joint: both extrinsics; returns the LiDAR estimate.
+Eigen::Isometry3d solveCo(const Args& args, const EvalData& d,
+                          const LidarStereoSettings& solver_settings,
+                          const std::vector<Keyframe*>& mwin, const Eigen::Isometry3d& T_init,
+                          Trial& tr) {
+  const CoCalibrationSettings cs = coSettings(args, solver_settings, d.co_refinement);
+  const Eigen::Isometry3d T_rl_init = perturb(d.rig.T_right_left, tr.stereo.init);
+  CoCalibrationResult r;
+  if (args.mode == "joint") {
+    JointCalibrationSettings jset;
+    jset.co = cs;
+    r = jointCalibrate(mwin, d.rig, T_init, T_rl_init, jset);
+  } else {
+    r = coCalibrate(mwin, d.rig, T_init, T_rl_init, cs);
+  }
+  tr.converged = r.converged;
+  tr.iterations = r.rounds;
+  tr.rematches = r.rematches;
+  tr.yaw_handovers = r.yaw_handovers;
+  tr.stereo_scale = r.lidar.stereo_scale;
+  tr.stereo_scale_sigma = std::sqrt(r.lidar.stereo_scale_variance);
+  tr.halves = r.lidar.halves;
+  tr.stage_seconds = {{"photometric", r.seconds_photometric},
+                      {"stereo_cloud", r.seconds_stereo_cloud},
+                      {"lidar_stereo", r.seconds_lidar}};
+  tr.lidar.cov = r.lidar.covariance;
+  tr.lidar.cov_stat = r.lidar.covariance_statistical;
+  tr.lidar.bias = r.lidar.bias_sensitivity;
+  tr.stereo.cov = r.stereo.covariance;
+  tr.stereo.err = poseError(r.stereo.T_right_left, d.rig.T_right_left);
+  tr.message = r.message;
+  tr.brightness = r.stereo.brightness;
+  return r.lidar.T_cam_lidar;
+}
+
+/// stereo: the left-right photometric solve with the (possibly perturbed) LiDAR extrinsic given.
+void solveStereo(const Args& args, const EvalData& d, const std::vector<const Keyframe*>& window,
+                 const Eigen::Isometry3d& T_init, Trial& tr) {
+  PhotometricSettings ps;
+  if (args.smooth_keypoints_px >= 0) ps.smooth_depth_radius_px = args.smooth_keypoints_px;
+  if (args.depth_prior >= 0) ps.depth_prior_sigma = args.depth_prior;
+  // With free depth the given LiDAR extrinsic's uncertainty is also the prior of its error as
+  // a nuisance of the key points' depths.
+  ps.lidar_error_sigma_rot_deg = args.lidar_sigma_deg;
+  ps.lidar_error_sigma_trans_m = args.lidar_sigma_m;
+  PhotometricResult r =
+      solvePhotometric(window, d.rig, T_init, perturb(d.rig.T_right_left, tr.stereo.init), ps);
+  if (args.lidar_sigma_deg > 0 || args.lidar_sigma_m > 0) {
+    Matrix6d P = Matrix6d::Zero();
+    addAxisVariances(&P, {args.lidar_sigma_deg, args.lidar_sigma_deg, args.lidar_sigma_deg},
+                     {args.lidar_sigma_m, args.lidar_sigma_m, args.lidar_sigma_m});
+    addLidarUncertainty(&r, P);
+  }
+  tr.converged = r.converged;
+  tr.iterations = r.iterations;
+  tr.stereo.cov = r.covariance;
+  tr.stereo.err = poseError(r.T_right_left, d.rig.T_right_left);
+  if (std::getenv("TESCALIB_DEBUG"))
+    std::fprintf(stderr, "photo-consistency ratio %.3f over %d key points\n", r.consistency_ratio,
+                 r.inliers);
+  tr.message = r.message;
+  tr.brightness = r.brightness;
+  if (!r.lidar_error.isZero()) tr.lidar_error_found = r.lidar_error;
+}
+
+/// lidar_stereo with the tescalib method; returns the estimate.
+Eigen::Isometry3d solveLidar(const LidarStereoSettings& solver_settings,
+                             const std::vector<const Keyframe*>& window,
+                             const Eigen::Isometry3d& T_init, Trial& tr) {
+  const LidarStereoResult r = solveLidarStereoSearch(window, T_init, solver_settings);
+  tr.converged = r.converged;
+  tr.iterations = r.iterations;
+  tr.lidar.cov = r.covariance;
+  tr.lidar.cov_stat = r.covariance_statistical;
+  tr.lidar.bias = r.bias_sensitivity;
+  tr.lidar_cov_model = r.covariance_model;
+  tr.halves = r.halves;
+  tr.message = r.message;
+  if (solver_settings.estimate_stereo_scale) {
+    tr.stereo_scale = r.stereo_scale;
+    tr.stereo_scale_sigma = std::sqrt(r.stereo_scale_variance);
+  }
+  if (solver_settings.estimate_stereo_yaw) tr.stereo_yaw_deg = r.stereo_yaw_rad * kDegPerRad;
+  if (solver_settings.measure_disparity_offset && !solver_settings.estimate_stereo_yaw) {
+    tr.disparity_offset_px = r.disparity_offset_px;
+    tr.disparity_offset_sigma_px = r.disparity_offset_sigma_px;
+    tr.disparity_offset_used = disparityOffsetWidensBias(r, solver_settings);
+  }
+  return r.T_cam_lidar;
+}
+
+}  // namespace
+
+Trial runTrial(const Args& args, int t, const LidarStereoSettings& solver_settings, EvalData* dp) {
+  EvalData& d = *dp;
+  Trial tr;
+  tr.seed = args.seed * 1000003ULL + t;
+  std::mt19937_64 rng(tr.seed);
+  const bool stereo_mode = args.mode == "stereo";
+  const bool co_mode = args.mode == "co" || args.mode == "joint";
+  const Vector6d main_delta =
+      randomPerturbation(args.init_rot_deg / kDegPerRad, args.init_trans_m, rng);
+  Eigen::Isometry3d T_init = d.rig.T_cam_lidar;
+  if (co_mode) {
+    tr.lidar.init = main_delta;
+    tr.stereo.init =
+        randomPerturbation(args.init_stereo_rot_deg / kDegPerRad, args.init_stereo_trans_m, rng);
+  } else if (stereo_mode) {
+    tr.stereo.init = main_delta;
+    tr.lidar.init = randomPerturbation(args.lidar_rot_deg / kDegPerRad, args.lidar_trans_m, rng);
+  } else {
+    tr.lidar.init = main_delta;
+  }
+  T_init = perturb(d.rig.T_cam_lidar, tr.lidar.init);
+  // The extrinsic the mode does not estimate is given: its error is where it was put.
+  if (stereo_mode) tr.lidar.estimated = false, tr.lidar.err = tr.lidar.init;
+  if (!stereo_mode && !co_mode) tr.stereo.estimated = false;
+  // Per-trial meshes, view-filtered with the initial guess (never the ground truth).
+  const auto t_pre = Clock::now();
+  const LidarMeshSettings ms = meshSettingsForView(d.rig, T_init, d.kfs);
+  tr.window_index = static_cast<int>(t % d.n_windows);
+  const size_t first = tr.window_index * d.window_size;
+  std::vector<Keyframe*> mwin;
+  double window_stereo_seconds = 0;
+  for (size_t k = first; k < first + d.window_size; ++k) {
+    mwin.push_back(&d.keyframes[k]);
+    if (k < d.kf_stereo_seconds.size()) window_stereo_seconds += d.kf_stereo_seconds[k];
+  }
+  std::vector<const Keyframe*> window;
+  LidarMeshSettings ms_one = ms;
+  ms_one.threads = 1;  // one keyframe per core instead
+  parallelFor(static_cast<int>(mwin.size()), resolveThreads(ms.threads),
+              [&](int k) { mwin[k]->mesh = buildLidarMesh(mwin[k]->scan, ms_one); });
+  for (Keyframe* kfp : mwin) {
+    if (t == 0)
+      std::printf("  keyframe %zu: %zu LiDAR faces in view\n", window.size(),
+                  kfp->mesh.faces.size());
+    window.push_back(kfp);
+  }
+  tr.preprocess =
+      std::chrono::duration<double>(Clock::now() - t_pre).count() + window_stereo_seconds;
+  const auto t_solve = Clock::now();
+  Eigen::Isometry3d T_est = T_init;
+  if (co_mode) {
+    T_est = solveCo(args, d, solver_settings, mwin, T_init, tr);
+  } else if (stereo_mode) {
+    solveStereo(args, d, window, T_init, tr);
+  } else if (args.method == "tescalib") {
+    T_est = solveLidar(solver_settings, window, T_init, tr);
+  } else {
+    const GicpBaselineResult r = solveGicpBaseline(window, T_init);
+    T_est = r.T_cam_lidar;
+    tr.converged = r.converged;
+    tr.lidar.cov = Matrix6d::Constant(std::nan(""));
+  }
+  tr.solve = std::chrono::duration<double>(Clock::now() - t_solve).count();
+  ExtrinsicOutcome& est = stereo_mode ? tr.stereo : tr.lidar;
+  if (!stereo_mode) tr.lidar.err = poseError(T_est, d.rig.T_cam_lidar);
+  if (args.method == "tescalib") {
+    Eigen::LDLT<Matrix6d> ldlt(est.cov);
+    tr.nees = est.err.dot(ldlt.solve(est.err));
+    if (tr.lidar_cov_model.allFinite())
+      tr.nees_model = est.err.dot(tr.lidar_cov_model.ldlt().solve(est.err));
+    if (co_mode) {  // mean of both extrinsics' 6-DoF NEES
+      Eigen::LDLT<Matrix6d> ldlt_s(tr.stereo.cov);
+      tr.nees = 0.5 * (tr.nees + tr.stereo.err.dot(ldlt_s.solve(tr.stereo.err)));
+    }
+  }
+  return tr;
+}
+
+void printTrialHeader() {
+  std::cout << " trial  conv  init(deg,m)    err rot [x y z] deg          err trans [x y z] cm"
+               "        sigma(deg,cm)   iters  prep(s) solve(s)\n";
+}
+
+void printTrial(const Args& args, int t, const Trial& tr) {
+  const bool stereo_mode = args.mode == "stereo";
+  const bool co_mode = args.mode == "co" || args.mode == "joint";
+  const ExtrinsicOutcome& est = stereo_mode ? tr.stereo : tr.lidar;
+  const Vector6d& e = est.err;
+  std::printf(
+      " %4d   %s   %4.2f/%4.2f  [%7.4f %7.4f %7.4f]  [%7.3f %7.3f %7.3f]  %6.3f/%6.2f  %4d  "
+      "%6.2f  %6.2f %s\n",
+      t, tr.converged ? "yes" : " no", est.init.head<3>().norm() * kDegPerRad,
+      est.init.tail<3>().norm(), e[0] * kDegPerRad, e[1] * kDegPerRad, e[2] * kDegPerRad,
+      e[3] * 100, e[4] * 100, e[5] * 100,
+      std::sqrt(est.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
+      std::sqrt(est.cov.bottomRightCorner<3, 3>().trace() / 3) * 100, tr.iterations, tr.preprocess,
+      tr.solve,
+      (est.success() && (!co_mode || tr.stereo.success())) ? "" : (" FAIL " + tr.message).c_str());
+  if (co_mode) {
+    const Vector6d& es = tr.stereo.err;
+    std::printf(
+        "        stereo  %4.2f/%4.2f  [%7.4f %7.4f %7.4f]  [%7.3f %7.3f %7.3f]  %6.3f/%6.2f\n",
+        tr.stereo.init.head<3>().norm() * kDegPerRad, tr.stereo.init.tail<3>().norm(),
+        es[0] * kDegPerRad, es[1] * kDegPerRad, es[2] * kDegPerRad, es[3] * 100, es[4] * 100,
+        es[5] * 100, std::sqrt(tr.stereo.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
+        std::sqrt(tr.stereo.cov.bottomRightCorner<3, 3>().trace() / 3) * 100);
+  }
+}
+
+}  // namespace tescalib::eval

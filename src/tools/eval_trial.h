@@ -1,0 +1,95 @@
+// tescalib_eval's trials: the keyframes loaded once, one solve per perturbed initial guess, and
+// what each trial measured against the ground truth.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "tescalib/core/geometry.h"
+#include "tescalib/core/keyframe.h"
+#include "tescalib/core/lidar_stereo_solver.h"
+#include "tescalib/core/types.h"
+
+#include "eval_args.h"
+
+namespace tescalib::eval {
+
+struct ExtrinsicOutcome {
+  /// false: the mode does not estimate this extrinsic (it is given: ground truth, or perturbed
+  /// by --lidar-* in stereo mode); `err` is then the given value's error, and there is no
+  /// covariance (null in the JSON).
+  bool estimated = true;
+  Vector6d init = Vector6d::Zero();
+  Vector6d err = Vector6d::Zero();
+  Matrix6d cov = Matrix6d::Identity();
+  /// The covariance without the model error (LiDAR-stereo): what the window constrains.
+  Matrix6d cov_stat = Matrix6d::Constant(std::nan(""));
+  /// Pose shift per px of common disparity offset and per m of common LiDAR range offset.
+  Eigen::Matrix<double, 6, 2> bias = Eigen::Matrix<double, 6, 2>::Constant(std::nan(""));
+  /// Within the success thresholds of DESIGN.md: < 0.2 deg and < 3 cm.
+  bool success() const {
+    return err.head<3>().norm() * kDegPerRad < 0.2 && err.tail<3>().norm() < 0.03;
+  }
+  /// This extrinsic's block of a trial in the JSON (eval_report.cpp).
+  std::string json() const;
+};
+
+struct Trial {
+  uint64_t seed = 0;
+  bool converged = false;
+  ExtrinsicOutcome lidar, stereo;
+  double nees = std::nan("");
+  double nees_model = std::nan("");  ///< NEES with the paper's covariance (lidar_stereo mode)
+  Matrix6d lidar_cov_model = Matrix6d::Constant(std::nan(""));
+  int window_index = 0;
+  double preprocess = 0, solve = 0;
+  int iterations = 0;      ///< solver iterations; co/joint: rounds
+  int rematches = -1;      ///< co/joint: keyframe clouds matched again (SGBM)
+  int yaw_handovers = -1;  ///< co: restarts at the LiDAR-stereo yaw (CoCalibrationResult)
+  double stereo_scale = std::nan(""), stereo_scale_sigma = std::nan("");  ///< when estimated
+  double stereo_yaw_deg = std::nan("");  ///< the clouds' yaw, when LiDAR-stereo mode estimates it
+  double disparity_offset_px = std::nan("");  ///< LidarStereoResult::disparity_offset_px, measured
+  double disparity_offset_sigma_px = std::nan("");
+  bool disparity_offset_used = false;  ///< determined and beyond the model: the bias term uses it
+  LidarStereoResult::Halves halves;    ///< the LiDAR-stereo split-window check
+  std::vector<std::pair<std::string, double>> stage_seconds;  ///< co/joint: time per solve stage
+  std::vector<Eigen::Vector2d> brightness;                    ///< stereo mode: per keyframe (a, b)
+  /// stereo mode with the LiDAR error nuisance: PhotometricResult::lidar_error (NaN: none)
+  Vector6d lidar_error_found = Vector6d::Constant(std::nan(""));
+  std::string message;
+};
+
+/// The evaluation's keyframes, loaded (and de-skewed) once; in lidar_stereo mode with their stereo
+/// clouds, which do not depend on the LiDAR extrinsic. Meshes depend on the view filter of each
+/// trial's initial guess and are rebuilt per trial.
+struct EvalData {
+  StereoRig rig;
+  std::vector<Keyframe> keyframes;
+  size_t available = 0;  ///< keyframes in all the sequences (the windows may use fewer)
+  size_t window_size = 0, n_windows = 0;
+  double stereo_seconds = 0;              ///< wall-clock time of all the stereo clouds
+  std::vector<double> kf_stereo_seconds;  ///< each keyframe's share of it
+  KeyframeSettings kfs;
+  /// The refinement of the clouds co / joint match (co-calibration's own, with the command
+  /// line's rounds), and the one the mode's clouds use (printed and written to the JSON).
+  DisparityRefinementSettings co_refinement, used_refinement;
+};
+
+/// Opens the sequences, cuts them into windows, loads the keyframes; false (with the reason on
+/// stderr) when the data cannot be read or does not fill one window.
+bool loadData(const Args& args, EvalData* d);
+/// The LiDAR-stereo solver's settings with the command line's study options.
+LidarStereoSettings lidarSettings(const Args& args, const KeyframeSettings& kfs);
+/// Trial `t`: its initial guess (seeded by --seed and t), its window's meshes, the solve, and
+/// the errors and NEES against the ground truth.
+Trial runTrial(const Args& args, int t, const LidarStereoSettings& solver_settings, EvalData* d);
+/// The trial's row of the table (and the stereo row in co / joint mode).
+void printTrialHeader();
+void printTrial(const Args& args, int t, const Trial& tr);
+
+}  // namespace tescalib::eval
