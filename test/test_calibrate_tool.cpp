@@ -208,8 +208,8 @@ TEST(CalibrateTool, CalibratesAKitti2bagLaidOutBagAsItsFolder) {
   BagAndFolder r;
   ASSERT_NO_FATAL_FAILURE(calibrateBagAndFolder(tmp, o, &r));
   // The pair's baseline from the camera_infos is the generator's, not the right P[3] alone.
-  EXPECT_LT(
-      (r.back.T_right_left.translation() - r.sim->rig().T_right_left.translation()).norm(), 1e-6);
+  EXPECT_LT((r.back.T_right_left.translation() - r.sim->rig().T_right_left.translation()).norm(),
+            1e-6);
   std::ifstream launch(tmp.str() + "/result_static_tf.launch");
   const std::string text((std::istreambuf_iterator<char>(launch)), {});
   EXPECT_NE(text.find("velodyne"), std::string::npos) << text;
@@ -235,9 +235,9 @@ TEST(CalibrateToolReal, RefusesTheKittiWindowItCannotTrust) {
   // LiDAR that leaves the optical axis unconstrained (README, Known limits): no estimate written.
   TempDir tmp;
   const std::string k = tescalib_test::kittiDir() + "/sequences/";
-  const ToolRun r = runCalibrate("--sequences " + k + "04," + k + "05," + k + "06," + k +
-                                 "07 --out " + tmp.str() + "/result --overlay " + tmp.str() +
-                                 "/overlay.png");
+  const ToolRun r =
+      runCalibrate("--sequences " + k + "04," + k + "05," + k + "06," + k + "07 --out " +
+                   tmp.str() + "/result --overlay " + tmp.str() + "/overlay.png");
   std::cout << r.output;
   EXPECT_EQ(r.status, 1) << r.output;
   EXPECT_NE(r.output.find("8 keyframes, 0 rejected"), std::string::npos) << r.output;
@@ -296,8 +296,7 @@ TEST(EvalTool, WritesTheJsonOfTheContract) {
   EXPECT_NE(j.find("\"stereo\": {\"estimated\": false}, \"success_rate\": "), std::string::npos);
   EXPECT_NE(j.find("\"seconds\": {\"preprocess\": "), std::string::npos);
   // The GICP baseline has no covariance: null, and no NEES.
-  const ToolRun gicp =
-      runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/g.json --method pcl_gicp");
+  const ToolRun gicp = runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/g.json --method pcl_gicp");
   ASSERT_EQ(gicp.status, 0) << gicp.output;
   const std::string g = readAll(tmp.str() + "/g.json");
   EXPECT_NE(g.find("\"lidar\": {\"estimated\": true"), std::string::npos) << g;
@@ -305,8 +304,8 @@ TEST(EvalTool, WritesTheJsonOfTheContract) {
   EXPECT_EQ(g.find("\"covariance\": [0, 0"), std::string::npos) << g;
   EXPECT_NE(g.find("\"mean_nees\": null"), std::string::npos) << g;
   // A baseline of LiDAR-stereo only: asked for another mode, the tool refuses.
-  const ToolRun wrong = runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/w.json --mode stereo " +
-                                                       "--method pcl_gicp");
+  const ToolRun wrong = runTool(
+      TESCALIB_EVAL_BIN, common + tmp.str() + "/w.json --mode stereo " + "--method pcl_gicp");
   EXPECT_EQ(wrong.status, 2) << wrong.output;
   EXPECT_NE(wrong.output.find("a baseline of --mode lidar_stereo only"), std::string::npos)
       << wrong.output;

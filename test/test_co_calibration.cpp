@@ -270,8 +270,8 @@ TEST(CoCalibration, RunawayLidarEstimatesAreNotTaken) {
   s.lidar.max_correction_rot_deg = 1.0;
   s.lidar.max_correction_trans_m = 0.05;
   const CoCalibrationResult r = coCalibrate(window, w.rig, T_cl_init, T_rl_init, s);
-  std::cout << "[ co       ] " << r.rounds << " rounds, " << r.rejected << " rejected: " << r.message
-            << "\n";
+  std::cout << "[ co       ] " << r.rounds << " rounds, " << r.rejected
+            << " rejected: " << r.message << "\n";
   EXPECT_EQ(r.rejected, 2);
   EXPECT_FALSE(r.converged);
   EXPECT_FALSE(r.lidar.converged);

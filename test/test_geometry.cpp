@@ -35,9 +35,9 @@ TEST(Overlay, StatusTextOnADarkBand) {
   cv::Mat band = img(cv::Rect(0, 0, 400, 42)), below = img(cv::Rect(0, 42, 400, 78));
   double lo, hi;
   cv::minMaxLoc(band.reshape(1), &lo, &hi);
-  EXPECT_LT(lo, 80.0);    // darkened: 200 x 0.35 = 70
-  EXPECT_GT(hi, 240.0);   // text
+  EXPECT_LT(lo, 80.0);   // darkened: 200 x 0.35 = 70
+  EXPECT_GT(hi, 240.0);  // text
   cv::minMaxLoc(below.reshape(1), &lo, &hi);
-  EXPECT_EQ(lo, 200.0);   // untouched
+  EXPECT_EQ(lo, 200.0);  // untouched
   EXPECT_EQ(hi, 200.0);
 }

@@ -170,10 +170,30 @@ TEST(Conversions, BaselineFromKitti2bagCameraInfos) {
   sensor_msgs::CameraInfo left, right;
   left.width = right.width = 1242;
   left.height = right.height = 375;
-  left.P = {7.215377e+02, 0, 6.095593e+02, 4.485728e+01, 0, 7.215377e+02, 1.728540e+02,
-            2.163791e-01, 0, 0, 1, 2.745884e-03};
-  right.P = {7.215377e+02, 0, 6.095593e+02, -3.395242e+02, 0, 7.215377e+02, 1.728540e+02,
-             2.199936e+00, 0, 0, 1, 2.729905e-03};
+  left.P = {7.215377e+02,
+            0,
+            6.095593e+02,
+            4.485728e+01,
+            0,
+            7.215377e+02,
+            1.728540e+02,
+            2.163791e-01,
+            0,
+            0,
+            1,
+            2.745884e-03};
+  right.P = {7.215377e+02,
+             0,
+             6.095593e+02,
+             -3.395242e+02,
+             0,
+             7.215377e+02,
+             1.728540e+02,
+             2.199936e+00,
+             0,
+             0,
+             1,
+             2.729905e-03};
   StereoRig rig;
   std::string err;
   ASSERT_TRUE(ros_conv::stereoFromCameraInfo(left, right, true, &rig, &err)) << err;
@@ -196,10 +216,9 @@ TEST(Conversions, ReadsKitti2bagClouds) {
   // kitti2bag's clouds: float32 x y z i, no ring field (recovered from the scan order).
   sensor_msgs::PointCloud2 msg;
   sensor_msgs::PointCloud2Modifier mod(msg);
-  mod.setPointCloud2Fields(4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
-                           sensor_msgs::PointField::FLOAT32, "z", 1,
-                           sensor_msgs::PointField::FLOAT32, "i", 1,
-                           sensor_msgs::PointField::FLOAT32);
+  mod.setPointCloud2Fields(
+      4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32, "z", 1,
+      sensor_msgs::PointField::FLOAT32, "i", 1, sensor_msgs::PointField::FLOAT32);
   mod.resize(3);
   sensor_msgs::PointCloud2Iterator<float> x(msg, "x"), i(msg, "i");
   for (int k = 0; k < 3; ++k, ++x, ++i) {
@@ -413,11 +432,11 @@ TEST(Conversions, KeyframeCloudAndMeshForRviz) {
   EXPECT_EQ(all.type, visualization_msgs::Marker::TRIANGLE_LIST);
   ASSERT_EQ(all.points.size(), 30u);
   ASSERT_EQ(all.colors.size(), 30u);
-  EXPECT_FLOAT_EQ(all.points[4].y, 0.1f);              // face 1, vertex b
-  EXPECT_GT(all.colors[0].r, all.colors[0].b);         // 5 m: near, red
-  EXPECT_GT(all.colors[27].b, all.colors[27].r);       // 95 m: beyond max_range, blue
+  EXPECT_FLOAT_EQ(all.points[4].y, 0.1f);         // face 1, vertex b
+  EXPECT_GT(all.colors[0].r, all.colors[0].b);    // 5 m: near, red
+  EXPECT_GT(all.colors[27].b, all.colors[27].r);  // 95 m: beyond max_range, blue
   const visualization_msgs::Marker some = ros_conv::toMeshMarker(mesh, h, 4, 40.0);
-  EXPECT_LE(some.points.size(), 12u);                  // at most 4 faces
+  EXPECT_LE(some.points.size(), 12u);  // at most 4 faces
   EXPECT_EQ(some.points.size() % 3, 0u);
   EXPECT_GE(some.points.size(), 9u);
 }

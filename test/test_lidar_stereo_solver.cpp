@@ -158,8 +158,7 @@ TEST(LidarStereoSolver, RecoversKnownPerturbationsOnAPlaneScene) {
   std::mt19937_64 rng(5);
   for (int trial = 0; trial < 3; ++trial) {
     const Vector6d delta = randomPerturbation(3.0 / kDegPerRad, 0.3, rng);
-    const LidarStereoResult r =
-        solveLidarStereo(window, perturb(rig.T_cam_lidar, delta), settings);
+    const LidarStereoResult r = solveLidarStereo(window, perturb(rig.T_cam_lidar, delta), settings);
     const Vector6d e = poseError(r.T_cam_lidar, rig.T_cam_lidar);
     EXPECT_TRUE(r.converged) << r.message;
     EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.05) << "trial " << trial;
@@ -180,7 +179,8 @@ TEST(LidarStereoSolver, CoarseStageKeepsToItsWindowBudget) {
   settings.run_fine = false;
   std::mt19937_64 rng(9);
   const Vector6d delta = randomPerturbation(3.0 / kDegPerRad, 0.3, rng);
-  const LidarStereoResult full = solveLidarStereo(window, perturb(rig.T_cam_lidar, delta), settings);
+  const LidarStereoResult full =
+      solveLidarStereo(window, perturb(rig.T_cam_lidar, delta), settings);
   settings.coarse_faces_per_window = 900;
   const LidarStereoResult budget =
       solveLidarStereo(window, perturb(rig.T_cam_lidar, delta), settings);

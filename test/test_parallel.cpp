@@ -41,6 +41,9 @@ TEST(Parallel, AWorkersExceptionReachesTheCaller) {
                            }),
                std::runtime_error);
   EXPECT_LT(done.load(), 999999);  // the hand-out stopped
-  EXPECT_THROW(parallelFor(5, 1, [](int i) { if (i == 4) throw std::out_of_range("x"); }),
+  EXPECT_THROW(parallelFor(5, 1,
+                           [](int i) {
+                             if (i == 4) throw std::out_of_range("x");
+                           }),
                std::out_of_range);
 }

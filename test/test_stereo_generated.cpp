@@ -320,9 +320,8 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
     const Vector6d predicted = r0.bias_sensitivity.col(b) * (b == 0 ? delta_px : delta_m);
     for (int i = 0; i < 6; ++i) {
       const double unit = i < 3 ? kDegPerRad : 100.0;
-      std::cout << "[ bias     ] " << names[b] << ", " << axes[i] << ": moved "
-                << moved[i] * unit << ", predicted " << predicted[i] * unit
-                << (i < 3 ? " deg\n" : " cm\n");
+      std::cout << "[ bias     ] " << names[b] << ", " << axes[i] << ": moved " << moved[i] * unit
+                << ", predicted " << predicted[i] * unit << (i < 3 ? " deg\n" : " cm\n");
     }
     // First order, and the fine stage's fixed point wiggles by a few 0.1 mm: rotation and
     // translation each move by the predicted amount (within 30 %) in the predicted direction
@@ -517,9 +516,10 @@ TEST(PhotometricGenerated, LidarSensitivityPredictsHowALidarErrorMovesTheEstimat
     Matrix6d P = Matrix6d::Zero();
     P.diagonal() << 1e-6, 1e-6, 1e-6, 1e-4, 1e-4, 1e-4;
     addLidarUncertainty(&c, P);
-    EXPECT_LT((c.covariance - a.covariance -
-               a.lidar_sensitivity * P * a.lidar_sensitivity.transpose()).norm(),
-              1e-12);
+    EXPECT_LT(
+        (c.covariance - a.covariance - a.lidar_sensitivity * P * a.lidar_sensitivity.transpose())
+            .norm(),
+        1e-12);
   }
 }
 
@@ -574,8 +574,8 @@ TEST(StereoGenerated, RetriangulationMatchesMatchingAgain) {
   const double err_re = medianRoadDisparityError(sim, 0, re);
   std::cout << "[ retri    ] median road disparity error: matched with the wrong estimate "
             << err_matched << " px, re-triangulated " << err_re << " px, matched again "
-            << err_direct << " px; points " << re.points.size() << " vs "
-            << direct.points.size() << "\n";
+            << err_direct << " px; points " << re.points.size() << " vs " << direct.points.size()
+            << "\n";
   EXPECT_GT(std::fabs(err_matched), 0.25);  // 0.03 deg of yaw is 0.38 px
   EXPECT_LT(std::fabs(err_re - err_direct), 0.03);
   EXPECT_NEAR(double(re.points.size()), double(direct.points.size()), 0.1 * direct.points.size());
@@ -688,7 +688,8 @@ TEST(StereoGenerated, MeshAndWindowCloudsDoNotDependOnTheThreadCount) {
   ASSERT_EQ(a.faces.size(), b.faces.size());
   size_t differing = 0, fitted = 0;
   for (size_t f = 0; f < a.faces.size(); ++f)
-    differing += a.faces[f].normal != b.faces[f].normal || a.faces[f].centroid != b.faces[f].centroid;
+    differing +=
+        a.faces[f].normal != b.faces[f].normal || a.faces[f].centroid != b.faces[f].centroid;
   EXPECT_EQ(differing, 0u);
   EXPECT_EQ(a.sample, b.sample);
   // The fits ran on the sample: noise-free planes fit their faces exactly, curved and small

@@ -109,10 +109,9 @@ int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
     // The yaw does not change what SGBM matches (only the disparity offset): not a reason to
     // match again. Matches made too far from the estimate are redone even when the cloud was
     // re-triangulated close to it, so that the final clouds come from matches near the estimate.
-    const bool needed =
-        kf->stereo.points.empty() ||
-        needsRerectification(kf->T_right_left_used, T_right_left, tol.rot_deg, tol.direction_deg,
-                             tol.yaw_deg);
+    const bool needed = kf->stereo.points.empty() ||
+                        needsRerectification(kf->T_right_left_used, T_right_left, tol.rot_deg,
+                                             tol.direction_deg, tol.yaw_deg);
     const bool matches_off =
         tol.rematch_rot_deg >= 0 && !kf->stereo_matched.disparity.empty() &&
         needsRerectification(kf->T_right_left_matched, T_right_left, tol.rematch_rot_deg,
@@ -126,15 +125,14 @@ int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
     if (work[k] == kRematch) recomputeStereo(window[k], rig, T_right_left, settings);
     if (work[k] == kRetriangulate) retriangulateStereo(window[k], rig, T_right_left, settings);
   });
-  const int n = static_cast<int>(std::count_if(work.begin(), work.end(),
-                                               [](Work w) { return w != kKeep; }));
+  const int n =
+      static_cast<int>(std::count_if(work.begin(), work.end(), [](Work w) { return w != kKeep; }));
   if (rematched) *rematched += static_cast<int>(std::count(work.begin(), work.end(), kRematch));
   // The LiDAR-stereo solver estimates one scale for the window: every cloud must share one
   // baseline length. A rectified cloud is linear in the baseline (Z = f b / d): rescale it.
   const double b = T_right_left.translation().norm();
   for (Keyframe* kf : window)
-    if (std::fabs(kf->T_right_left_used.translation().norm() - b) > 1e-12 * b)
-      rescaleStereo(kf, b);
+    if (std::fabs(kf->T_right_left_used.translation().norm() - b) > 1e-12 * b) rescaleStereo(kf, b);
   if (seconds) *seconds += secondsSince(t0);
   return n;
 }
@@ -210,14 +208,14 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   bool photometric_done = false;
   // Free key point depth (free_depth_rounds) only while the LiDAR is far off; the final rounds
   // always use the LiDAR depth, which fixes the yaw far better.
-  bool lidar_converged = false;     // in some round so far
-  bool free_depth = false;          // this round's photometric solve had free depth
-  bool free_depth_done = false;     // a free-depth round settled, or a LiDAR-stereo solve ran away
-  bool lidar_accepted = false;      // a LiDAR-stereo estimate was taken (later rounds: fine only)
-  bool lidar_settled = false;       // ... and its solve converged
+  bool lidar_converged = false;  // in some round so far
+  bool free_depth = false;       // this round's photometric solve had free depth
+  bool free_depth_done = false;  // a free-depth round settled, or a LiDAR-stereo solve ran away
+  bool lidar_accepted = false;   // a LiDAR-stereo estimate was taken (later rounds: fine only)
+  bool lidar_settled = false;    // ... and its solve converged
   // |clouds' yaw| the last accepted LiDAR-stereo solve found (deg); inf: none yet
   double last_yaw_gap = std::numeric_limits<double>::infinity();
-  double lidar_yaw = 0;             // its clouds' yaw nuisance, relative to lidar_yaw_clouds
+  double lidar_yaw = 0;  // its clouds' yaw nuisance, relative to lidar_yaw_clouds
   Eigen::Isometry3d lidar_yaw_clouds = Eigen::Isometry3d::Identity();
   // A round whose LiDAR-stereo estimate is not taken: the next one starts from these estimates,
   // and the stability criterion and the extrapolation start afresh.
@@ -269,9 +267,8 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
                    res.rounds, phi.x(), phi.y(), phi.z(), dir.y(), dir.z());
     }
     // 2. Stereo clouds, only where the rectification changed enough to matter.
-    res.rectifications +=
-        rectifyWindow(window, rig, T_rl_new, s.stereo_cloud, rectifyTolerances(s),
-                      &res.seconds_stereo_cloud, &res.rematches) > 0;
+    res.rectifications += rectifyWindow(window, rig, T_rl_new, s.stereo_cloud, rectifyTolerances(s),
+                                        &res.seconds_stereo_cloud, &res.rematches) > 0;
     const double b_used = window.front()->T_right_left_used.translation().norm();
     // 3. LiDAR-stereo with the stereo scale: the LiDAR is metric, so the scale corrects the
     // baseline length (rectification does not depend on it, the clouds simply scale).
@@ -289,8 +286,8 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
       // to the rectification the clouds have now.
       if (ls.estimate_stereo_yaw)
         ls.initial_stereo_yaw_rad =
-            lidar_yaw - rectificationChange(lidar_yaw_clouds, window.front()->T_right_left_used)
-                            .phi.y();
+            lidar_yaw -
+            rectificationChange(lidar_yaw_clouds, window.front()->T_right_left_used).phi.y();
     }
     const auto t_l = Clock::now();
     ls_last = ls;
@@ -328,11 +325,11 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
           E * T_rl_new.translation().normalized() * T_right_left_init.translation().norm();
       ++res.yaw_handovers;
       if (debug)
-        std::fprintf(stderr,
-                     "co round %d: LiDAR-stereo yaw %.4f deg (last round %.4f): right camera turned "
-                     "by %.4f deg, starting again from the initial LiDAR extrinsic\n",
-                     res.rounds, res.lidar.stereo_yaw_rad * kDegPerRad, last_yaw_gap,
-                     delta * kDegPerRad);
+        std::fprintf(
+            stderr,
+            "co round %d: LiDAR-stereo yaw %.4f deg (last round %.4f): right camera turned "
+            "by %.4f deg, starting again from the initial LiDAR extrinsic\n",
+            res.rounds, res.lidar.stereo_yaw_rad * kDegPerRad, last_yaw_gap, delta * kDegPerRad);
       continueFrom(T_cam_lidar_init, T_rl_new);
       lidar_accepted = lidar_settled = lidar_converged = false;
       last_yaw_gap = std::numeric_limits<double>::infinity();
@@ -362,17 +359,17 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     }
     if (debug) {
       const Eigen::Vector3d r = logSO3(T_rl_new.linear()) * kDegPerRad;
-      std::fprintf(stderr,
-                   "co round %d: scale %.4f yaw %.4f deg T_rl rot [%.4f %.4f %.4f] deg t [%.4f %.4f %.4f]; "
-                   "lidar %s %s; T_cl t [%.4f %.4f %.4f]; step %.2f rho %.2f%s; s: photo %.2f "
-                   "cloud %.2f lidar %.2f\n",
-                   res.rounds, res.lidar.stereo_scale, res.lidar.stereo_yaw_rad * kDegPerRad, r.x(), r.y(), r.z(),
-                   T_rl_new.translation().x(), T_rl_new.translation().y(),
-                   T_rl_new.translation().z(), res.lidar.converged ? "conv" : "not conv",
-                   res.lidar.message.c_str(), T_cl_new.translation().x(),
-                   T_cl_new.translation().y(), T_cl_new.translation().z(), step, rho,
-                   stable ? " stable" : "", res.seconds_photometric, res.seconds_stereo_cloud,
-                   res.seconds_lidar);
+      std::fprintf(
+          stderr,
+          "co round %d: scale %.4f yaw %.4f deg T_rl rot [%.4f %.4f %.4f] deg t [%.4f %.4f %.4f]; "
+          "lidar %s %s; T_cl t [%.4f %.4f %.4f]; step %.2f rho %.2f%s; s: photo %.2f "
+          "cloud %.2f lidar %.2f\n",
+          res.rounds, res.lidar.stereo_scale, res.lidar.stereo_yaw_rad * kDegPerRad, r.x(), r.y(),
+          r.z(), T_rl_new.translation().x(), T_rl_new.translation().y(), T_rl_new.translation().z(),
+          res.lidar.converged ? "conv" : "not conv", res.lidar.message.c_str(),
+          T_cl_new.translation().x(), T_cl_new.translation().y(), T_cl_new.translation().z(), step,
+          rho, stable ? " stable" : "", res.seconds_photometric, res.seconds_stereo_cloud,
+          res.seconds_lidar);
     }
     T_cl = T_cl_new, T_rl = T_rl_new;
     prev_step = step;

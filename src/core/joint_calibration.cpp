@@ -195,9 +195,8 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     // Re-rectify when the left-right rotation or direction moved enough to matter.
     RectifyTolerances tol = rectifyTolerances(s);
     tol.direction_deg = tol.yaw_deg = -1.0;  // the joint problem has no yaw nuisance
-    res.rectifications +=
-        rectifyWindow(window, rig, T_rl, s.stereo_cloud, tol, &res.seconds_stereo_cloud,
-                      &res.rematches) > 0;
+    res.rectifications += rectifyWindow(window, rig, T_rl, s.stereo_cloud, tol,
+                                        &res.seconds_stereo_cloud, &res.rematches) > 0;
     const double b_used = window.front()->T_right_left_used.translation().norm();
     const double scale = T_rl.translation().norm() / b_used;
     const Eigen::Vector3d phi0 =

@@ -192,8 +192,8 @@ StereoRig rigFromOdometryCalib(const KittiOdometryCalib& calib) {
   // rotation a rectified pair does not have (identity unless tescalib wrote R_right_left).
   rig.T_right_left = Eigen::Isometry3d::Identity();
   rig.T_right_left.linear() = calib.R_right_left;
-  rig.T_right_left.translation() = calib.P[3].leftCols<3>().inverse() * calib.P[3].col(3) -
-                                   K_inv * calib.P[2].col(3);
+  rig.T_right_left.translation() =
+      calib.P[3].leftCols<3>().inverse() * calib.P[3].col(3) - K_inv * calib.P[2].col(3);
   return rig;
 }
 

@@ -77,8 +77,7 @@ Eigen::Vector3d correctedPoint(const Association& a, double scale, double yaw) {
 
 /// Solves the 6-DoF update of one association set; returns [phi; tau].
 Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& t_ref, bool coarse,
-                     const LidarStereoSettings& s, double loss_scale, double* scale,
-                     double* yaw) {
+                     const LidarStereoSettings& s, double loss_scale, double* scale, double* yaw) {
   double delta[6] = {0, 0, 0, 0, 0, 0};
   ceres::Problem::Options po;
   po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
@@ -536,8 +535,8 @@ LidarStereoResult solveLidarStereoSearch(const std::vector<const Keyframe*>& win
   LidarStereoResult first = solveLidarStereo(window, T_init, s);
   if (first.converged || s.search_step_deg <= 0 || window.empty()) return first;
   const double step = s.search_step_deg / kDegPerRad;
-  const double offsets[8][2] = {{1, 0},  {-1, 0}, {0, 1},  {0, -1},
-                                {1, 1},  {1, -1}, {-1, 1}, {-1, -1}};
+  const double offsets[8][2] = {{1, 0}, {-1, 0}, {0, 1},  {0, -1},
+                                {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
   std::optional<LidarStereoResult> best;
   for (const auto& o : offsets) {
     if (s.cancelled()) break;
@@ -567,8 +566,7 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   const auto t0 = Clock::now();
   full->halves = LidarStereoResult::Halves();
   const size_t half = window.size() / 2;
-  if (s.min_keyframes_per_half < 1 || half < static_cast<size_t>(s.min_keyframes_per_half))
-    return;
+  if (s.min_keyframes_per_half < 1 || half < static_cast<size_t>(s.min_keyframes_per_half)) return;
   LidarStereoSettings hs = s;
   hs.run_coarse = false;
   hs.check_window_halves = false;
@@ -591,14 +589,18 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   const double chi2 = e.dot(S.ldlt().solve(e));
   if (!std::isfinite(chi2)) return;
   if (std::getenv("TESCALIB_DEBUG")) {
-    std::fprintf(stderr, "window halves: chi2 %.1f, difference rot [%.4f %.4f %.4f] deg, "
-                 "t [%.2f %.2f %.2f] cm\n", chi2, e[0] * kDegPerRad, e[1] * kDegPerRad,
-                 e[2] * kDegPerRad, e[3] * 100, e[4] * 100, e[5] * 100);
+    std::fprintf(stderr,
+                 "window halves: chi2 %.1f, difference rot [%.4f %.4f %.4f] deg, "
+                 "t [%.2f %.2f %.2f] cm\n",
+                 chi2, e[0] * kDegPerRad, e[1] * kDegPerRad, e[2] * kDegPerRad, e[3] * 100,
+                 e[4] * 100, e[5] * 100);
     for (const LidarStereoResult* h : {&a, &b}) {
       const Vector6d sd = h->covariance.diagonal().cwiseSqrt();
-      std::fprintf(stderr, "  half: settled %d, %d iterations, sigma rot [%.4f %.4f %.4f] deg, "
-                   "t [%.2f %.2f %.2f] cm\n", h->settled, h->iterations, sd[0] * kDegPerRad,
-                   sd[1] * kDegPerRad, sd[2] * kDegPerRad, sd[3] * 100, sd[4] * 100, sd[5] * 100);
+      std::fprintf(stderr,
+                   "  half: settled %d, %d iterations, sigma rot [%.4f %.4f %.4f] deg, "
+                   "t [%.2f %.2f %.2f] cm\n",
+                   h->settled, h->iterations, sd[0] * kDegPerRad, sd[1] * kDegPerRad,
+                   sd[2] * kDegPerRad, sd[3] * 100, sd[4] * 100, sd[5] * 100);
     }
   }
   full->halves.tested = true;

@@ -70,7 +70,7 @@ Visibility visibility(const Eigen::Vector3d& Y, const CameraIntrinsics& cam, con
   const int iv = int(std::lround(cam.fy * Y.y() / Y.z() + cam.cy));
   if (iu < 0 || iv < 0 || iu >= cam.width || iv >= cam.height) return Visibility::kOutside;
   return Y.z() > md.depth.at<float>(iv, iu) * (1.0 + tolerance) ? Visibility::kOccluded
-                                                                 : Visibility::kVisible;
+                                                                : Visibility::kVisible;
 }
 
 }  // namespace tescalib

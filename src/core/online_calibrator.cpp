@@ -247,8 +247,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
       if (generation_ == generation)
         for (const auto& k : snapshot)
           for (auto& w : window_)
-            if (w->stamp == k->stamp && !w->T_right_left_used.isApprox(k->T_right_left_used))
-              w = k;
+            if (w->stamp == k->stamp && !w->T_right_left_used.isApprox(k->T_right_left_used)) w = k;
     }
     keyframe_info = r.lidar.keyframe_information;
     e.T_cam_lidar = r.lidar.T_cam_lidar;
@@ -306,8 +305,9 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
     return false;
   }
   if (generation_ != generation) {
-    *msg = "the window was cleared during the solve (reset, or time went backwards): its result "
-           "was discarded";
+    *msg =
+        "the window was cleared during the solve (reset, or time went backwards): its result "
+        "was discarded";
     return false;
   }
   if (keyframe_info.size() == snapshot.size())

@@ -189,8 +189,8 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
   parallelFor(n_kf, s.threads, [&](int k) {
     const MeshDepth md = renderMeshDepth(window[k]->mesh, T_cam_lidar, rig.left);
     kps[k] = selectKeyPoints(*window[k], md, s);
-    kps_all[k] = s.smooth_depth_radius_px > 0 ? selectKeyPoints(*window[k], md, all_settings)
-                                              : kps[k];
+    kps_all[k] =
+        s.smooth_depth_radius_px > 0 ? selectKeyPoints(*window[k], md, all_settings) : kps[k];
   });
   for (const auto& k : kps) res.keypoints += static_cast<int>(k.size());
   if (res.keypoints < s.min_keypoints) {
@@ -386,14 +386,13 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
         double C[36];
         cov.GetCovarianceBlock(delta, delta, C);
         // Ceres' covariance assumes unit residual variance: scale by the residuals' own.
-        const double sigma2 =
-            2.0 * summary.final_cost /
-            std::max(1, n - 6 - 2 * int(window.size()) - 2 * int(rho.size()));
+        const double sigma2 = 2.0 * summary.final_cost /
+                              std::max(1, n - 6 - 2 * int(window.size()) - 2 * int(rho.size()));
         for (int i = 0; i < 36; ++i) res.covariance(i / 6, i % 6) = C[i] * sigma2;
       }
       if (sensitivity)
-        res.lidar_sensitivity = lidarSensitivity(links, delta, ab, s.huber,
-                                                 s.fix_baseline_length ? &T : nullptr);
+        res.lidar_sensitivity =
+            lidarSensitivity(links, delta, ab, s.huber, s.fix_baseline_length ? &T : nullptr);
     }
   }
   res.T_right_left = T;

@@ -11,10 +11,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tescalib/core/error.h"
+#include "tescalib/core/parallel.h"
 #include "tescalib/core/scene_culling.h"
 #include "tescalib/core/simulator_camera.h"
 #include "tescalib/core/simulator_lidar.h"
-#include "tescalib/core/parallel.h"
 #include "tescalib/core/simulator_random.h"
 #include "tescalib/core/simulator_trajectory.h"
 

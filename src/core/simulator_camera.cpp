@@ -5,8 +5,8 @@
 #include <limits>
 #include <vector>
 
-#include "tescalib/core/scene_surface.h"
 #include "tescalib/core/parallel.h"
+#include "tescalib/core/scene_surface.h"
 #include "tescalib/core/simulator_random.h"
 
 namespace tescalib {

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "tescalib/core/parallel.h"
 #include "tescalib/core/scan_motion.h"
 #include "tescalib/core/scene_culling.h"
 #include "tescalib/core/scene_surface.h"
-#include "tescalib/core/parallel.h"
 #include "tescalib/core/simulator_random.h"
 
 namespace tescalib {

@@ -217,13 +217,14 @@ StereoCloud retriangulateStereoCloud(const StereoCloud& matched, const StereoRig
   // new extrinsic (left and right rays in their own camera frames: R_rect^T K_rect^-1 [u v 1]).
   const Eigen::Matrix3d K_new =
       (Eigen::Matrix3d() << out.fx, 0, out.cx, 0, out.fy, out.cy, 0, 0, 1).finished();
-  const Eigen::Matrix3d K_old = (Eigen::Matrix3d() << matched.fx, 0, matched.cx, 0, matched.fy,
-                                 matched.cy, 0, 0, 1).finished();
+  const Eigen::Matrix3d K_old =
+      (Eigen::Matrix3d() << matched.fx, 0, matched.cx, 0, matched.fy, matched.cy, 0, 0, 1)
+          .finished();
   // Pixel maps: new rect left -> old rect left, old rect right -> new rect right.
-  const Eigen::Matrix3d H_left = K_old * matched.R_rect_left * out.R_rect_left.transpose() *
-                                 K_new.inverse();
-  const Eigen::Matrix3d H_right = K_new * out.R_rect_right * matched.R_rect_right.transpose() *
-                                  K_old.inverse();
+  const Eigen::Matrix3d H_left =
+      K_old * matched.R_rect_left * out.R_rect_left.transpose() * K_new.inverse();
+  const Eigen::Matrix3d H_right =
+      K_new * out.R_rect_right * matched.R_rect_right.transpose() * K_old.inverse();
   cv::Mat disp(in.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
   cv::parallel_for_(cv::Range(0, in.rows), [&](const cv::Range& range) {
     for (int v = range.start; v < range.end; ++v) {

@@ -68,9 +68,10 @@ void CalibrationNodelet::onInit() {
     std::string names;
     for (const auto& u : unknown) names += (names.empty() ? "" : ", ") + pnh.resolveName(u);
     unknown_params_ = names;
-    NODELET_WARN("tescalib: unknown parameter(s) ignored: %s (a typo? config/kitti.yaml lists "
-                 "every parameter)",
-                 names.c_str());
+    NODELET_WARN(
+        "tescalib: unknown parameter(s) ignored: %s (a typo? config/kitti.yaml lists "
+        "every parameter)",
+        names.c_str());
   }
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
@@ -171,9 +172,10 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
         from_info ? "the left camera_info's frame_id" : "initial/tf_camera_frame";
     std::string what;
     if (camera_frame.empty()) {
-      what = "no initial extrinsic: the left camera_info has no frame_id; name the left camera's "
-             "tf frame with camera_frame:=FRAME (initial/tf_camera_frame) or set "
-             "initial/T_cam_lidar";
+      what =
+          "no initial extrinsic: the left camera_info has no frame_id; name the left camera's "
+          "tf frame with camera_frame:=FRAME (initial/tf_camera_frame) or set "
+          "initial/T_cam_lidar";
     } else {
       try {
         const auto t = tf_buffer_->lookupTransform(camera_frame, lidar_frame_, ros::Time(0),
@@ -360,7 +362,8 @@ void CalibrationNodelet::solveLoop() {
     }
     if (!running_) return;
     // A request that finds the window not ready yet is consumed: the next keyframe renews it.
-    if (!solve_requested_.exchange(false) || !calibrator() || !calibrator()->readyToSolve()) continue;
+    if (!solve_requested_.exchange(false) || !calibrator() || !calibrator()->readyToSolve())
+      continue;
     std::vector<ros::WallTime> arrivals;
     {
       std::lock_guard<std::mutex> lock(mutex_);
@@ -400,10 +403,10 @@ void CalibrationNodelet::solveLoop() {
     }
     if (updated) {
       publish(*e, ros::Time(e->stamp));
-      const std::string kind =
-          e->co_rounds > 0 ? "co-calibration, " + std::to_string(e->co_rounds) + " round(s)"
-          : e->stereo_estimated ? "LiDAR-stereo, T_right_left kept"
-                                : "LiDAR-stereo, T_right_left not estimated";
+      const std::string kind = e->co_rounds > 0
+                                   ? "co-calibration, " + std::to_string(e->co_rounds) + " round(s)"
+                               : e->stereo_estimated ? "LiDAR-stereo, T_right_left kept"
+                                                     : "LiDAR-stereo, T_right_left not estimated";
       NODELET_INFO(
           "tescalib: new estimate from %d keyframes in %.2f s (keyframe to estimate %.2f s; %s)",
           e->keyframes_used, last_solve_seconds_.load(), latency, kind.c_str());
@@ -429,14 +432,13 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
 void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
                                              const ros::Publisher& lidar,
                                              const ros::Publisher& stereo) {
-  lidar.publish(ros_conv::toEstimateMsg(h, params_.left_frame, lidar_frame_, e.T_cam_lidar,
-                                        e.cov_lidar, e.observable_lidar, e.converged,
-                                        e.keyframes_used, e.cost_lidar, e.iterations_lidar,
-                                        e.message, true));
-  stereo.publish(ros_conv::toEstimateMsg(
-      h, params_.right_frame, params_.left_frame, e.T_right_left, e.cov_stereo, e.observable_stereo,
-      e.converged, e.keyframes_used, e.cost_stereo, e.iterations_stereo, e.message,
-      e.stereo_estimated));
+  lidar.publish(ros_conv::toEstimateMsg(
+      h, params_.left_frame, lidar_frame_, e.T_cam_lidar, e.cov_lidar, e.observable_lidar,
+      e.converged, e.keyframes_used, e.cost_lidar, e.iterations_lidar, e.message, true));
+  stereo.publish(ros_conv::toEstimateMsg(h, params_.right_frame, params_.left_frame, e.T_right_left,
+                                         e.cov_stereo, e.observable_stereo, e.converged,
+                                         e.keyframes_used, e.cost_stereo, e.iterations_stereo,
+                                         e.message, e.stereo_estimated));
 }
 
 void CalibrationNodelet::publishKeyframe(const Keyframe& kf) {
@@ -474,11 +476,10 @@ void CalibrationNodelet::publishTf(const ros::Time& stamp, bool after_newest) {
 }
 
 std::string CalibrationNodelet::silentTopics() const {
-  const std::string topics[5] = {cloud_sub_.getSubscriber().getTopic(),
-                                 left_sub_.getSubscriber().getTopic(),
-                                 left_info_sub_.getSubscriber().getTopic(),
-                                 right_sub_.getSubscriber().getTopic(),
-                                 right_info_sub_.getSubscriber().getTopic()};
+  const std::string topics[5] = {
+      cloud_sub_.getSubscriber().getTopic(), left_sub_.getSubscriber().getTopic(),
+      left_info_sub_.getSubscriber().getTopic(), right_sub_.getSubscriber().getTopic(),
+      right_info_sub_.getSubscriber().getTopic()};
   std::string silent;
   for (int i = 0; i < 5; ++i)
     if (topic_messages_[i] == 0) silent += (silent.empty() ? "" : ", ") + topics[i];

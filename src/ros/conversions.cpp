@@ -49,10 +49,9 @@ sensor_msgs::PointCloud2 xyzfCloud(const std_msgs::Header& header, size_t n, con
   msg.header = header;
   msg.height = 1;
   sensor_msgs::PointCloud2Modifier mod(msg);
-  mod.setPointCloud2Fields(4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1,
-                           sensor_msgs::PointField::FLOAT32, "z", 1,
-                           sensor_msgs::PointField::FLOAT32, fourth, 1,
-                           sensor_msgs::PointField::FLOAT32);
+  mod.setPointCloud2Fields(
+      4, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32, "z", 1,
+      sensor_msgs::PointField::FLOAT32, fourth, 1, sensor_msgs::PointField::FLOAT32);
   mod.resize(n);
   msg.is_dense = true;
   msg.is_bigendian = false;
@@ -71,21 +70,23 @@ void fillXyzf(const Points& points, const char* fourth, Xyzf xyzf, sensor_msgs::
 
 sensor_msgs::PointCloud2 toPointCloud2(const StereoCloud& cloud, const std_msgs::Header& header) {
   sensor_msgs::PointCloud2 msg = xyzfCloud(header, cloud.points.size(), "disparity");
-  fillXyzf(cloud.points, "disparity",
-           [](const StereoPoint& p, float* x, float* y, float* z, float* d) {
-             *x = p.p.x(), *y = p.p.y(), *z = p.p.z(), *d = p.disparity;
-           },
-           &msg);
+  fillXyzf(
+      cloud.points, "disparity",
+      [](const StereoPoint& p, float* x, float* y, float* z, float* d) {
+        *x = p.p.x(), *y = p.p.y(), *z = p.p.z(), *d = p.disparity;
+      },
+      &msg);
   return msg;
 }
 
 sensor_msgs::PointCloud2 toPointCloud2Xyzi(const LidarScan& scan, const std_msgs::Header& header) {
   sensor_msgs::PointCloud2 msg = xyzfCloud(header, scan.size(), "i");
-  fillXyzf(scan, "i",
-           [](const LidarPoint& p, float* x, float* y, float* z, float* i) {
-             *x = p.x, *y = p.y, *z = p.z, *i = p.intensity;
-           },
-           &msg);
+  fillXyzf(
+      scan, "i",
+      [](const LidarPoint& p, float* x, float* y, float* z, float* i) {
+        *x = p.x, *y = p.y, *z = p.z, *i = p.intensity;
+      },
+      &msg);
   return msg;
 }
 

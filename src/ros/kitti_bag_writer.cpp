@@ -44,8 +44,8 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
     // cameras (the inverses of T_velo_imu and T_camN_imu). KITTI's T_velo_imu is about
     // (-0.81, 0.32, -0.80) m with a rotation of a few hundredths of a degree.
     Eigen::Isometry3d T_velo_imu = Eigen::Isometry3d::Identity();
-    T_velo_imu.linear() = Eigen::AngleAxisd(0.0009, Eigen::Vector3d(0.3, -0.5, 0.8).normalized())
-                              .toRotationMatrix();
+    T_velo_imu.linear() =
+        Eigen::AngleAxisd(0.0009, Eigen::Vector3d(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
     T_velo_imu.translation() = Eigen::Vector3d(-0.808, 0.319, -0.800);
     Eigen::Isometry3d T_base_imu = Eigen::Isometry3d::Identity();
     T_base_imu.translation() = Eigen::Vector3d(2.71, 0, 0.93);

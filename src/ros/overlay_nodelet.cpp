@@ -19,7 +19,7 @@ namespace {
 std::string statusLine(const char* name, const ExtrinsicEstimate& e) {
   const double rot = *std::max_element(e.sigma_rot_deg.begin(), e.sigma_rot_deg.end());
   const double trans = *std::max_element(e.sigma_trans_m.begin(), e.sigma_trans_m.end());
-  if (rot == 0 && trans == 0)  // T_right_left is the initial one: LiDAR-stereo only, or
+  if (rot == 0 && trans == 0)   // T_right_left is the initial one: LiDAR-stereo only, or
     return std::string(name) +  // co-calibration has not run yet (co_calibration/lidar_first)
            ": fixed at its initial value (not estimated)";
   bool observable[6];

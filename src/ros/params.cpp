@@ -115,8 +115,7 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.min_keyframes < 1 || o.min_keyframes > o.window_size)
     e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes << "); ";
   if (o.min_keyframes_co < 1 || o.min_keyframes_co > o.window_size)
-    e << "window/min_keyframes_co must be in [1, window/size] (got " << o.min_keyframes_co
-      << "); ";
+    e << "window/min_keyframes_co must be in [1, window/size] (got " << o.min_keyframes_co << "); ";
   if (o.max_trace_growth < 1) e << "window/max_trace_growth must be >= 1; ";
   if (o.keyframe_selection != "information" && o.keyframe_selection != "fifo")
     e << "window/keyframe_selection must be information or fifo (got '" << o.keyframe_selection
@@ -149,8 +148,8 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (!(o.co.lidar.search_step_deg >= 0 &&
         o.co.lidar.search_step_deg <= LidarStereoSettings::kMaxSearchStepDeg))
     e << "lidar_stereo/search_deg must be between 0 (off) and "
-      << LidarStereoSettings::kMaxSearchStepDeg << " deg (got "
-      << o.co.lidar.search_step_deg << "); ";
+      << LidarStereoSettings::kMaxSearchStepDeg << " deg (got " << o.co.lidar.search_step_deg
+      << "); ";
   if (o.search_min_keyframes < 1)
     e << "lidar_stereo/search_min_keyframes must be >= 1 (got " << o.search_min_keyframes << "); ";
   if (o.co.stereo.pyramid_levels < 1 || o.co.stereo.pyramid_levels > 5)

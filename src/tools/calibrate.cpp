@@ -13,11 +13,11 @@
 #include <string>
 #include <vector>
 
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <tf2/exceptions.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "tescalib/core/calibration_io.h"
 #include "tescalib/core/error.h"
@@ -46,8 +46,8 @@ struct Args {
   int deskew = -1;  // -1: as the data say (KittiSequence::sweptScans)
   std::string out;
   std::string lidar_frame;  // empty: the bag's cloud frame, velo_link for folders
-  std::string overlay;  // PNG: the last keyframe with the scan drawn, initial guess vs result
-  double search_deg = -1;  // LidarStereoSettings::search_step_deg; < 0: the default (10)
+  std::string overlay;      // PNG: the last keyframe with the scan drawn, initial guess vs result
+  double search_deg = -1;   // LidarStereoSettings::search_step_deg; < 0: the default (10)
 };
 
 void usage() {
@@ -111,8 +111,7 @@ bool parse(int argc, char** argv, Args* a) {
     else if (k == "--deskew") {
       a->deskew = std::stoi(v);
       if (a->deskew != 0 && a->deskew != 1) throw std::invalid_argument(v);
-    }
-    else if (k == "--out")
+    } else if (k == "--out")
       a->out = v;
     else if (k == "--lidar-frame")
       a->lidar_frame = v;
@@ -121,8 +120,7 @@ bool parse(int argc, char** argv, Args* a) {
     else if (k == "--search-deg") {
       a->search_deg = std::stod(v);
       if (a->search_deg < 0) throw std::invalid_argument(v);
-    }
-    else if (k == "--bag")
+    } else if (k == "--bag")
       a->bag = v;
     else if (k == "--points")
       a->topics.points = v;
@@ -203,8 +201,8 @@ struct Session {
   int keyframes = 0, rejected = 0, solves = 0, published = 0;
   std::string last_solve;
   std::string lidar_frame = "velo_link";  // the data's (a bag's cloud frame); --lidar-frame wins
-  bool keep_last_keyframe = false;  // --overlay
-  Frame last_keyframe;               // its left image and scan, kept only for --overlay
+  bool keep_last_keyframe = false;        // --overlay
+  Frame last_keyframe;                    // its left image and scan, kept only for --overlay
 
   /// The rig with its initial extrinsics; with --perturb-*, T_cam_lidar is moved away from them
   /// (they stay the reference of the printed errors).
@@ -299,9 +297,9 @@ struct Session {
         std::printf("change from the initial guess: %s\n",
                     pose6(poseError(c->T_cam_lidar, T_initial)).c_str());
         if (!args.overlay.empty())
-          writeOverlay(args.overlay, c->T_cam_lidar,
-                       "the last solve, NOT TRUSTED (weak: " +
-                           untrustedAxes(c->observable_lidar) + ")");
+          writeOverlay(
+              args.overlay, c->T_cam_lidar,
+              "the last solve, NOT TRUSTED (weak: " + untrustedAxes(c->observable_lidar) + ")");
       }
       return 1;
     }

@@ -58,8 +58,7 @@ int main(int argc, char** argv) {
         std::cerr << "kitti_to_bag: --max-frames needs a whole number >= 1, not '" << v << "'\n";
         return 2;
       }
-    }
-    else if (a == "--like-kitti2bag") {
+    } else if (a == "--like-kitti2bag") {
       const std::string v = next();
       if (v != "0" && v != "1") {
         std::cerr << "kitti_to_bag: --like-kitti2bag takes 0 or 1, not '" << v << "'\n";

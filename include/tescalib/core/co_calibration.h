@@ -112,7 +112,7 @@ struct CoCalibrationSettings {
 };
 
 struct CoCalibrationResult {
-  LidarStereoResult lidar;   ///< last LiDAR-stereo solve (T_cam_lidar, covariance, ...)
+  LidarStereoResult lidar;  ///< last LiDAR-stereo solve (T_cam_lidar, covariance, ...)
   /// Last left-right solve (T_right_left, covariance, ...). Its covariance includes the baseline
   /// length's variance from the stereo scale and, through `lidar_sensitivity` (here without its
   /// length component), the final LiDAR covariance, besides the model error below.

@@ -25,7 +25,8 @@ struct Keyframe {
   StereoCloud stereo;  ///< left camera frame, computed with `T_right_left_used`
   Eigen::Isometry3d T_right_left_used = Eigen::Isometry3d::Identity();
   /// SGBM's disparity (and its rectification, no points) that `stereo` was triangulated from,
-  /// matched with `T_right_left_matched`: small changes re-triangulate it instead of matching again.
+  /// matched with `T_right_left_matched`: small changes re-triangulate it instead of matching
+  /// again.
   StereoCloud stereo_matched;
   Eigen::Isometry3d T_right_left_matched = Eigen::Isometry3d::Identity();
   cv::Mat left_gray, right_gray;  ///< CV_8U, as delivered (the photometric solver rectifies)

@@ -143,7 +143,7 @@ struct LidarStereoResult {
   Matrix6d information = Matrix6d::Zero();
   /// Each keyframe's share of `information` (window order): what it constrains.
   std::vector<Matrix6d> keyframe_information;
-  double stereo_scale = 1.0;    ///< estimated stereo scale (1 unless estimate_stereo_scale)
+  double stereo_scale = 1.0;  ///< estimated stereo scale (1 unless estimate_stereo_scale)
   /// Variance of `stereo_scale` (0 unless estimated): the same cluster-robust sandwich as
   /// `covariance_statistical` plus the common biases' share, scaled with the covariances by the
   /// split-window check. Co-calibration takes the baseline length from the scale and gives the
@@ -181,8 +181,8 @@ struct LidarStereoResult {
   /// did not run: check off, solve not converged, or too few keyframes).
   struct Halves {
     bool tested = false;
-    double chi2 = 0;                ///< (x_a - x_b)^T (P_a + P_b)^-1 (x_a - x_b), 6 DoF
-    double covariance_scale = 1.0;  ///< applied to the covariances (1: consistent)
+    double chi2 = 0;                         ///< (x_a - x_b)^T (P_a + P_b)^-1 (x_a - x_b), 6 DoF
+    double covariance_scale = 1.0;           ///< applied to the covariances (1: consistent)
     Vector6d difference = Vector6d::Zero();  ///< first half's estimate minus the second's
     double seconds = 0;
   } halves;
@@ -246,7 +246,7 @@ bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& settings,
 /// `covariance_statistical` are scaled by chi2 / 6 (`covariance_model`, the paper's formula, is
 /// kept), the trust flags are evaluated again, and a solve that loses one is no longer converged.
 /// Real KITTI windows fail it (sequences of one day disagree by 3-6 sigma), generated ones pass.
-void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarStereoSettings& settings,
-                       LidarStereoResult* full);
+void checkWindowHalves(const std::vector<const Keyframe*>& window,
+                       const LidarStereoSettings& settings, LidarStereoResult* full);
 
 }  // namespace tescalib

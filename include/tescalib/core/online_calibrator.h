@@ -45,8 +45,8 @@ struct OnlineSettings {
     return estimate_stereo && !lidar_first ? std::max(min_keyframes, min_keyframes_co)
                                            : min_keyframes;
   }
-  bool estimate_stereo = true;   ///< co-calibration; false: LiDAR-stereo only, stereo fixed
-  double max_sync_skew = 0.05;   ///< s; LiDAR and image stamps further apart are rejected
+  bool estimate_stereo = true;      ///< co-calibration; false: LiDAR-stereo only, stereo fixed
+  double max_sync_skew = 0.05;      ///< s; LiDAR and image stamps further apart are rejected
   double max_time_jump_back = 0.0;  ///< s; a stamp earlier than the last by more resets the window
   /// A new estimate replaces the current one only when converged and its covariance trace is at
   /// most this factor times the current one's (never publish something less trustworthy).

@@ -88,11 +88,11 @@ std::vector<KeyPoint> selectKeyPoints(const Keyframe& kf, const MeshDepth& md,
 struct PhotometricResult {
   Eigen::Isometry3d T_right_left = Eigen::Isometry3d::Identity();
   bool converged = false;
-  int iterations = 0;                       ///< Ceres iterations over all levels
-  double final_cost = 0;                    ///< mean Huber cost per residual at full resolution
-  int keypoints = 0;                        ///< key points with LiDAR depth (all keyframes)
-  int occluded = 0;                         ///< key points hidden in the right image (last level)
-  int inliers = 0;                          ///< key points used at the last level
+  int iterations = 0;     ///< Ceres iterations over all levels
+  double final_cost = 0;  ///< mean Huber cost per residual at full resolution
+  int keypoints = 0;      ///< key points with LiDAR depth (all keyframes)
+  int occluded = 0;       ///< key points hidden in the right image (last level)
+  int inliers = 0;        ///< key points used at the last level
   /// Median pattern residual at the estimate over the same with the right image looked up 4 px
   /// off (mean of +-x, +-y): near 1 when the pose matched nothing but texture.
   double consistency_ratio = std::numeric_limits<double>::quiet_NaN();

@@ -25,7 +25,7 @@ struct NodeParams {
   /// With an empty initial_T_cam_lidar: the initial extrinsic is tf's transform from the cloud's
   /// frame to this one; empty: the left image's frame_id.
   std::string initial_tf_camera_frame;
-  double initial_perturb_rot_deg = 0;   ///< demo/testing: perturb the initial guesses by this
+  double initial_perturb_rot_deg = 0;  ///< demo/testing: perturb the initial guesses by this
   double initial_perturb_trans_m = 0;
   int initial_perturb_seed = 1;
   std::string save_path = "tescalib_calibration";
