@@ -36,6 +36,7 @@ build: deps $(BUILD)/Makefile
 	@echo "[build] done: source build/devel/setup.bash, then rosrun tescalib NAME"
 
 test: build
+	@bash scripts/install_deps.sh --dev
 	@bash scripts/run_tests.sh
 
 demo: build
@@ -48,6 +49,7 @@ install-check: deps
 	@bash scripts/check_install.sh
 
 format:
+	@bash scripts/install_deps.sh --dev
 	@clang-format -i $$(git ls-files '*.cpp' '*.h')
 
 clean:

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Idempotent, non-interactive install of everything tescalib needs, from Debian's archive only.
-# Quick (a dpkg query) when everything is already present.
+# Quick (a dpkg query) when everything is already present. With --dev (make test) also the
+# developer tools the tests use: clang-format, which Style.EveryCppFileIsClangFormatted runs.
 set -euo pipefail
 PKGS=(ros-core rosbash libnodeletlib-dev libnodeletlib-tools libtf2-ros-dev libtf2-eigen-dev
   libcv-bridge-dev libimage-transport-dev ros-stereo-msgs libstereo-msgs-dev
@@ -9,6 +10,7 @@ PKGS=(ros-core rosbash libnodeletlib-dev libnodeletlib-tools libtf2-ros-dev libt
   python3-visualization-msgs python3-geometry-msgs python3-sensor-msgs
   libdiagnostic-updater-dev python3-diagnostic-msgs libdiagnostic-msgs-dev rviz python3-tf2-msgs
   cmake g++ make)
+[ "${1:-}" = "--dev" ] && PKGS+=(clang-format)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
