@@ -1,29 +1,18 @@
 #include "tescalib/ros/calibration_nodelet.h"
 
-#include <filesystem>
-
 #include <cmath>
 #include <cstdio>
-#include <random>
+#include <filesystem>
 
 #include <geometry_msgs/TransformStamped.h>
-#include <tf2_eigen/tf2_eigen.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "tescalib/core/calibration_io.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/ros/conversions.h"
+#include "tescalib/ros/initial_rig.h"
 
 namespace tescalib {
-
-namespace {
-Eigen::Isometry3d fromVector7(const std::vector<double>& v) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
-  T.linear() = Eigen::Quaterniond(v[6], v[3], v[4], v[5]).normalized().toRotationMatrix();
-  return T;
-}
-}  // namespace
 
 CalibrationNodelet::~CalibrationNodelet() {
   // No new callbacks into members about to go: the timer and the inputs stop first.
@@ -136,75 +125,16 @@ void CalibrationNodelet::onInit() {
 
 bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_info,
                                         const Info& right_info) {
-  StereoRig rig;
+  InitialRig init;
   std::string error;
-  if (!ros_conv::stereoFromCameraInfo(left_info, right_info, params_.initial_T_right_left.empty(),
-                                      &rig, &error)) {
+  if (!initialRig(params_, cloud, left_info, right_info, *tf_buffer_, 0.5, &init, &error)) {
     NODELET_WARN_THROTTLE(5.0, "tescalib: %s", error.c_str());
     noteProblem(error);
     return false;
   }
-  lidar_frame_ = params_.lidar_frame.empty() ? cloud.header.frame_id : params_.lidar_frame;
-  {
-    // tescalib works in the rectified frame P describes. ROS's convention puts the unrectified
-    // optical frame on tf, R rotating it into the rectified one; kitti2bag's bags put the
-    // rectified frame on tf and KITTI's R_rect_0N into R. Both are taken as they come; say so.
-    Eigen::Matrix3d R;
-    for (int i = 0; i < 9; ++i) R(i / 3, i % 3) = left_info.R[i];
-    const double deg = R.isZero() ? 0.0 : Eigen::AngleAxisd(R).angle() * kDegPerRad;
-    if (deg > 0.01)
-      NODELET_WARN(
-          "tescalib: the left camera_info's R is a rotation of %.2f deg: the calibration is "
-          "relative to the rectified left camera (the frame P describes, published as '%s'), and "
-          "the initial guess from tf is taken as that frame's. If your tf frame is the "
-          "unrectified optical one (stereo_image_proc), the guess is %.2f deg off (the solver "
-          "corrects that) and T_optical_lidar = R^T T_cam_lidar; kitti2bag's frames are the "
-          "rectified ones already",
-          deg, params_.left_frame.c_str(), deg);
-  }
-  if (!params_.initial_T_cam_lidar.empty()) {
-    rig.T_cam_lidar = fromVector7(params_.initial_T_cam_lidar);
-  } else {
-    const bool from_info = params_.initial_tf_camera_frame.empty();
-    const std::string camera_frame =
-        from_info ? left_info.header.frame_id : params_.initial_tf_camera_frame;
-    const std::string which =
-        from_info ? "the left camera_info's frame_id" : "initial/tf_camera_frame";
-    std::string what;
-    if (camera_frame.empty()) {
-      what =
-          "no initial extrinsic: the left camera_info has no frame_id; name the left camera's "
-          "tf frame with camera_frame:=FRAME (initial/tf_camera_frame) or set "
-          "initial/T_cam_lidar";
-    } else {
-      try {
-        const auto t = tf_buffer_->lookupTransform(camera_frame, lidar_frame_, ros::Time(0),
-                                                   ros::Duration(0.5));
-        rig.T_cam_lidar = tf2::transformToEigen(t.transform);
-      } catch (const tf2::TransformException& ex) {
-        what = "no initial extrinsic: tf " + lidar_frame_ + " -> " + camera_frame + " (" + which +
-               "): " + ex.what() +
-               " (publish that transform, e.g. from the URDF or a static_transform_publisher; "
-               "name another camera frame with camera_frame:=FRAME / initial/tf_camera_frame; "
-               "or set initial/T_cam_lidar)";
-      }
-    }
-    if (!what.empty()) {
-      NODELET_WARN_THROTTLE(5.0, "tescalib: %s", what.c_str());
-      noteProblem(what);
-      return false;
-    }
-  }
-  if (!params_.initial_T_right_left.empty())
-    rig.T_right_left = fromVector7(params_.initial_T_right_left);
-  if (params_.initial_perturb_rot_deg > 0 || params_.initial_perturb_trans_m > 0) {
-    std::mt19937_64 rng(params_.initial_perturb_seed);
-    rig.T_cam_lidar =
-        perturb(rig.T_cam_lidar, randomPerturbation(params_.initial_perturb_rot_deg / kDegPerRad,
-                                                    params_.initial_perturb_trans_m, rng));
-    NODELET_WARN("tescalib: initial LiDAR extrinsic deliberately perturbed by %.2f deg / %.3f m",
-                 params_.initial_perturb_rot_deg, params_.initial_perturb_trans_m);
-  }
+  for (const auto& w : init.warnings) NODELET_WARN("tescalib: %s", w.c_str());
+  lidar_frame_ = init.lidar_frame;
+  const StereoRig& rig = init.rig;
   calibrator_owner_ = std::make_unique<OnlineCalibrator>(rig, params_.online);
   calibrator_.store(calibrator_owner_.get(), std::memory_order_release);
   NODELET_INFO("tescalib: rig %dx%d fx %.1f baseline %.3f m, LiDAR frame '%s'", rig.left.width,

@@ -1,0 +1,106 @@
+#include "tescalib/ros/initial_rig.h"
+
+#include <random>
+
+#include <tf2_eigen/tf2_eigen.h>
+
+#include "tescalib/core/geometry.h"
+#include "tescalib/ros/conversions.h"
+
+namespace tescalib {
+
+Eigen::Isometry3d fromVector7(const std::vector<double>& v) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(v[0], v[1], v[2]);
+  T.linear() = Eigen::Quaterniond(v[6], v[3], v[4], v[5]).normalized().toRotationMatrix();
+  return T;
+}
+
+namespace {
+
+/// tescalib works in the rectified frame P describes. ROS's convention puts the unrectified
+/// optical frame on tf, R rotating it into the rectified one; kitti2bag's bags put the rectified
+/// frame on tf and KITTI's R_rect_0N into R. Both are taken as they come; say so.
+std::string rectificationWarning(const sensor_msgs::CameraInfo& left_info,
+                                 const std::string& left_frame) {
+  Eigen::Matrix3d R;
+  for (int i = 0; i < 9; ++i) R(i / 3, i % 3) = left_info.R[i];
+  const double deg = R.isZero() ? 0.0 : Eigen::AngleAxisd(R).angle() * kDegPerRad;
+  if (deg <= 0.01) return "";
+  char text[700];
+  std::snprintf(
+      text, sizeof(text),
+      "the left camera_info's R is a rotation of %.2f deg: the calibration is relative to the "
+      "rectified left camera (the frame P describes, published as '%s'), and the initial guess "
+      "from tf is taken as that frame's. If your tf frame is the unrectified optical one "
+      "(stereo_image_proc), the guess is %.2f deg off (the solver corrects that) and "
+      "T_optical_lidar = R^T T_cam_lidar; kitti2bag's frames are the rectified ones already",
+      deg, left_frame.c_str(), deg);
+  return text;
+}
+
+/// T_cam_lidar from tf; false with what to do about it.
+bool initialFromTf(const NodeParams& params, const sensor_msgs::CameraInfo& left_info,
+                   const std::string& lidar_frame, const tf2_ros::Buffer& tf, double tf_timeout,
+                   Eigen::Isometry3d* T_cam_lidar, std::string* error) {
+  const bool from_info = params.initial_tf_camera_frame.empty();
+  const std::string camera_frame =
+      from_info ? left_info.header.frame_id : params.initial_tf_camera_frame;
+  const std::string which =
+      from_info ? "the left camera_info's frame_id" : "initial/tf_camera_frame";
+  if (camera_frame.empty()) {
+    *error =
+        "no initial extrinsic: the left camera_info has no frame_id; name the left camera's tf "
+        "frame with camera_frame:=FRAME (initial/tf_camera_frame) or set initial/T_cam_lidar";
+    return false;
+  }
+  try {
+    const auto t =
+        tf.lookupTransform(camera_frame, lidar_frame, ros::Time(0), ros::Duration(tf_timeout));
+    *T_cam_lidar = tf2::transformToEigen(t.transform);
+    return true;
+  } catch (const tf2::TransformException& ex) {
+    *error = "no initial extrinsic: tf " + lidar_frame + " -> " + camera_frame + " (" + which +
+             "): " + ex.what() +
+             " (publish that transform, e.g. from the URDF or a static_transform_publisher; name "
+             "another camera frame with camera_frame:=FRAME / initial/tf_camera_frame; or set "
+             "initial/T_cam_lidar)";
+    return false;
+  }
+}
+
+}  // namespace
+
+bool initialRig(const NodeParams& params, const sensor_msgs::PointCloud2& cloud,
+                const sensor_msgs::CameraInfo& left_info, const sensor_msgs::CameraInfo& right_info,
+                const tf2_ros::Buffer& tf, double tf_timeout, InitialRig* out, std::string* error) {
+  *out = InitialRig{};
+  StereoRig& rig = out->rig;
+  if (!ros_conv::stereoFromCameraInfo(left_info, right_info, params.initial_T_right_left.empty(),
+                                      &rig, error))
+    return false;
+  out->lidar_frame = params.lidar_frame.empty() ? cloud.header.frame_id : params.lidar_frame;
+  const std::string rectification = rectificationWarning(left_info, params.left_frame);
+  if (!rectification.empty()) out->warnings.push_back(rectification);
+  if (!params.initial_T_cam_lidar.empty())
+    rig.T_cam_lidar = fromVector7(params.initial_T_cam_lidar);
+  else if (!initialFromTf(params, left_info, out->lidar_frame, tf, tf_timeout, &rig.T_cam_lidar,
+                          error))
+    return false;
+  if (!params.initial_T_right_left.empty())
+    rig.T_right_left = fromVector7(params.initial_T_right_left);
+  if (params.initial_perturb_rot_deg > 0 || params.initial_perturb_trans_m > 0) {
+    std::mt19937_64 rng(params.initial_perturb_seed);
+    rig.T_cam_lidar =
+        perturb(rig.T_cam_lidar, randomPerturbation(params.initial_perturb_rot_deg / kDegPerRad,
+                                                    params.initial_perturb_trans_m, rng));
+    char text[160];
+    std::snprintf(text, sizeof(text),
+                  "initial LiDAR extrinsic deliberately perturbed by %.2f deg / %.3f m",
+                  params.initial_perturb_rot_deg, params.initial_perturb_trans_m);
+    out->warnings.push_back(text);
+  }
+  return true;
+}
+
+}  // namespace tescalib
