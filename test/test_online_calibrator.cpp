@@ -477,3 +477,41 @@ TEST(OnlineCalibratorGenerated, DeskewsKeyframeScansWithThePreviousScansMotion) 
   EXPECT_EQ(cal.addFrame(f9, f9.stamp, &msg), FrameResult::kKeyframe) << msg;
   EXPECT_EQ(cal.windowFill(), 2u);
 }
+
+TEST(OnlineCalibratorGenerated, WithoutTheAzimuthModelOnlyCloudsWithPointTimesAreDeskewed) {
+  // ScanSweep::by_azimuth false (live.yaml): a cloud without per-point times is taken as it is,
+  // without waiting for a previous scan; one with them is de-skewed by its points' own times.
+  SimOptions o;
+  o.frames = 3;
+  o.seed = 3;
+  o.lidar_sweep = true;
+  const Simulator sim(o);
+  OnlineSettings s;
+  s.deskew = true;
+  s.estimate_stereo = false;
+  s.sweep.by_azimuth = false;
+  std::string msg;
+  std::shared_ptr<const Keyframe> kf;
+  Frame f0 = sim.renderFrame(0), f1 = sim.renderFrame(1);
+  ASSERT_FALSE(hasPointTimes(f1.scan));
+  {
+    OnlineCalibrator cal(sim.rig(), s);
+    ASSERT_EQ(cal.addFrame(f0, f0.stamp, &msg, &kf), FrameResult::kKeyframe) << msg;
+    ASSERT_EQ(kf->scan.size(), f0.scan.size());
+    for (size_t i = 0; i < f0.scan.size(); i += 97) EXPECT_EQ(kf->scan[i].x, f0.scan[i].x);
+    EXPECT_EQ(kf->seconds_deskew, 0.0);
+  }
+  // The same scans with their points' times (the sweep's azimuth model, as a driver's field).
+  for (Frame* f : {&f0, &f1})
+    for (LidarPoint& p : f->scan) p.time = float(sweepTime(std::atan2(p.y, p.x)));
+  OnlineCalibrator cal(sim.rig(), s);
+  EXPECT_EQ(cal.addFrame(f0, f0.stamp, &msg), FrameResult::kRejected);
+  EXPECT_NE(msg.find("no previous scan"), std::string::npos) << msg;
+  ASSERT_EQ(cal.addFrame(f1, f1.stamp, &msg, &kf), FrameResult::kKeyframe) << msg;
+  double moved = 0;
+  for (size_t i = 0; i < f1.scan.size(); ++i)
+    moved = std::max(
+        moved, double(std::hypot(kf->scan[i].x - f1.scan[i].x, kf->scan[i].y - f1.scan[i].y)));
+  EXPECT_GT(moved, 0.2);  // 8-14 m/s over up to 50 ms
+  EXPECT_GT(kf->seconds_deskew, 0.0);
+}

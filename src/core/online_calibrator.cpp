@@ -69,7 +69,8 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   // skewed scan would bias the calibration by centimetres at speed); the next frame can be one.
   Frame deskewed;
   const Frame* use = &frame;
-  if (settings_.deskew) {
+  // A cloud without per-point times is de-skewed only by the azimuth model (ScanSweep::by_azimuth).
+  if (settings_.deskew && (settings_.sweep.by_azimuth || hasPointTimes(frame.scan))) {
     auto refuse = [&](const std::string& why) {
       *msg = "keyframe not de-skewed: " + why;
       std::lock_guard<std::mutex> lock(mutex_);

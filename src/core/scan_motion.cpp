@@ -1,5 +1,6 @@
 #include "tescalib/core/scan_motion.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -130,13 +131,19 @@ ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt)
   return m;
 }
 
+bool hasPointTimes(const LidarScan& scan) {
+  return std::any_of(scan.begin(), scan.end(),
+                     [](const LidarPoint& p) { return std::isfinite(p.time); });
+}
+
 void deskewScan(LidarScan* scan, const ScanMotion& motion, const ScanSweep& sweep,
                 double time_offset) {
   if (!motion.valid) return;
   for (LidarPoint& p : *scan) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
     // The sensor at time t is at exp(w t), v t in the reference frame: a point it measured then
-    // is exp(w t) p + v t there.
+    // is exp(w t) p + v t there. A point's own time is relative to the cloud's stamp; the
+    // azimuth model's, to the reference instant (the image stamp) itself.
     const double t =
         std::isfinite(p.time) ? p.time + time_offset : sweepTime(std::atan2(p.y, p.x), sweep);
     const Eigen::Vector3d q =

@@ -181,7 +181,24 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     noteProblem("point cloud rejected: " + error);
     return;
   }
+  const std::string time_field = ros_conv::perPointTimeField(*cloud);
   if (params_.online.deskew) {
+    if (!time_field.empty())
+      NODELET_INFO_ONCE("tescalib: de-skewing with the clouds' per-point time field '%s'",
+                        time_field.c_str());
+    else if (params_.online.sweep.by_azimuth)
+      NODELET_WARN_ONCE(
+          "tescalib: the clouds have no per-point time field: de-skewed by azimuth, which is "
+          "right only for a LiDAR phase-locked to the cameras that faces "
+          "deskew/reference_azimuth_deg (%.1f deg, LiDAR frame) at every image stamp, as KITTI's. "
+          "Otherwise set deskew/by_azimuth false, or deskew:=false when the driver compensates "
+          "the motion",
+          params_.online.sweep.reference_azimuth_rad * kDegPerRad);
+    else
+      NODELET_WARN_ONCE(
+          "tescalib: the clouds have no per-point time field: not de-skewed (deskew/by_azimuth "
+          "true times their points by azimuth, for a LiDAR phase-locked to the cameras such as "
+          "KITTI's)");
     pf.previous_scan = last_scan_;
     pf.previous_stamp = last_scan_stamp_;
     last_scan_stamp_ = stamp;
@@ -191,7 +208,6 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     }
     last_scan_ = std::make_shared<const LidarScan>(pf.frame.scan);
   } else {
-    const std::string time_field = ros_conv::perPointTimeField(*cloud);
     if (!time_field.empty())
       NODELET_WARN_ONCE(
           "tescalib: the point cloud has a per-point time field ('%s'): a raw sweep, whose "

@@ -1,6 +1,7 @@
 #include "tescalib/ros/params.h"
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 #include <sstream>
 
@@ -53,6 +54,10 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("deskew/max_dt", &p->online.deskew_max_dt);
   get("deskew/rate_hz", &p->online.sweep.rate_hz);
   get("deskew/clockwise", &p->online.sweep.clockwise);
+  get("deskew/by_azimuth", &p->online.sweep.by_azimuth);
+  double reference_azimuth_deg = p->online.sweep.reference_azimuth_rad * 180.0 / M_PI;
+  get("deskew/reference_azimuth_deg", &reference_azimuth_deg);
+  p->online.sweep.reference_azimuth_rad = reference_azimuth_deg * M_PI / 180.0;
   get("co_calibration/estimate_stereo", &p->online.estimate_stereo);
   get("co_calibration/max_rounds", &p->online.co.max_rounds);
   get("co_calibration/warm_co_rounds", &p->online.warm_co_rounds);
@@ -122,6 +127,8 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
       << "'); ";
   if (o.max_sync_skew <= 0) e << "sync/max_skew must be > 0; ";
   if (o.deskew_max_dt <= 0) e << "deskew/max_dt must be > 0 (got " << o.deskew_max_dt << "); ";
+  if (!std::isfinite(o.sweep.reference_azimuth_rad))
+    e << "deskew/reference_azimuth_deg must be a number; ";
   if (o.sweep.rate_hz <= 0) e << "deskew/rate_hz must be > 0 (got " << o.sweep.rate_hz << "); ";
   if (p.sync_queue < 1) e << "sync/queue_size must be >= 1; ";
   if (o.keyframe.stereo.num_disparities < 16 || o.keyframe.stereo.num_disparities % 16)

@@ -437,6 +437,11 @@ void runBag(const Args& args, Session* session) {
             "note: the clouds have a per-point time field ('%s'): raw sweeps, which the "
             "vehicle's motion skews; --deskew 1 unless the driver compensated them\n",
             time_field.c_str());
+      if (time_field.empty() && session->settings.deskew)
+        std::printf(
+            "note: the clouds have no per-point time field: de-skewed by azimuth, which is right "
+            "only for a LiDAR phase-locked to the cameras that faces its +x at every image stamp "
+            "(KITTI's); --deskew 0 otherwise\n");
     }
     const bool candidate =
         stamp < last_candidate || !session->settings.tooClose(stamp, last_candidate);
@@ -451,7 +456,7 @@ void runBag(const Args& args, Session* session) {
     if (session->settings.deskew) {
       if (previous_scan) session->calibrator->setPreviousScan(previous_scan, previous_stamp);
       previous_scan = std::make_shared<const LidarScan>(frame.scan);
-      previous_stamp = set.cloud->header.stamp.toSec();
+      previous_stamp = stamp;  // the set's (left image) stamp, as frame.stamp and the node's
       if (!candidate) return;
     }
     if (!ros_conv::toBgr8(*set.left, &frame.left, &error) ||

@@ -22,7 +22,15 @@ struct ScanSweep {
   /// Azimuth (rad, sensor frame) at the reference instant: KITTI triggers the cameras when the
   /// LiDAR faces forward (0). The sweep's seam is opposite to it.
   double reference_azimuth_rad = 0.0;
+  /// Points without a time of their own (a cloud without a per-point time field) are timed by
+  /// their azimuth with the model above: right only for a LiDAR phase-locked to the cameras (it
+  /// faces reference_azimuth_rad at every image stamp, as KITTI's). false: such clouds are not
+  /// de-skewed (hasPointTimes decides), since a wrong phase moves the estimate by decimetres.
+  bool by_azimuth = true;
 };
+
+/// Whether any point of the scan has its own time (LidarPoint::time finite).
+bool hasPointTimes(const LidarScan& scan);
 
 /// Constant sensor velocity over a scan, in the sensor frame of the reference instant.
 struct ScanMotion {
