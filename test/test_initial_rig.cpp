@@ -131,6 +131,34 @@ TEST(InitialRig, ThePerturbationAndARectifyingRAreSaid) {
       << r.warnings[1];
 }
 
+TEST(InitialRig, LeadingSlashesOfTf1AreDropped) {
+  Inputs in;
+  in.publishTf("camera_left");
+  in.cloud.header.frame_id = "/velo_link";
+  in.left.header.frame_id = "/camera_left";
+  InitialRig r;
+  std::string error;
+  ASSERT_TRUE(initialRig(defaults, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error)) << error;
+  EXPECT_EQ(r.lidar_frame, "velo_link");
+  EXPECT_LT(rotationDeg(r.rig.T_cam_lidar, in.T_cam_lidar), 1e-9);
+}
+
+TEST(InitialRig, LensDistortionIsSaid) {
+  Inputs in;
+  in.publishTf("camera_left");
+  in.left.D = {-0.2, 0.1, 0, 0, 0};
+  in.right.D = {0, 0, 0, 0, 0};
+  InitialRig r;
+  std::string error;
+  ASSERT_TRUE(initialRig(defaults, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error)) << error;
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("D is not zero"), std::string::npos) << r.warnings[0];
+  EXPECT_NE(r.warnings[0].find("image_rect"), std::string::npos) << r.warnings[0];
+  in.left.D = {0, 0, 0, 0, 0};  // all zero: nothing to say
+  ASSERT_TRUE(initialRig(defaults, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error)) << error;
+  EXPECT_TRUE(r.warnings.empty());
+}
+
 TEST(InitialRig, UnusableCameraInfosAreRefused) {
   Inputs in;
   in.publishTf("camera_left");

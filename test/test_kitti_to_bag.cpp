@@ -210,6 +210,12 @@ TEST(Conversions, BaselineFromKitti2bagCameraInfos) {
   // Left and right swapped: the "right" camera sits to the left.
   EXPECT_FALSE(ros_conv::stereoFromCameraInfo(right, left, true, &rig, &err));
   EXPECT_NE(err.find("must sit to the right of the left one"), std::string::npos) << err;
+  // A vertical pair (KITTI-style P: both measured from a reference camera, the right one 0.5 m
+  // below and 6 cm beside the left one) cannot be matched along rows.
+  left.P[3] = 7.215377e+02 * 0.2;
+  right.P[3] = 7.215377e+02 * 0.14, right.P[7] = -7.215377e+02 * 0.5;
+  EXPECT_FALSE(ros_conv::stereoFromCameraInfo(left, right, true, &rig, &err));
+  EXPECT_NE(err.find("not side by side"), std::string::npos) << err;
 }
 
 TEST(Conversions, ReadsKitti2bagClouds) {
@@ -387,6 +393,39 @@ TEST(Conversions, ImageEncodings) {
   cv_bridge::CvImage(h, "32FC1", cv::Mat(4, 6, CV_32FC1, cv::Scalar(1.f))).toImageMsg(depth);
   EXPECT_FALSE(ros_conv::toBgr8(depth, &out, &err));
   EXPECT_NE(err.find("32FC1"), std::string::npos) << err;
+  // A Bayer image is a camera's raw output: not rectified, refused with what to remap.
+  sensor_msgs::Image bayer = mono;
+  bayer.encoding = "bayer_rggb8";
+  EXPECT_FALSE(ros_conv::toBgr8(bayer, &out, &err));
+  EXPECT_NE(err.find("image_rect_color"), std::string::npos) << err;
+}
+
+TEST(Conversions, Mono16IsScaledByTheBitsItUses) {
+  // A 12-bit camera's mono16 (0-4095): divided by 256 it would keep 16 grey levels.
+  std_msgs::Header h;
+  cv::Mat twelve(4, 6, CV_16UC1, cv::Scalar(2000));
+  twelve.at<uint16_t>(0, 0) = 4095;
+  sensor_msgs::Image left, right;
+  cv_bridge::CvImage(h, "mono16", twelve).toImageMsg(left);
+  cv::Mat out;
+  std::string err;
+  ASSERT_TRUE(ros_conv::toBgr8(left, &out, &err)) << err;
+  EXPECT_EQ(out.at<cv::Vec3b>(0, 0), cv::Vec3b(255, 255, 255));
+  EXPECT_EQ(out.at<cv::Vec3b>(1, 1)[0], 125);  // 2000 * 255 / 4095 = 124.5
+  // Full 16-bit range: / 257.
+  cv::Mat sixteen = twelve * 16;
+  sixteen.at<uint16_t>(0, 0) = 65535;
+  cv_bridge::CvImage(h, "mono16", sixteen).toImageMsg(right);
+  ASSERT_TRUE(ros_conv::toBgr8(right, &out, &err)) << err;
+  EXPECT_EQ(out.at<cv::Vec3b>(1, 1)[0], 125);  // 32000 / 257 = 124.5
+  // A pair takes the left image's scale for both, so that SGBM sees them alike.
+  double scale = 0;
+  ASSERT_TRUE(ros_conv::toBgr8(left, &out, &err, &scale)) << err;
+  EXPECT_NEAR(scale, 255.0 / 4095.0, 1e-12);
+  cv::Mat darker = twelve / 2;  // its values use 11 bits, but it is the pair's right image
+  cv_bridge::CvImage(h, "mono16", darker).toImageMsg(right);
+  ASSERT_TRUE(ros_conv::toBgr8(right, &out, &err, &scale)) << err;
+  EXPECT_EQ(out.at<cv::Vec3b>(1, 1)[0], 62);  // 1000 * 255 / 4095 = 62.3
 }
 
 TEST(Conversions, CameraInfoRoundTrip) {

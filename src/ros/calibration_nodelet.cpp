@@ -1,5 +1,6 @@
 #include "tescalib/ros/calibration_nodelet.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -215,12 +216,23 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
           "deskew/enabled (launch argument deskew:=true) unless the driver compensated them.",
           time_field.c_str());
   }
+  if (candidate && !pf.frame.scan.empty()) {
+    int rings = 0;
+    for (const LidarPoint& p : pf.frame.scan) rings = std::max(rings, p.ring + 1);
+    if (rings < 32)
+      NODELET_WARN_ONCE(
+          "tescalib: the LiDAR has %d rings, where tescalib was made for 64 (KITTI's HDL-64E, "
+          "rings 0.4 deg apart): its mesh has fewer faces in view, and solves may say that the "
+          "window does not constrain every axis (README, Known limits)",
+          rings);
+  }
   if (ring_recovered)
     NODELET_WARN_THROTTLE(30.0,
                           "tescalib: point cloud has no 'ring' field; rings recovered from "
                           "scan order (KITTI-style clouds)");
-  if (!ros_conv::toBgr8(*left, &pf.frame.left, &error) ||
-      !ros_conv::toBgr8(*right, &pf.frame.right, &error)) {
+  double mono16_scale = 0;  // the left image's, for both
+  if (!ros_conv::toBgr8(*left, &pf.frame.left, &error, &mono16_scale) ||
+      !ros_conv::toBgr8(*right, &pf.frame.right, &error, &mono16_scale)) {
     ++rejected_;
     NODELET_WARN_THROTTLE(5.0, "tescalib: image rejected: %s", error.c_str());
     noteProblem("image rejected: " + error);

@@ -299,6 +299,13 @@ bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs
     return Eigen::Vector3d(c.K().inverse() * Eigen::Vector3d(info.P[3], info.P[7], info.P[11]));
   };
   const Eigen::Vector3d t = position(right, rig->right) - position(left, rig->left);
+  if (t.allFinite() && t.x() < 0 && std::hypot(t.y(), t.z()) > 0.2 * -t.x()) {
+    *error = "the camera_infos put the right camera at (" + std::to_string(t.x()) + ", " +
+             std::to_string(t.y()) + ", " + std::to_string(t.z()) +
+             ") m from the left one: not side by side (vertical or diagonal stereo), which "
+             "tescalib's row-wise stereo matching cannot use";
+    return false;
+  }
   if (!(t.x() < 0) || !t.allFinite()) {
     *error = "right camera_info P[3] = " + std::to_string(right.P[3]) + " with the left one's " +
              std::to_string(left.P[3]) +
@@ -311,9 +318,15 @@ bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs
   return true;
 }
 
-bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error) {
+bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error, double* mono16_scale) {
   namespace enc = sensor_msgs::image_encodings;
   const std::string& e = msg.encoding;
+  if (enc::isBayer(e)) {
+    *error = "image encoding '" + e +
+             "' is a camera's raw (Bayer) output, which is not rectified: run stereo_image_proc "
+             "and remap left/image_raw and right/image_raw to its image_rect_color topics";
+    return false;
+  }
   if (e != enc::BGR8 && e != enc::RGB8 && e != enc::MONO8 && e != enc::BGRA8 && e != enc::RGBA8 &&
       e != enc::MONO16) {
     *error = "unsupported image encoding '" + e + "' (use bgr8, rgb8, mono8, bgra8, rgba8, mono16)";
@@ -326,8 +339,18 @@ bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error) {
   try {
     if (e == enc::MONO16) {
       const auto cv = cv_bridge::toCvCopy(msg, enc::MONO16);
+      double scale = mono16_scale ? *mono16_scale : 0.0;
+      if (!(scale > 0)) {
+        // The bits the image uses (a 12-bit camera's values end at 4095): dividing by 256
+        // would leave such an image 16 grey levels.
+        double max_value = 0;
+        cv::minMaxLoc(cv->image, nullptr, &max_value);
+        const int bits = std::clamp(int(std::ceil(std::log2(max_value + 1.0))), 8, 16);
+        scale = 255.0 / ((1 << bits) - 1);
+        if (mono16_scale) *mono16_scale = scale;
+      }
       cv::Mat m8;
-      cv->image.convertTo(m8, CV_8U, 1.0 / 256.0);
+      cv->image.convertTo(m8, CV_8U, scale);
       cv::cvtColor(m8, *bgr, cv::COLOR_GRAY2BGR);
     } else {
       *bgr = cv_bridge::toCvCopy(msg, enc::BGR8)->image;

@@ -1,5 +1,6 @@
 #include "tescalib/ros/initial_rig.h"
 
+#include <algorithm>
 #include <random>
 
 #include <tf2_eigen/tf2_eigen.h>
@@ -17,6 +18,28 @@ Eigen::Isometry3d fromVector7(const std::vector<double>& v) {
 }
 
 namespace {
+
+/// tf2 refuses frame ids with a leading slash (tf1's convention, still in some drivers' messages);
+/// tf2 and rviz drop it, and so does the node.
+std::string tf2Frame(const std::string& frame) {
+  const size_t first = frame.find_first_not_of('/');
+  return first == std::string::npos ? "" : frame.substr(first);
+}
+
+/// Rectified images are what tescalib uses (it projects with P). A camera_info with distortion
+/// comes with raw images from a driver, but also with stereo_image_proc's image_rect (which keeps
+/// the raw camera's info) and with kitti2bag's rectified images: say it, do not refuse.
+std::string distortionWarning(const sensor_msgs::CameraInfo& left_info,
+                              const sensor_msgs::CameraInfo& right_info) {
+  const auto distorted = [](const sensor_msgs::CameraInfo& info) {
+    return std::any_of(info.D.begin(), info.D.end(), [](double d) { return d != 0.0; });
+  };
+  if (!distorted(left_info) && !distorted(right_info)) return "";
+  return "the camera_info has lens distortion (D is not zero): tescalib projects with P and takes "
+         "the images as rectified. stereo_image_proc's image_rect(_color) and kitti2bag's images "
+         "are; a camera driver's image_raw is not: remap left/image_raw and right/image_raw to "
+         "the rectified topics";
+}
 
 /// tescalib works in the rectified frame P describes. ROS's convention puts the unrectified
 /// optical frame on tf, R rotating it into the rectified one; kitti2bag's bags put the rectified
@@ -45,7 +68,7 @@ bool initialFromTf(const NodeParams& params, const sensor_msgs::CameraInfo& left
                    Eigen::Isometry3d* T_cam_lidar, std::string* error) {
   const bool from_info = params.initial_tf_camera_frame.empty();
   const std::string camera_frame =
-      from_info ? left_info.header.frame_id : params.initial_tf_camera_frame;
+      tf2Frame(from_info ? left_info.header.frame_id : params.initial_tf_camera_frame);
   const std::string which =
       from_info ? "the left camera_info's frame_id" : "initial/tf_camera_frame";
   if (camera_frame.empty()) {
@@ -79,7 +102,10 @@ bool initialRig(const NodeParams& params, const sensor_msgs::PointCloud2& cloud,
   if (!ros_conv::stereoFromCameraInfo(left_info, right_info, params.initial_T_right_left.empty(),
                                       &rig, error))
     return false;
-  out->lidar_frame = params.lidar_frame.empty() ? cloud.header.frame_id : params.lidar_frame;
+  out->lidar_frame =
+      tf2Frame(params.lidar_frame.empty() ? cloud.header.frame_id : params.lidar_frame);
+  const std::string distortion = distortionWarning(left_info, right_info);
+  if (!distortion.empty()) out->warnings.push_back(distortion);
   const std::string rectification = rectificationWarning(left_info, params.left_frame);
   if (!rectification.empty()) out->warnings.push_back(rectification);
   if (!params.initial_T_cam_lidar.empty())

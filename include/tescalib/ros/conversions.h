@@ -64,8 +64,12 @@ bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs
                           bool baseline_from_p, StereoRig* rig, std::string* error);
 
 /// Image message (bgr8, rgb8, mono8, bgra8, rgba8, mono16) -> CV_8UC3 BGR. False with a message
-/// on an encoding that cannot be used.
-bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error);
+/// on an encoding that cannot be used (Bayer: a raw image, not rectified). mono16 is scaled by
+/// the bits its values use (12 for a 12-bit camera's 0-4095, at least 8); with `mono16_scale`,
+/// a positive value is used as the scale and 0 is replaced by the one found, so that both images
+/// of a stereo pair are scaled alike.
+bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error,
+            double* mono16_scale = nullptr);
 
 /// CV_8UC3 BGR image -> Image message with the given encoding ("bgr8" or "rgb8").
 sensor_msgs::Image toImageMsg(const cv::Mat& bgr, const std_msgs::Header& header,

@@ -17,9 +17,9 @@ namespace tescalib {
 
 struct InitialRig {
   StereoRig rig;            ///< intrinsics, T_cam_lidar and T_right_left to start from
-  std::string lidar_frame;  ///< lidar_frame, or the cloud's frame_id
-  /// Things the user should know that do not stop the node (camera_info R is not identity, the
-  /// guess is deliberately perturbed).
+  std::string lidar_frame;  ///< lidar_frame, or the cloud's frame_id (without a leading '/')
+  /// Things the user should know that do not stop the node (lens distortion in camera_info,
+  /// camera_info R is not identity, the guess is deliberately perturbed).
   std::vector<std::string> warnings;
 };
 
