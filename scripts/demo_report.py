@@ -163,7 +163,7 @@ def main():
         print('[demo] pipeline: %s synchronized sets%s, %s keyframes built, %s keyframe candidates '
               'dropped (preprocessing behind), %s frames rejected' % (
                   sets, ' of %d frames in the bag' % frames if frames else '', diag['keyframes'],
-                  diag['dropped sync sets'], diag['rejected frames']))
+                  diag['dropped keyframe candidates'], diag['rejected frames']))
         print('[demo] timings (wall clock): keyframe build mean %.2f s, max %.2f s; %s solves, mean '
               '%.2f s, max %.2f s; keyframe arrival -> estimate from a window including it: '
               'mean %.2f s, max %.2f s over %s keyframes' % (

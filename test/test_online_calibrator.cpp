@@ -2,6 +2,7 @@
 // going backwards resets the window, and an estimate is only replaced by a trustworthy one.
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -340,6 +341,43 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
   EXPECT_FALSE(fresh.estimate()->stereo_estimated);
 }
 
+/// Solves the window in a thread and calls `meanwhile` once the solve has taken its snapshot;
+/// returns what solve() returned.
+bool solveWhile(OnlineCalibrator& cal, const std::function<void()>& meanwhile, std::string* msg) {
+  bool updated = false;
+  std::thread solver([&] { updated = cal.solve(msg); });
+  // The solve has taken its snapshot once the window is no longer "ready" (no new keyframes).
+  while (cal.readyToSolve()) std::this_thread::yield();
+  meanwhile();
+  solver.join();
+  return updated;
+}
+
+TEST(OnlineCalibratorGenerated, ATimeJumpBackSeenDuringASolveDiscardsItsResult) {
+  // A looping bag: the node's callback sees the clock jump back (noteStamp) while a solve of the
+  // old loop's window runs; its result must not be published after the jump, stamped in the
+  // future. Stamps that go forward leave the solve alone.
+  const auto drive = coDrive();
+  const Simulator& sim = *drive;
+  OnlineSettings settings;
+  settings.window_size = 5;
+  const StereoRig rig = perturbedRig(sim, 3, 1.0, 0.1);
+  std::string msg;
+  OnlineCalibrator back(rig, settings);
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(back, sim, 0, 25));
+  const double last = back.windowStamps().back();
+  EXPECT_FALSE(solveWhile(
+      back, [&] { back.noteStamp(last - 5.0); }, &msg));
+  EXPECT_NE(msg.find("cleared during the solve"), std::string::npos) << msg;
+  EXPECT_FALSE(back.lastSolve().has_value());
+  OnlineCalibrator forward(rig, settings);
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(forward, sim, 0, 25));
+  EXPECT_TRUE(solveWhile(
+      forward, [&] { forward.noteStamp(last + 1.0); }, &msg))
+      << msg;
+  EXPECT_EQ(forward.lastSolve()->solve_id, 1u);
+}
+
 TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
   // ~reset while a solve runs: the solve's result belongs to the window that was cleared and
   // must not come back as the published estimate (nor as the warm start of the next window).
@@ -352,13 +390,8 @@ TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
   ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
   ASSERT_TRUE(cal.readyToSolve());
   std::string msg;
-  bool updated = true;
-  std::thread solver([&] { updated = cal.solve(&msg); });
-  // The solve has taken its snapshot once the window is no longer "ready" (no new keyframes).
-  while (cal.readyToSolve()) std::this_thread::yield();
-  cal.reset();
-  solver.join();
-  EXPECT_FALSE(updated);
+  EXPECT_FALSE(solveWhile(
+      cal, [&] { cal.reset(); }, &msg));
   EXPECT_NE(msg.find("cleared during the solve"), std::string::npos) << msg;
   EXPECT_FALSE(cal.estimate().has_value());
   EXPECT_FALSE(cal.lastSolve().has_value());

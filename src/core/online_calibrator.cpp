@@ -315,6 +315,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
     for (size_t i = 0; i < snapshot.size(); ++i)
       for (const auto& k : window_)  // only keyframes still in the window (it slides meanwhile)
         if (k->stamp == snapshot[i]->stamp) keyframe_information_[k->stamp] = keyframe_info[i];
+  e.solve_id = ++solves_kept_;
   auto notPublished = [&](const std::string& why) {
     *msg = why;
     last_solve_ = e;
@@ -344,6 +345,11 @@ void OnlineCalibrator::setPreviousScan(std::shared_ptr<const LidarScan> scan, do
   std::lock_guard<std::mutex> lock(mutex_);
   previous_scan_ = std::move(scan);
   previous_scan_stamp_ = stamp;
+}
+
+void OnlineCalibrator::noteStamp(double stamp) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (stamp < last_stamp_ - settings_.max_time_jump_back) ++generation_;
 }
 
 void OnlineCalibrator::reset() {

@@ -138,6 +138,9 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
   const StereoRig& rig = init.rig;
   calibrator_owner_ = std::make_unique<OnlineCalibrator>(rig, params_.online);
   calibrator_.store(calibrator_owner_.get(), std::memory_order_release);
+  // tf was needed for the initial guess only: stop listening (a listener's buffer warns of
+  // TF_REPEATED_DATA at every loop of a bag, and it reads every /tf message for nothing).
+  tf_listener_.reset();
   NODELET_INFO("tescalib: rig %dx%d fx %.1f baseline %.3f m, LiDAR frame '%s'", rig.left.width,
                rig.left.height, rig.left.fx, rig.baseline(), lidar_frame_.c_str());
   return true;
@@ -154,7 +157,8 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
   }
   if (!calibrator() && !initCalibrator(*cloud, *left_info, *right_info)) return;
   const double stamp = left->header.stamp.toSec();
-  publishTf(left->header.stamp);  // every set, so tf lookups at any image stamp interpolate
+  calibrator()->noteStamp(stamp);  // a solve of the old loop's window discards its result now
+  publishTf(left->header.stamp);   // every set, so tf lookups at any image stamp interpolate
   // Cheap keyframe pre-selection here; time going backwards is passed on (the window resets).
   const bool candidate =
       stamp < last_enqueued_stamp_ || !params_.online.tooClose(stamp, last_enqueued_stamp_);
@@ -354,7 +358,9 @@ void CalibrationNodelet::solveLoop() {
       }
     }
     // Every solve's result on ~candidate/*, published or not (status: why not).
-    if (const auto c = calibrator()->lastSolve()) {
+    const auto c = calibrator()->lastSolve();
+    if (c && c->solve_id != last_candidate_id_) {  // not again after a discarded solve
+      last_candidate_id_ = c->solve_id;
       std_msgs::Header h;
       h.stamp = ros::Time(c->stamp);
       publishEstimateMsgs(*c, h, candidate_lidar_pub_, candidate_stereo_pub_);
@@ -530,7 +536,7 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   stat.add("window size", params_.online.window_size);
   stat.add("keyframes", keyframes_.load());
   stat.add("synchronized sets", sync_sets_.load());
-  stat.add("dropped sync sets", dropped_.load());
+  stat.add("dropped keyframe candidates", dropped_.load());
   stat.add("rejected frames", rejected_.load());
   stat.add("last solve seconds", last_solve_seconds_.load());
   stat.add("last solve", solve_msg);
@@ -540,12 +546,16 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
     stat.add("pending sets", queue_.size());
     stat.add("keyframe build mean seconds", build_time_.mean());
     stat.add("keyframe build max seconds", build_time_.max);
+    stat.add("keyframe build recent mean seconds", build_time_.recentMean());
     stat.add("solves", solve_time_.count);
     stat.add("solve mean seconds", solve_time_.mean());
     stat.add("solve max seconds", solve_time_.max);
+    stat.add("solve recent mean seconds", solve_time_.recentMean());
     stat.add("update latency count", update_latency_.count);
     stat.add("update latency mean seconds", update_latency_.mean());
     stat.add("update latency max seconds", update_latency_.max);
+    stat.add("update latency recent mean seconds", update_latency_.recentMean());
+    stat.add("update latency recent max seconds", update_latency_.recentMax());
     stat.add("first estimate after keyframes", first_estimate_keyframes_);
     stat.add("first estimate wall seconds", first_estimate_wall_s_);
     stat.add("first estimate sensor seconds", first_estimate_sim_s_);

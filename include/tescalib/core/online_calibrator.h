@@ -108,6 +108,9 @@ struct OnlineEstimate {
   bool stereo_estimated = false;
   double stamp = 0;  ///< stamp of the newest keyframe of the window it came from
   double solve_seconds = 0;
+  /// Numbers the solves whose result was kept (lastSolve), from 1: a caller publishing every
+  /// solve's result tells a new one from the one before (a discarded solve keeps the old).
+  uint64_t solve_id = 0;
   /// OnlineCalibrator::lastSolve: why the solve was not published (empty when it was).
   std::string message;
 };
@@ -142,6 +145,12 @@ class OnlineCalibrator {
   /// Clears the window and returns to the initial extrinsics.
   void reset();
 
+  /// A sensor stamp seen by the caller before its frame reaches addFrame (a node's callback):
+  /// when time went backwards (a looping bag), a solve running now discards its result at once,
+  /// instead of publishing the old loop's estimate after the clock has jumped back. The window
+  /// itself is cleared by addFrame, as before.
+  void noteStamp(double stamp);
+
   /// Makes a running solve stop at its next re-association, search start or co-calibration
   /// round (within about a second) and every later one return at once, unpublished: for a node
   /// shutting down. Irreversible.
@@ -170,9 +179,11 @@ class OnlineCalibrator {
   double last_stamp_ = -1e300;                    ///< GUARDED_BY(mutex_)
   double last_keyframe_stamp_ = -1e300;           ///< GUARDED_BY(mutex_)
   int new_keyframes_ = 0;                         ///< GUARDED_BY(mutex_) since the last solve
-  /// GUARDED_BY(mutex_): counts window clears (reset, time going backwards); a solve that sees it
-  /// change between its snapshot and its result discards the result.
+  /// GUARDED_BY(mutex_): counts window clears (reset, time going backwards, also as soon as
+  /// noteStamp sees it); a solve that sees it change between its snapshot and its result
+  /// discards the result.
   uint64_t generation_ = 0;
+  uint64_t solves_kept_ = 0;  ///< GUARDED_BY(mutex_), OnlineEstimate::solve_id
   std::atomic<bool> cancel_{false};
   /// The last frame's scan, for the next keyframe's de-skewing (OnlineSettings::deskew).
   std::shared_ptr<const LidarScan> previous_scan_;  ///< GUARDED_BY(mutex_)

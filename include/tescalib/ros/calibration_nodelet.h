@@ -3,6 +3,7 @@
 // a solver thread runs co-calibration on the window. Both threads are joined in the destructor.
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <deque>
@@ -58,15 +59,30 @@ class CalibrationNodelet : public nodelet::Nodelet {
   };
 
   /// Wall-clock durations of one kind (keyframe builds, solves, update latencies), for
-  /// /diagnostics and the demo's report.
+  /// /diagnostics and the demo's report: since the start, and over the last kRecent (so that a
+  /// drift shows in a long run, where the lifetime figures hardly move).
   struct Durations {
+    static constexpr int kRecent = 20;
     int count = 0;
     double sum = 0, max = 0, last = 0;
+    std::deque<double> recent;
     void add(double s) {
       ++count, sum += s, last = s;
       if (s > max) max = s;
+      recent.push_back(s);
+      if (static_cast<int>(recent.size()) > kRecent) recent.pop_front();
     }
     double mean() const { return count ? sum / count : 0.0; }
+    double recentMean() const {
+      double total = 0;
+      for (double v : recent) total += v;
+      return recent.empty() ? 0.0 : total / recent.size();
+    }
+    double recentMax() const {
+      double m = 0;
+      for (double v : recent) m = std::max(m, v);
+      return m;
+    }
   };
 
   void onInit() override;
@@ -135,6 +151,7 @@ class CalibrationNodelet : public nodelet::Nodelet {
   /// Names under the node's namespace it does not read (typos), for /diagnostics.
   std::string unknown_params_;
   std::atomic<double> last_solve_seconds_{0};
+  uint64_t last_candidate_id_ = 0;  ///< solve thread only: the last ~candidate/* published
   std::atomic<bool> solving_{false};
   // Timing, GUARDED_BY(mutex_). The update latency of a keyframe runs from the arrival of its
   // synchronized set to the end of the first solve that includes it; it is only recorded for
