@@ -128,7 +128,10 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
                                         const Info& right_info) {
   InitialRig init;
   std::string error;
-  if (!initialRig(params_, cloud, left_info, right_info, *tf_buffer_, 0.5, &init, &error)) {
+  // The first attempt waits up to 0.5 s for tf; later ones (every synchronized set) do not, so
+  // that a missing transform does not hold the callback and cost sets meanwhile.
+  const double tf_timeout = init_attempts_++ == 0 ? 0.5 : 0.0;
+  if (!initialRig(params_, cloud, left_info, right_info, *tf_buffer_, tf_timeout, &init, &error)) {
     NODELET_WARN_THROTTLE(5.0, "tescalib: %s", error.c_str());
     noteProblem(error);
     return false;
