@@ -8,6 +8,7 @@
 #include <deque>
 #include <limits>
 
+#include "tescalib/core/geometry.h"
 #include "tescalib/core/parallel.h"
 
 namespace tescalib {
@@ -196,6 +197,13 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   CoCalibrationResult res;
   res.lidar.T_cam_lidar = T_cam_lidar_init;
   res.stereo.T_right_left = T_right_left_init;
+  const std::string pair_problem = stereoExtrinsicProblem(T_right_left_init);
+  if (!pair_problem.empty() || !isRigidTransform(T_cam_lidar_init)) {
+    res.message = !pair_problem.empty()
+                      ? "initial guess: " + pair_problem
+                      : "the initial T_cam_lidar is not a rigid transform (NaN, or not a rotation)";
+    return res;
+  }
   if (window.empty()) {
     res.message = "empty window";
     return res;

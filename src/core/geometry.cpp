@@ -87,4 +87,18 @@ Eigen::Isometry3d isometryFrom3x4(const Eigen::Matrix<double, 3, 4>& M) {
   return T;
 }
 
+bool isRigidTransform(const Eigen::Isometry3d& T, double tol) {
+  const Eigen::Matrix3d R = T.linear();
+  return T.matrix().allFinite() && (R.transpose() * R - Eigen::Matrix3d::Identity()).norm() < tol &&
+         std::fabs(R.determinant() - 1.0) < tol;
+}
+
+std::string stereoExtrinsicProblem(const Eigen::Isometry3d& T_right_left) {
+  if (!isRigidTransform(T_right_left))
+    return "the left->right transform is not a rigid transform (NaN, or not a rotation)";
+  if (T_right_left.translation().norm() < 1e-3)
+    return "the left->right transform has no baseline (shorter than 1 mm)";
+  return "";
+}
+
 }  // namespace tescalib

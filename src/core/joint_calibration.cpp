@@ -158,10 +158,15 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   CoCalibrationResult res = coCalibrate(window, rig, T_cam_lidar_init, T_right_left_init, init);
   res.stable = res.converged = false;
   res.rounds = 0;
+  const std::string init_message = res.message;
   res.message.clear();
   if (window.empty() || res.stereo.keypoints < ps.min_keypoints ||
       res.lidar.fine_inliers < ls.min_inliers) {
-    res.message = "initial round failed: " + res.stereo.message + " / " + res.lidar.message;
+    res.message =
+        "initial round failed: " + (window.empty() ? std::string("empty window")
+                                    : res.stereo.message.empty() && res.lidar.message.empty()
+                                        ? init_message
+                                        : res.stereo.message + " / " + res.lidar.message);
     res.seconds = secondsSince(t0);
     return res;
   }

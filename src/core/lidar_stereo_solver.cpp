@@ -193,6 +193,14 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.message = "empty window";
     return res;
   }
+  if (!isRigidTransform(T_init)) {
+    res.message = "the initial T_cam_lidar is not a rigid transform (NaN, or not a rotation)";
+    return res;
+  }
+  if (s.cov_cells_x < 1 || s.cov_cells_y < 1) {
+    res.message = "cov_cells_x and cov_cells_y must be at least 1";
+    return res;
+  }
   Eigen::Isometry3d T = T_init;
   double scale = 1.0, yaw = s.estimate_stereo_yaw ? s.initial_stereo_yaw_rad : 0.0;
 
@@ -533,7 +541,9 @@ LidarStereoResult solveLidarStereoSearch(const std::vector<const Keyframe*>& win
                                          const Eigen::Isometry3d& T_init,
                                          const LidarStereoSettings& s) {
   LidarStereoResult first = solveLidarStereo(window, T_init, s);
-  if (first.converged || s.search_step_deg <= 0 || window.empty()) return first;
+  if (first.converged || !(s.search_step_deg > 0) || !std::isfinite(s.search_step_deg) ||
+      window.empty() || !isRigidTransform(T_init))
+    return first;
   const double step = s.search_step_deg / kDegPerRad;
   const double offsets[8][2] = {{1, 0}, {-1, 0}, {0, 1},  {0, -1},
                                 {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};

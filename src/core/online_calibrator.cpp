@@ -32,6 +32,10 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
            std::to_string(rig_.left.height);
     return FrameResult::kRejected;
   }
+  if (!std::isfinite(frame.stamp) || !std::isfinite(lidar_stamp)) {
+    *msg = "the frame's stamps are not finite";
+    return FrameResult::kRejected;
+  }
   if (std::fabs(lidar_stamp - frame.stamp) > settings_.max_sync_skew) {
     *msg = "LiDAR and image stamps differ by " + std::to_string(lidar_stamp - frame.stamp) + " s";
     return FrameResult::kRejected;
@@ -39,6 +43,14 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   Eigen::Isometry3d T_cl, T_rl;
   std::shared_ptr<const LidarScan> previous;
   double previous_stamp = -1e300, deskew_seconds = 0;
+  double previous_keyframe_stamp = -1e300;
+  // A frame selected by time but then not taken: the next one is judged against the last
+  // keyframe taken, not against this one.
+  auto rejectAfterSelection = [&](double keyframe_stamp) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (last_keyframe_stamp_ == frame.stamp) last_keyframe_stamp_ = keyframe_stamp;
+    return FrameResult::kRejected;
+  };
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (frame.stamp < last_stamp_ - settings_.max_time_jump_back) {
@@ -61,6 +73,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
       previous_scan_stamp_ = frame.stamp;
     }
     if (settings_.tooClose(frame.stamp, last_keyframe_stamp_)) return FrameResult::kTooClose;
+    previous_keyframe_stamp = last_keyframe_stamp_;
     last_keyframe_stamp_ = frame.stamp;
     T_cl = estimate_ ? estimate_->T_cam_lidar : rig_.T_cam_lidar;
     T_rl = estimate_ ? estimate_->T_right_left : rig_.T_right_left;
@@ -73,9 +86,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   if (settings_.deskew && (settings_.sweep.by_azimuth || hasPointTimes(frame.scan))) {
     auto refuse = [&](const std::string& why) {
       *msg = "keyframe not de-skewed: " + why;
-      std::lock_guard<std::mutex> lock(mutex_);
-      last_keyframe_stamp_ = -1e300;
-      return FrameResult::kRejected;
+      return rejectAfterSelection(previous_keyframe_stamp);
     };
     const double dt = frame.stamp - previous_stamp;
     if (!previous) return refuse("no previous scan yet");
@@ -96,14 +107,14 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
     if (settings_.estimate_stereo) ks.stereo.refinement = settings_.co.stereo_cloud.refinement;
     kf = std::make_shared<Keyframe>(makeKeyframe(*use, rig_, T_cl, T_rl, ks));
     kf->seconds_deskew = deskew_seconds;
-  } catch (const DataError& e) {
+  } catch (const std::exception& e) {  // DataError, or OpenCV's on images it cannot use
     *msg = e.what();
-    return FrameResult::kRejected;
+    return rejectAfterSelection(previous_keyframe_stamp);
   }
   if (kf->mesh.faces.size() < 100) {
     *msg = "LiDAR scan gives only " + std::to_string(kf->mesh.faces.size()) +
            " mesh faces in the cameras' view (no ring structure?)";
-    return FrameResult::kRejected;
+    return rejectAfterSelection(previous_keyframe_stamp);
   }
   bool check_rows = false;
   {
@@ -133,7 +144,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   if (built) *built = kf;
   std::lock_guard<std::mutex> lock(mutex_);
   window_.push_back(std::move(kf));
-  while (static_cast<int>(window_.size()) > settings_.window_size) {
+  while (static_cast<int>(window_.size()) > std::max(1, settings_.window_size)) {
     const size_t drop = keyframeToDrop();
     keyframe_information_.erase(window_[drop]->stamp);
     window_.erase(window_.begin() + static_cast<long>(drop));
@@ -206,7 +217,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     generation = generation_;
-    if (static_cast<int>(window_.size()) < settings_.minKeyframes()) {
+    if (window_.empty() || static_cast<int>(window_.size()) < settings_.minKeyframes()) {
       *msg = "window has " + std::to_string(window_.size()) + " keyframes, needs " +
              std::to_string(settings_.minKeyframes());
       return false;

@@ -179,6 +179,24 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
     res.message = "empty window";
     return res;
   }
+  const std::string pair_problem = stereoExtrinsicProblem(T_init);
+  if (!pair_problem.empty() || !isRigidTransform(T_cam_lidar)) {
+    res.message = !pair_problem.empty()
+                      ? "initial guess: " + pair_problem
+                      : "the LiDAR extrinsic is not a rigid transform (NaN, or not a rotation)";
+    return res;
+  }
+  for (const Keyframe* kf : window)
+    if (kf->left_gray.empty() || kf->right_gray.empty() || kf->left_gray.cols != rig.left.width ||
+        kf->left_gray.rows != rig.left.height) {
+      res.message = "a keyframe's images are empty or not of the rig's size (" +
+                    std::to_string(rig.left.width) + "x" + std::to_string(rig.left.height) + ")";
+      return res;
+    }
+  if (s.cell_size < 1 || s.max_keypoints_per_keyframe < 1 || s.pyramid_levels < 1) {
+    res.message = "cell_size, max_keypoints_per_keyframe and pyramid_levels must be at least 1";
+    return res;
+  }
   // Key points with LiDAR depth (left z-buffer of the mesh), chosen once at full resolution.
   // With smooth_depth_radius_px > 0 the coarse levels still use every key point (depth edges
   // widen the basin) and the full-resolution level only those on smooth LiDAR depth.

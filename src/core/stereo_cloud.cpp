@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tescalib/core/error.h"
+#include "tescalib/core/geometry.h"
 
 namespace tescalib {
 
@@ -125,6 +126,18 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
   const auto t0 = std::chrono::steady_clock::now();
   if (left_bgr.empty() || right_bgr.empty() || left_bgr.size() != right_bgr.size())
     throw DataError("stereo pair: images are empty or of different sizes");
+  if (left_bgr.type() != CV_8UC3 || right_bgr.type() != CV_8UC3)
+    throw DataError("stereo pair: images must be 8-bit BGR (CV_8UC3)");
+  if (left_bgr.cols <= s.num_disparities + s.block_size)
+    throw DataError("stereo pair: images " + std::to_string(left_bgr.cols) +
+                    " px wide, not wider than num_disparities + block_size (" +
+                    std::to_string(s.num_disparities + s.block_size) + ")");
+  if (s.num_disparities < 16 || s.num_disparities % 16 || s.sample_step < 1 || s.normal_scale < 1)
+    throw DataError(
+        "stereo settings: num_disparities must be a positive multiple of 16, sample_step and "
+        "normal_scale at least 1");
+  const std::string pair_problem = stereoExtrinsicProblem(T_right_left);
+  if (!pair_problem.empty()) throw DataError("stereo pair: " + pair_problem);
   StereoCloud out;
   cv::Mat left, right;
   cv::cvtColor(left_bgr, left, cv::COLOR_BGR2GRAY);

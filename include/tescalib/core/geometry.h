@@ -52,4 +52,12 @@ Eigen::Isometry3d isometryFrom3x4(const Eigen::Matrix<double, 3, 4>& M);
 
 constexpr double kDegPerRad = 57.29577951308232;
 
+/// Whether T is a rigid transform a solver can start from: finite, its linear part a rotation
+/// (orthonormal, determinant 1, to `tol`).
+bool isRigidTransform(const Eigen::Isometry3d& T, double tol = 1e-6);
+
+/// Why the pair's left->right transform cannot be a stereo extrinsic ("" when it can): not
+/// rigid, or a baseline shorter than 1 mm (zero).
+std::string stereoExtrinsicProblem(const Eigen::Isometry3d& T_right_left);
+
 }  // namespace tescalib

@@ -1,0 +1,134 @@
+// Bad input to the core's entry points (session 21's fuzzing audit): each used to crash (a PCL
+// assertion, a segfault in Ceres' covariance, std::terminate from SGBM) or to let an OpenCV
+// exception escape. Now: a result with converged = false and a message, or a DataError.
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+#include "tescalib/core/co_calibration.h"
+#include "tescalib/core/error.h"
+#include "tescalib/core/geometry.h"
+#include "tescalib/core/keyframe.h"
+#include "tescalib/core/lidar_stereo_solver.h"
+#include "tescalib/core/online_calibrator.h"
+#include "tescalib/core/photometric_solver.h"
+#include "tescalib/core/simulator.h"
+#include "tescalib/core/stereo_cloud.h"
+
+namespace tescalib {
+namespace {
+
+/// Three keyframes of a short generated drive, built with the true extrinsics.
+struct SmallWindow {
+  std::unique_ptr<Simulator> sim;
+  std::vector<Keyframe> keyframes;
+  std::vector<const Keyframe*> window;
+  std::vector<Keyframe*> mutable_window;
+  SmallWindow() {
+    SimOptions o;
+    o.frames = 11;
+    o.seed = 4;
+    sim = std::make_unique<Simulator>(o);
+    for (int i : {0, 5, 10})
+      keyframes.push_back(makeKeyframe(sim->renderFrame(i), sim->rig(), sim->rig().T_cam_lidar,
+                                       sim->rig().T_right_left));
+    for (auto& k : keyframes) window.push_back(&k), mutable_window.push_back(&k);
+  }
+};
+
+Eigen::Isometry3d withNaN(Eigen::Isometry3d T) {
+  T.translation().x() = std::nan("");
+  return T;
+}
+
+TEST(Robustness, SolversRefuseStartsThatAreNotRigidTransforms) {
+  const SmallWindow w;
+  const StereoRig& rig = w.sim->rig();
+  const LidarStereoResult ls =
+      solveLidarStereoSearch(w.window, withNaN(rig.T_cam_lidar), LidarStereoSettings{});
+  EXPECT_FALSE(ls.converged);
+  EXPECT_NE(ls.message.find("not a rigid transform"), std::string::npos) << ls.message;
+
+  Eigen::Isometry3d scaled = rig.T_right_left;
+  scaled.linear() *= 2.0;  // determinant 8: came back "converged" with it
+  for (const Eigen::Isometry3d& T :
+       {withNaN(rig.T_right_left), scaled, Eigen::Isometry3d(Eigen::Isometry3d::Identity())}) {
+    const PhotometricResult ph = solvePhotometric(w.window, rig, rig.T_cam_lidar, T);
+    EXPECT_FALSE(ph.converged);
+    EXPECT_NE(ph.message.find("initial guess"), std::string::npos) << ph.message;
+  }
+  SmallWindow co;
+  const CoCalibrationResult r = coCalibrate(co.mutable_window, rig, rig.T_cam_lidar,
+                                            Eigen::Isometry3d::Identity());  // no baseline
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.message.find("no baseline"), std::string::npos) << r.message;
+}
+
+TEST(Robustness, ThePhotometricSolverChecksTheRigAgainstTheImages) {
+  const SmallWindow w;
+  StereoRig rig = w.sim->rig();
+  rig.left.width = 300;  // the mesh depth would be rendered smaller than the images
+  const PhotometricResult r = solvePhotometric(w.window, rig, rig.T_cam_lidar, rig.T_right_left);
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.message.find("not of the rig's size"), std::string::npos) << r.message;
+  PhotometricSettings s;
+  s.cell_size = 0;  // looped forever
+  const StereoRig& good = w.sim->rig();
+  EXPECT_FALSE(solvePhotometric(w.window, good, good.T_cam_lidar, good.T_right_left, s).converged);
+}
+
+TEST(Robustness, StereoCloudsRefuseWhatSgbmCannotUse) {
+  SimOptions o;
+  o.frames = 1;
+  const Simulator sim(o);
+  const StereoRig& rig = sim.rig();
+  const cv::Mat tiny(20, 60, CV_8UC3, cv::Scalar(100, 100, 100));  // std::terminate in SGBM
+  EXPECT_THROW(computeStereoCloud(tiny, tiny, rig, rig.T_right_left), DataError);
+  const Frame f = sim.renderFrame(0);
+  cv::Mat grey;
+  cv::extractChannel(f.left, grey, 0);
+  EXPECT_THROW(computeStereoCloud(grey, grey, rig, rig.T_right_left), DataError);
+  try {
+    computeStereoCloud(f.left, f.right, rig, Eigen::Isometry3d::Identity());
+    ADD_FAILURE() << "a pair without a baseline was matched";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("no baseline"), std::string::npos) << e.what();
+  }
+  StereoSettings s;
+  s.sample_step = 0;  // looped forever
+  EXPECT_THROW(computeStereoCloud(f.left, f.right, rig, rig.T_right_left, s), DataError);
+}
+
+TEST(Robustness, TheOnlineCalibratorRejectsWhatItCannotUseAndGoesOn) {
+  SimOptions o;
+  o.frames = 3;
+  o.seed = 4;
+  const Simulator sim(o);
+  OnlineSettings s;
+  s.estimate_stereo = false;
+  s.min_keyframes = 0;  // solve() on an empty window crashed
+  s.window_size = -1;   // the first keyframe crashed
+  OnlineCalibrator cal(sim.rig(), s);
+  std::string msg;
+  EXPECT_FALSE(cal.solve(&msg));
+  Frame f0 = sim.renderFrame(0), f1 = sim.renderFrame(1);
+  Frame nan_stamp = f0;
+  nan_stamp.stamp = std::nan("");
+  EXPECT_EQ(cal.addFrame(nan_stamp, nan_stamp.stamp, &msg), FrameResult::kRejected);
+  EXPECT_NE(msg.find("not finite"), std::string::npos) << msg;
+  // A frame selected by time and then not taken (too few mesh faces) leaves the next frame,
+  // 0.1 s later, free to be the keyframe (it was "too close" to the rejected one).
+  Frame sparse = f0;
+  sparse.scan.resize(10);
+  EXPECT_EQ(cal.addFrame(sparse, sparse.stamp, &msg), FrameResult::kRejected);
+  EXPECT_NE(msg.find("mesh faces"), std::string::npos) << msg;
+  EXPECT_EQ(cal.addFrame(f1, f1.stamp, &msg), FrameResult::kKeyframe) << msg;
+  EXPECT_EQ(cal.windowFill(), 1u);
+}
+
+}  // namespace
+}  // namespace tescalib
