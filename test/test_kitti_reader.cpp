@@ -227,6 +227,25 @@ TEST(KittiReaderErrors, MalformedCalib) {
   expectDataError([&] { KittiSequence s(tmp.str()); }, {"calib.txt", "missing key 'Tr'"});
 }
 
+TEST(KittiReaderErrors, CalibrationsTheSolversCannotStartFromAreRefused) {
+  // Each used to open, and to give NaN extrinsics or a zero baseline that crashed a solver later
+  // (session 21's fuzzing audit).
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str(), 2);
+  const std::string tr = "Tr: 0 -1 0 0.1 0 0 -1 -0.2 1 0 0 -0.3\n";
+  auto write = [&](const std::string& text) { std::ofstream(tmp.path / "calib.txt") << text; };
+  write("P2: 700 0 320 42 0 0 120 0 0 0 1 0\nP3: 700 0 320 -308 0 700 120 0 0 0 1 0\n" + tr);
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"calib.txt", "focal lengths"});
+  write("P2: 700 0 320 42 0 700 120 0 0 0 1 0\nP3: 700 0 320 42 0 700 120 0 0 0 1 0\n" + tr);
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"calib.txt", "no baseline"});
+  write(
+      "P2: 700 0 320 42 0 700 120 0 0 0 1 0\nP3: 700 0 320 -308 0 700 120 0 0 0 1 0\n"
+      "Tr: 0 0 0 0 0 0 0 0 0 0 0 0\n");
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"calib.txt", "not a rotation"});
+  write("P2: 700 0 320 42 0 700 120 0 0 0 1 0\nP3: 700 0 320 -308 0 700 120 0 0 0 1 0\n" + tr);
+  EXPECT_NO_THROW(KittiSequence s(tmp.str()));
+}
+
 TEST(KittiReader, CalibWithoutTheGreyCamerasIsRead) {
   // tescalib_calibrate --init reads a hand-written file with only what it uses: P2, P3, Tr.
   TempDir tmp;

@@ -197,6 +197,21 @@ StereoRig rigFromOdometryCalib(const KittiOdometryCalib& calib) {
   return rig;
 }
 
+namespace {
+/// A calibration the solvers can start from, or a DataError naming what is wrong with it: the
+/// cameras' focal lengths, the LiDAR extrinsic (Tr; all zeros or NaN would be "re-orthonormalised"
+/// into some rotation) and the stereo baseline.
+void checkRig(const StereoRig& rig, const KittiOdometryCalib& calib, const std::string& path) {
+  if (!(rig.left.fx > 0 && rig.left.fy > 0 && rig.right.fx > 0 && rig.right.fy > 0))
+    throw DataError(path + ": P2/P3 need positive focal lengths fx and fy");
+  if (!calib.Tr.allFinite() || std::fabs(calib.Tr.leftCols<3>().determinant() - 1.0) > 0.01 ||
+      !isRigidTransform(rig.T_cam_lidar))
+    throw DataError(path + ": the LiDAR extrinsic (Tr, or R_rect_00 R | T) is not a rotation");
+  const std::string pair = stereoExtrinsicProblem(rig.T_right_left);
+  if (!pair.empty()) throw DataError(path + ": P2/P3: " + pair);
+}
+}  // namespace
+
 LidarScan readVelodyneBin(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw DataError(path + ": cannot open LiDAR scan");
@@ -309,6 +324,7 @@ void KittiSequence::openOdometry() {
   const fs::path d(dir_);
   calib_ = readKittiOdometryCalib((d / "calib.txt").string());
   rig_ = rigFromOdometryCalib(calib_);
+  checkRig(rig_, calib_, (d / "calib.txt").string());
   int digits = 6;
   const auto ids = intersect(intersect(listNumbered(d / "image_2", ".png", &digits),
                                        listNumbered(d / "image_3", ".png", nullptr)),
@@ -377,6 +393,7 @@ void KittiSequence::openRaw() {
   calib.Tr = (rect * velo_to_cam0).topRows<3>();  // velodyne -> rectified cam0
   calib_ = calib;
   rig_ = rigFromOdometryCalib(calib);
+  checkRig(rig_, calib, c2c + " / " + v2c);
   const auto size = cam.find("S_rect_02");
   if (size != cam.end() && size->second.size() == 2) {
     rig_.left.width = rig_.right.width = static_cast<int>(size->second[0]);
