@@ -223,7 +223,8 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
           "deskew/enabled (launch argument deskew:=true) unless the driver compensated them.",
           time_field.c_str());
   }
-  if (candidate && !pf.frame.scan.empty()) {
+  if (candidate && !rings_checked_ && !pf.frame.scan.empty()) {
+    rings_checked_ = true;  // once: the loop below runs over every point
     int rings = 0;
     for (const LidarPoint& p : pf.frame.scan) rings = std::max(rings, p.ring + 1);
     if (rings < 32)
