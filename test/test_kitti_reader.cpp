@@ -201,6 +201,25 @@ TEST(KittiReader, RawLayoutGivesTheSameRigAsOdometry) {
   EXPECT_LT(poseError(raw.rig().T_cam_lidar, expected.T_cam_lidar).norm(), 1e-9);
   EXPECT_LT(poseError(raw.rig().T_right_left, expected.T_right_left).norm(), 1e-9);
   EXPECT_EQ(raw.load(1).scan.size(), 64u * 400u);
+  // A malformed fraction of a second used to escape as std::invalid_argument (fuzzing audit).
+  std::ofstream(drive / "image_02" / "timestamps.txt")
+      << "2011-09-26 13:02:25.964389445\n2011-09-26 13:02:26.07x807654\n";
+  expectDataError([&] { KittiSequence s(drive.string()); }, {"timestamps.txt:2", "fraction"});
+}
+
+TEST(KittiReaderErrors, AbsurdFrameNumbersAndSimInfoAreDataErrors) {
+  // Both used to escape as std::out_of_range / std::invalid_argument (session 21's fuzzing).
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str(), 2);
+  std::ofstream(tmp.path / "sim_info.txt") << "lidar_sweep: yes\n";
+  const KittiSequence seq(tmp.str());
+  expectDataError([&] { seq.sweptScans(); }, {"sim_info.txt", "lidar_sweep"});
+  std::ofstream(tmp.path / "sim_info.txt") << "lidar_sweep: 1\n";
+  EXPECT_TRUE(seq.sweptScans());
+  // Leading zeros are fine (KITTI raw pads to 10 digits); ten significant digits are not.
+  cv::imwrite((tmp.path / "image_2" / "99999999999.png").string(),
+              cv::Mat(240, 640, CV_8UC3, cv::Scalar::all(0)));
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"99999999999.png", "out of range"});
 }
 
 TEST(KittiReaderErrors, MissingCalib) {

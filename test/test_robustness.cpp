@@ -13,6 +13,7 @@
 #include "tescalib/core/error.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/keyframe.h"
+#include "tescalib/core/lidar_mesh.h"
 #include "tescalib/core/lidar_stereo_solver.h"
 #include "tescalib/core/online_calibrator.h"
 #include "tescalib/core/photometric_solver.h"
@@ -79,6 +80,48 @@ TEST(Robustness, ThePhotometricSolverChecksTheRigAgainstTheImages) {
   s.cell_size = 0;  // looped forever
   const StereoRig& good = w.sim->rig();
   EXPECT_FALSE(solvePhotometric(w.window, good, good.T_cam_lidar, good.T_right_left, s).converged);
+}
+
+TEST(Robustness, SolversRefuseSettingsTheyCannotRun) {
+  // Each used to be reported as a scene problem, or as converged from the true start.
+  const SmallWindow w;
+  const StereoRig& rig = w.sim->rig();
+  for (int bad : {0, 1}) {
+    LidarStereoSettings ls;
+    (bad == 0 ? ls.threads : ls.ceres_iterations) = -5;
+    const LidarStereoResult r = solveLidarStereo(w.window, rig.T_cam_lidar, ls);
+    EXPECT_FALSE(r.converged);
+    EXPECT_NE(r.message.find("must be at least 1"), std::string::npos) << r.message;
+    PhotometricSettings ps;
+    (bad == 0 ? ps.threads : ps.iterations_per_level) = -1;
+    const PhotometricResult p =
+        solvePhotometric(w.window, rig, rig.T_cam_lidar, rig.T_right_left, ps);
+    EXPECT_FALSE(p.converged);
+    EXPECT_NE(p.message.find("must be at least 1"), std::string::npos) << p.message;
+  }
+  const LidarStereoResult good = solveLidarStereo(w.window, rig.T_cam_lidar, {});
+  EXPECT_EQ(good.message.find("must be at least 1"), std::string::npos) << good.message;
+}
+
+TEST(Robustness, TheLidarMeshRefusesRingsAndSettingsItCannotGrid) {
+  SimOptions o;
+  o.frames = 1;
+  const Simulator sim(o);
+  LidarScan scan = sim.renderScan(0);
+  EXPECT_GT(buildLidarMesh(scan).faces.size(), 1000u);
+  LidarMeshSettings s;
+  s.smooth_cols = 1 << 30;  // overflowed the fit's loop
+  EXPECT_THROW(buildLidarMesh(scan, s), DataError);
+  s = LidarMeshSettings{};
+  s.azimuth_bins = 0;
+  EXPECT_THROW(buildLidarMesh(scan, s), DataError);
+  scan.back().ring = 65535;  // a 65536-row range image, about 1 GB
+  try {
+    buildLidarMesh(scan);
+    ADD_FAILURE() << "a ring of 65535 was gridded";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("65535"), std::string::npos) << e.what();
+  }
 }
 
 TEST(Robustness, StereoCloudsRefuseWhatSgbmCannotUse) {

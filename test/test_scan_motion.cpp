@@ -133,6 +133,9 @@ TEST(ScanMotion, BadInputIsRefusedWithAMessage) {
   m = estimateScanMotion(empty, few, -0.1);
   EXPECT_FALSE(m.valid);
   EXPECT_NE(m.message.find("not increasing"), std::string::npos) << m.message;
+  m = estimateScanMotion(few, few, 1e4);  // took minutes before it was refused
+  EXPECT_FALSE(m.valid);
+  EXPECT_NE(m.message.find("s apart"), std::string::npos) << m.message;
 }
 
 TEST(ScanMotion, KittiHighwayScansAreSweptAtTwelveMetresPerSecond) {

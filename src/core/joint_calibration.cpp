@@ -137,6 +137,13 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   const CoCalibrationSettings& s = js.co;
   const LidarStereoSettings& ls = s.lidar;
   const PhotometricSettings& ps = s.stereo;
+  if (js.max_outer < 1 || js.ceres_iterations < 1) {
+    CoCalibrationResult res;
+    res.lidar.T_cam_lidar = T_cam_lidar_init;
+    res.stereo.T_right_left = T_right_left_init;
+    res.message = "joint calibration settings: max_outer and ceres_iterations must be at least 1";
+    return res;
+  }
   for (size_t k = 0; k < window.size(); ++k) {
     const LidarMesh& m = window[k]->mesh;
     if (m.sample.size() == m.faces.size()) continue;

@@ -90,6 +90,11 @@ std::vector<int> listNumbered(const fs::path& folder, const std::string& ext, in
     if (e.path().extension() != ext || stem.empty() ||
         !std::all_of(stem.begin(), stem.end(), ::isdigit))
       continue;
+    const size_t first_nonzero = stem.find_first_not_of('0');
+    if (first_nonzero != std::string::npos && stem.size() - first_nonzero > 9)
+      throw DataError(e.path().string() +
+                      ": frame number out of range (KITTI numbers frames from 0 with 6 or 10 "
+                      "zero-padded digits)");
     ids.push_back(std::stoi(stem));
     if (digits) *digits = static_cast<int>(stem.size());
   }
@@ -114,7 +119,11 @@ double parseRawTimestamp(const std::string& s, const std::string& path, int line
   if (in.fail())
     throw DataError(path + ":" + std::to_string(line) + ": malformed timestamp '" + s + "'");
   if (dot != std::string::npos) {
-    const std::string f = s.substr(dot + 1);
+    std::string f = s.substr(dot + 1);
+    while (!f.empty() && ::isspace(static_cast<unsigned char>(f.back()))) f.pop_back();
+    if (f.size() > 12 || !std::all_of(f.begin(), f.end(), ::isdigit))
+      throw DataError(path + ":" + std::to_string(line) + ": malformed fraction of a second in '" +
+                      s + "'");
     nanos_digits = static_cast<int>(f.size());
     if (nanos_digits > 0) frac = std::stod(f) / std::pow(10.0, nanos_digits);
   }
@@ -482,7 +491,14 @@ bool KittiSequence::sweptScans() const {
   if (!info) return layout_ == KittiLayout::kRaw;
   std::string line;
   while (std::getline(info, line))
-    if (line.rfind("lidar_sweep:", 0) == 0) return std::stoi(line.substr(12)) == 1;
+    if (line.rfind("lidar_sweep:", 0) == 0) {
+      std::istringstream value(line.substr(12));
+      int swept = 0;
+      if (!(value >> swept))
+        throw DataError((fs::path(dir_) / "sim_info.txt").string() +
+                        ": 'lidar_sweep:' is not followed by 0 or 1");
+      return swept == 1;
+    }
   return false;
 }
 

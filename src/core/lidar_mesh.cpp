@@ -5,6 +5,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "tescalib/core/error.h"
 #include "tescalib/core/parallel.h"
 
 namespace tescalib {
@@ -25,10 +26,19 @@ std::vector<size_t> sampleFaces(const LidarMesh& mesh, int k) {
 }
 
 LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
+  if (s.azimuth_bins < 16 || s.azimuth_bins > kMaxAzimuthBins || s.smooth_cols < 0 ||
+      s.smooth_cols > s.azimuth_bins / 4 || !(s.min_range >= 0) || !(s.max_range > s.min_range))
+    throw DataError("LiDAR mesh settings: azimuth_bins must be in [16, " +
+                    std::to_string(kMaxAzimuthBins) +
+                    "], smooth_cols in [0, azimuth_bins / 4], 0 <= min_range < max_range");
   LidarMesh mesh;
   if (scan.empty()) return mesh;
   int rings = 0;
   for (const auto& p : scan) rings = std::max(rings, int(p.ring) + 1);
+  if (rings > kMaxRings)
+    throw DataError("LiDAR scan has a ring number of " + std::to_string(rings - 1) +
+                    "; rings are numbered from 0 and at most " + std::to_string(kMaxRings) +
+                    " are supported (is the ring field something else?)");
   // No finer azimuth bins than the densest ring has returns: neighbours must be adjacent bins.
   std::vector<int> per_ring(rings, 0);
   for (const auto& p : scan) ++per_ring[p.ring];

@@ -197,8 +197,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.message = "the initial T_cam_lidar is not a rigid transform (NaN, or not a rotation)";
     return res;
   }
-  if (s.cov_cells_x < 1 || s.cov_cells_y < 1) {
-    res.message = "cov_cells_x and cov_cells_y must be at least 1";
+  if (s.cov_cells_x < 1 || s.cov_cells_y < 1 || s.ceres_iterations < 1 || s.threads < 1) {
+    res.message = "cov_cells_x, cov_cells_y, ceres_iterations and threads must be at least 1";
     return res;
   }
   Eigen::Isometry3d T = T_init;

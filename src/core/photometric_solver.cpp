@@ -193,8 +193,11 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
                     std::to_string(rig.left.width) + "x" + std::to_string(rig.left.height) + ")";
       return res;
     }
-  if (s.cell_size < 1 || s.max_keypoints_per_keyframe < 1 || s.pyramid_levels < 1) {
-    res.message = "cell_size, max_keypoints_per_keyframe and pyramid_levels must be at least 1";
+  if (s.cell_size < 1 || s.max_keypoints_per_keyframe < 1 || s.pyramid_levels < 1 ||
+      s.iterations_per_level < 1 || s.threads < 1) {
+    res.message =
+        "cell_size, max_keypoints_per_keyframe, pyramid_levels, iterations_per_level and threads "
+        "must be at least 1";
     return res;
   }
   // Key points with LiDAR depth (left z-buffer of the mesh), chosen once at full resolution.

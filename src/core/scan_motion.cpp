@@ -73,6 +73,13 @@ ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt)
     m.message = "the scans' stamps are not increasing (dt " + std::to_string(dt) + " s)";
     return m;
   }
+  if (dt > kMaxScanMotionDt) {
+    // The forward search below grows with dt (minutes for 1e4 s), and a constant velocity over
+    // more than a few sweeps says nothing about the motion during one.
+    m.message = "the scans are " + std::to_string(dt) + " s apart (at most " +
+                std::to_string(kMaxScanMotionDt) + " s: a constant velocity over them is no model)";
+    return m;
+  }
   const Cloud::Ptr ca = voxelised(a), cb = voxelised(b);
   if (ca->size() < 200 || cb->size() < 200) {
     m.message = "too few LiDAR points beyond " + std::to_string(int(kMinRange)) + " m to register";

@@ -65,7 +65,13 @@ std::vector<size_t> evenlyStrided(size_t n, int k);
 /// At most k faces of `mesh.sample`, evenly strided: indices into `mesh.faces`.
 std::vector<size_t> sampleFaces(const LidarMesh& mesh, int k);
 
-/// Builds the mesh of one scan (points must carry their ring).
+/// Largest ring count and azimuth resolution buildLidarMesh accepts (its range image is
+/// rings x bins): today's LiDARs have at most 128 rings and a few thousand returns per turn.
+constexpr int kMaxRings = 512;
+constexpr int kMaxAzimuthBins = 16384;
+
+/// Builds the mesh of one scan (points must carry their ring). Throws DataError for settings out
+/// of range and for a ring number of kMaxRings or more.
 LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& settings = {});
 
 }  // namespace tescalib

@@ -46,10 +46,13 @@ struct ScanMotion {
 /// [-0.5, 0.5) / rate.
 double sweepTime(double azimuth_rad, const ScanSweep& sweep = {});
 
+constexpr double kMaxScanMotionDt = 1.0;  ///< s; scans farther apart are refused
+
 /// The sensor's motion between scan `a` (time 0) and scan `b` (time `dt` > 0) from a GICP
 /// registration of `b` to `a` (points beyond 3 m, 0.3 m voxels; started at the forward offset that
 /// overlaps the scans best, up to 70 m/s), as a constant velocity. `valid` is false with a message
-/// when the scans are too small, dt is not positive, or the registration does not fit.
+/// when the scans are too small, dt is not positive or beyond kMaxScanMotionDt, or the
+/// registration does not fit.
 ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt);
 
 /// Moves every point of `scan` to where it was at the sweep's reference instant, for a sensor
