@@ -123,6 +123,28 @@ TEST(ScanMotion, RegistrationRecoversTheGeneratedDrivesVelocity) {
   EXPECT_LT((m.angular_velocity - w).norm() * kDegPerRad, 0.1);
 }
 
+TEST(ScanMotion, ARoadBetweenGuardRailsIsNotAValidMotion) {
+  // The generated highway (road, guard rails): scan-to-scan registration slides along the road
+  // (0.3-1.3 m per 0.1 s, a velocity 3-13 m/s wrong) and used to be declared valid.
+  SimOptions o;
+  o.frames = 12;
+  o.seed = 2;
+  o.scenario = Scenario::kHighway;
+  o.lidar_sweep = true;
+  const Simulator highway(o);
+  const ScanMotion m = estimateScanMotion(highway.renderScan(9), highway.renderScan(10), 0.1);
+  std::printf("highway: translation constraint %.4f, velocity %.2f m/s: %s\n",
+              m.translation_constraint, m.velocity.x(), m.message.c_str());
+  EXPECT_FALSE(m.valid);
+  EXPECT_LT(m.translation_constraint, kMinTranslationConstraint);
+  EXPECT_NE(m.message.find("do not constrain"), std::string::npos) << m.message;
+  o.scenario = Scenario::kUrban;
+  const Simulator urban(o);
+  const ScanMotion u = estimateScanMotion(urban.renderScan(9), urban.renderScan(10), 0.1);
+  EXPECT_TRUE(u.valid) << u.message;
+  EXPECT_GT(u.translation_constraint, 2 * kMinTranslationConstraint);
+}
+
 TEST(ScanMotion, BadInputIsRefusedWithAMessage) {
   const LidarScan empty;
   LidarScan few(50);
