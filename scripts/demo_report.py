@@ -37,7 +37,7 @@ class Listener:
         self.clock_value = None
         self.ref_tf_frame = ref_tf_frame
         self.ref = None
-        self.tf_estimate = None  # last tf LiDAR -> tescalib_left seen on /tf
+        self.tf_estimate = None  # last tf LiDAR -> tescalib_left seen on /tf_static
         self.left_frame = None
         rospy.Subscriber('/tescalib/lidar_to_left', ExtrinsicEstimate, self.on_est,
                          'lidar_to_left')
@@ -47,9 +47,7 @@ class Listener:
                          'candidate')
         rospy.Subscriber('/diagnostics', DiagnosticArray, self.on_diag)
         rospy.Subscriber('/clock', Clock, self.on_clock)
-        rospy.Subscriber('/tf', TFMessage, self.on_tf)
-        if ref_tf_frame:
-            rospy.Subscriber('/tf_static', TFMessage, self.on_tf_static)
+        rospy.Subscriber('/tf_static', TFMessage, self.on_tf_static)
 
     def on_est(self, msg, name):
         with self.lock:
@@ -77,8 +75,9 @@ class Listener:
                     self.tf_estimate = ex.invert(*ex.from_msg(t.transform))
 
     def on_tf_static(self, msg):
+        self.on_tf(msg)  # the node's estimate is on /tf_static too
         for t in msg.transforms:
-            if t.child_frame_id == self.ref_tf_frame:
+            if self.ref_tf_frame and t.child_frame_id == self.ref_tf_frame:
                 with self.lock:
                     self.ref = {'T_cam_lidar': ex.invert(*ex.from_msg(t.transform))}
 

@@ -83,7 +83,8 @@ class BadInput(unittest.TestCase):
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diag)
         for topic in ('/tescalib/lidar_to_left', '/tescalib/left_to_right'):
             rospy.Subscriber(topic, ExtrinsicEstimate, cls.on_estimate, topic)
-        rospy.Subscriber('/tf', TFMessage, cls.on_tf)
+        for tf_topic in ('/tf', '/tf_static'):  # the estimate goes on /tf_static
+            rospy.Subscriber(tf_topic, TFMessage, cls.on_tf)
         cls.overlays = []
         rospy.Subscriber('/tescalib_overlay/left/overlay', Image, cls.on_overlay)
         cls.candidate_pub = rospy.Publisher('/tescalib/candidate/lidar_to_left', ExtrinsicEstimate,

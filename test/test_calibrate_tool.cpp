@@ -126,6 +126,19 @@ TEST(CalibrationIo, UnwritableFolderIsNamed) {
   EXPECT_FALSE(writeCalibrationFiles("/nonexistent_folder/result", StereoRig{}, someEstimate(),
                                      CalibrationFrames{}, &msg));
   EXPECT_NE(msg.find("/nonexistent_folder/result.yaml"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("No such file or directory"), std::string::npos) << msg;
+  TempDir tmp;
+  EXPECT_FALSE(writeCalibrationFiles(tmp.str() + "/", StereoRig{}, someEstimate(),
+                                     CalibrationFrames{}, &msg));
+  EXPECT_NE(msg.find("names a folder"), std::string::npos) << msg;
+  // A set that cannot be completed leaves nothing behind (the last file cannot be written).
+  std::filesystem::create_directory(tmp.path / "result_static_tf.launch.tmp");
+  EXPECT_FALSE(writeCalibrationFiles(tmp.str() + "/result", StereoRig{}, someEstimate(),
+                                     CalibrationFrames{}, &msg));
+  EXPECT_FALSE(std::filesystem::exists(tmp.path / "result.yaml")) << msg;
+  EXPECT_FALSE(std::filesystem::exists(tmp.path / "result.yaml.tmp")) << msg;
+  EXPECT_FALSE(std::filesystem::exists(tmp.path / "result_calib.txt.tmp")) << msg;
+  EXPECT_NE(msg.find("result_static_tf.launch.tmp: Is a directory"), std::string::npos) << msg;
 }
 
 TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {

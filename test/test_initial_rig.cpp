@@ -79,6 +79,28 @@ TEST(InitialRig, TheCameraFrameParameterAndTheLidarFrameParameterWin) {
   ASSERT_TRUE(initialRig(p, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error)) << error;
   EXPECT_EQ(r.lidar_frame, "velo_link");
   EXPECT_LT(rotationDeg(r.rig.T_cam_lidar, in.T_cam_lidar), 1e-9);
+  // The clouds are not transformed into frames/lidar: the node says so.
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("not the clouds' frame 'velodyne'"), std::string::npos)
+      << r.warnings[0];
+}
+
+TEST(InitialRig, OutputFramesThatAlreadyHaveAParentAreRefused) {
+  // ROS audit: frames/left set to the camera's real frame gave it two parents, silently.
+  Inputs in;
+  in.publishTf("camera_left");
+  NodeParams p;
+  p.left_frame = "camera_left";
+  InitialRig r;
+  std::string error;
+  EXPECT_FALSE(initialRig(p, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error));
+  EXPECT_NE(error.find("frames/left 'camera_left' is already on tf"), std::string::npos) << error;
+  p = NodeParams{};
+  p.right_frame = "velo_link";
+  EXPECT_FALSE(initialRig(p, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error));
+  EXPECT_NE(error.find("frames/right 'velo_link' is the LiDAR's frame"), std::string::npos)
+      << error;
+  EXPECT_TRUE(initialRig(defaults, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error)) << error;
 }
 
 TEST(InitialRig, WithoutATransformItSaysWhatToPublishOrSet) {

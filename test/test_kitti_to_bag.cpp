@@ -479,3 +479,24 @@ TEST(Conversions, KeyframeCloudAndMeshForRviz) {
   EXPECT_EQ(some.points.size() % 3, 0u);
   EXPECT_GE(some.points.size(), 9u);
 }
+
+TEST(Conversions, AGivenExtrinsicIsNotCalledObservableOrExact) {
+  // ROS audit: ~left_to_right without co-calibration said observable on every axis, and its pose
+  // topic carried 36 zeros, which geometry_msgs users read as exact.
+  std_msgs::Header h;
+  const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  Matrix6d cov = Matrix6d::Identity() * 1e-6;
+  const bool all[6] = {true, true, true, true, true, true};
+  const ExtrinsicEstimate given = ros_conv::toEstimateMsg(h, "right", "left", T, Matrix6d::Zero(),
+                                                          all, true, 3, 0, 0, "", false);
+  for (bool o : given.observable) EXPECT_FALSE(o);
+  const ExtrinsicEstimate estimated =
+      ros_conv::toEstimateMsg(h, "right", "left", T, cov, all, true, 3, 0, 0, "", true);
+  for (bool o : estimated.observable) EXPECT_TRUE(o);
+  const auto unknown = ros_conv::toPoseMsg(h, T, Matrix6d::Zero(), false);
+  EXPECT_EQ(unknown.pose.covariance[0], -1.0);
+  EXPECT_EQ(unknown.pose.covariance[7], 0.0);
+  const auto known = ros_conv::toPoseMsg(h, T, cov, true);
+  EXPECT_DOUBLE_EQ(known.pose.covariance[0], 1e-6);
+  EXPECT_DOUBLE_EQ(known.pose.covariance[35], 1e-6);
+}

@@ -53,7 +53,8 @@ class OnlineEndToEnd(unittest.TestCase):
         rospy.Subscriber('/tescalib/left_to_right', ExtrinsicEstimate, cls.on_est, 'left_to_right')
         rospy.Subscriber('/tescalib/candidate/lidar_to_left', ExtrinsicEstimate, cls.on_est,
                          'candidate')
-        rospy.Subscriber('/tf', TFMessage, cls.on_tf)
+        for tf_topic in ('/tf', '/tf_static'):  # the estimate goes on /tf_static
+            rospy.Subscriber(tf_topic, TFMessage, cls.on_tf)
         rospy.Subscriber('/tescalib_overlay/left/overlay', Image, cls.on_overlay, queue_size=2)
         rospy.Subscriber('/kitti/camera_color_left/image_raw', Image, cls.on_raw, queue_size=20)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diag)

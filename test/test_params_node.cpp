@@ -94,6 +94,25 @@ TEST(Params, InvalidValuesAreNamed) {
       << error;
 }
 
+TEST(Params, ValuesOfTheWrongTypeAreNamed) {
+  // roscpp alone keeps the default for "true" given to a bool and rounds 10.7 to 11 (ROS audit).
+  ros::NodeHandle pnh("~types");
+  pnh.setParam("deskew/enabled", std::string("true"));
+  pnh.setParam("sync/max_skew", std::string("0.2"));
+  pnh.setParam("frames/left", 5);
+  pnh.setParam("window/size", 10.7);
+  pnh.setParam("deskew/max_dt", 1);  // an integer where a number is expected is fine
+  tescalib::NodeParams p;
+  std::string error;
+  EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
+  for (const char* expected :
+       {"deskew/enabled must be true or false", "sync/max_skew must be a number",
+        "frames/left must be a string", "window/size must be an integer"})
+    EXPECT_NE(error.find(expected), std::string::npos) << error;
+  EXPECT_EQ(error.find("deskew/max_dt"), std::string::npos) << error;
+  EXPECT_DOUBLE_EQ(p.online.deskew_max_dt, 1.0);
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
   ros::init(argc, argv, "test_params");

@@ -1,10 +1,14 @@
 #include "tescalib/core/calibration_io.h"
 
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
+#include <utility>
 
 #include <Eigen/Geometry>
 
@@ -84,32 +88,42 @@ KittiOdometryCalib calibrationAsKitti(const StereoRig& rig, const OnlineEstimate
   return c;
 }
 
-bool writeAtomically(const std::string& path, const std::string& text, std::string* error) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp);
-    if (!out || !(out << text) || !out.flush()) {
-      *error = "cannot write " + tmp;
-      return false;
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    *error = "cannot rename " + tmp + " to " + path;
-    return false;
-  }
-  return true;
-}
-
 bool writeCalibrationFiles(const std::string& base, const StereoRig& rig, const OnlineEstimate& e,
                            const CalibrationFrames& frames, std::string* message) {
-  const bool ok =
-      writeAtomically(base + ".yaml", calibrationYaml(e, frames), message) &&
-      writeAtomically(base + "_calib.txt", kittiOdometryCalibText(calibrationAsKitti(rig, e)),
-                      message) &&
-      writeAtomically(base + "_static_tf.launch", staticTransformLaunch(e, frames), message);
-  if (ok)
-    *message = "wrote " + base + ".yaml, " + base + "_calib.txt, " + base + "_static_tf.launch";
-  return ok;
+  namespace fs = std::filesystem;
+  if (base.empty() || base.back() == '/' || fs::is_directory(base)) {
+    *message = "'" + base + "' names a folder: give a file name without extension (BASE)";
+    return false;
+  }
+  const std::pair<std::string, std::string> files[3] = {
+      {base + ".yaml", calibrationYaml(e, frames)},
+      {base + "_calib.txt", kittiOdometryCalibText(calibrationAsKitti(rig, e))},
+      {base + "_static_tf.launch", staticTransformLaunch(e, frames)}};
+  // All three are written to .tmp files first and renamed only when every one was written, so a
+  // failure to write (a full disk, a missing folder, no permission) leaves the previous set whole.
+  size_t written = 0;
+  auto removeTemporaries = [&] {
+    std::error_code ec;
+    for (size_t i = 0; i < written; ++i) fs::remove(files[i].first + ".tmp", ec);
+  };
+  for (const auto& [path, text] : files) {
+    const std::string tmp = path + ".tmp";
+    std::ofstream out(tmp);
+    if (!out || !(out << text) || !out.flush()) {
+      *message = "cannot write " + tmp + ": " + std::strerror(errno);
+      removeTemporaries();
+      return false;
+    }
+    ++written;
+  }
+  for (const auto& f : files)
+    if (std::rename((f.first + ".tmp").c_str(), f.first.c_str()) != 0) {
+      *message = "cannot rename " + f.first + ".tmp to " + f.first + ": " + std::strerror(errno);
+      removeTemporaries();
+      return false;
+    }
+  *message = "wrote " + base + ".yaml, " + base + "_calib.txt, " + base + "_static_tf.launch";
+  return true;
 }
 
 }  // namespace tescalib

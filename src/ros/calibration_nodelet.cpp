@@ -47,9 +47,7 @@ void CalibrationNodelet::onInit() {
     // Stays inert (the manager and its other nodelets keep running) and says why on
     // /diagnostics, every second, as an error.
     param_error_ = "invalid parameters: " + error;
-    diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh);
-    diagnostics_->setHardwareID("tescalib");
-    diagnostics_->add("calibration", this, &CalibrationNodelet::diagnose);
+    startDiagnostics(nh, pnh);
     watchdog_timer_ =
         nh.createWallTimer(ros::WallDuration(1.0), &CalibrationNodelet::watchdog, this);
     return;
@@ -65,7 +63,7 @@ void CalibrationNodelet::onInit() {
   }
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
-  tf_pub_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+  tf_pub_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
   lidar_pub_ = pnh.advertise<ExtrinsicEstimate>("lidar_to_left", 1, true);
   stereo_pub_ = pnh.advertise<ExtrinsicEstimate>("left_to_right", 1, true);
   candidate_lidar_pub_ = pnh.advertise<ExtrinsicEstimate>("candidate/lidar_to_left", 1, true);
@@ -106,9 +104,7 @@ void CalibrationNodelet::onInit() {
         right_info_sub_);
     exact_sync_->registerCallback(&CalibrationNodelet::syncCallback, this);
   }
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh);
-  diagnostics_->setHardwareID("tescalib");
-  diagnostics_->add("calibration", this, &CalibrationNodelet::diagnose);
+  startDiagnostics(nh, pnh);
   // Wall time: diagnostics keep coming when a bag pauses or ends (sim time stands still then).
   watchdog_timer_ = nh.createWallTimer(ros::WallDuration(1.0), &CalibrationNodelet::watchdog, this);
   running_ = true;
@@ -153,15 +149,18 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
                                       const Info::ConstPtr& left_info, const Image::ConstPtr& right,
                                       const Info::ConstPtr& right_info) {
   const ros::WallTime received = ros::WallTime::now();
-  if (sync_sets_++ == 0) {
+  {
     std::lock_guard<std::mutex> lock(mutex_);
-    first_set_wall_ = received;
-    first_set_stamp_ = left->header.stamp.toSec();
+    if (sync_sets_++ == 0) {
+      first_set_wall_ = received;
+      first_set_stamp_ = left->header.stamp.toSec();
+      last_problem_.clear();  // the watchdog's "no messages on ..." is over
+    }
+    last_set_wall_ = received;
   }
   if (!calibrator() && !initCalibrator(*cloud, *left_info, *right_info)) return;
   const double stamp = left->header.stamp.toSec();
   calibrator()->noteStamp(stamp);  // a solve of the old loop's window discards its result now
-  publishTf(left->header.stamp);   // every set, so tf lookups at any image stamp interpolate
   // Cheap keyframe pre-selection here; time going backwards is passed on (the window resets).
   const bool candidate =
       stamp < last_enqueued_stamp_ || !params_.online.tooClose(stamp, last_enqueued_stamp_);
@@ -391,10 +390,9 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
   h.frame_id = params_.left_frame;
   lidar_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_cam_lidar, e.cov_lidar));
   h.frame_id = params_.right_frame;
-  stereo_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_right_left, e.cov_stereo));
-  // The keyframe's stamp usually has a tf already (sent with its synchronized set): a second one
-  // at the same stamp is rejected by every listener (TF_REPEATED_DATA). Just after the newest.
-  publishTf(stamp, true);
+  stereo_pose_pub_.publish(
+      ros_conv::toPoseMsg(h, e.T_right_left, e.cov_stereo, e.stereo_estimated));
+  publishTf(e, stamp);
 }
 
 void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
@@ -422,25 +420,17 @@ void CalibrationNodelet::publishKeyframe(const Keyframe& kf) {
   }
 }
 
-void CalibrationNodelet::publishTf(const ros::Time& stamp, bool after_newest) {
-  if (!calibrator()) return;
-  const auto e = calibrator()->estimate();
-  if (!e) return;  // nothing is published before the first converged estimate
-  // One lock from choosing the stamp to recording it: the callback thread (every set) and the
-  // solve thread (each new estimate, just after the newest stamp) never send out of order.
-  std::lock_guard<std::mutex> lock(tf_mutex_);
+void CalibrationNodelet::publishTf(const OnlineEstimate& e, const ros::Time& stamp) {
   geometry_msgs::TransformStamped a, b;
-  a.header.stamp = b.header.stamp =
-      after_newest && !last_tf_stamp_.isZero() ? last_tf_stamp_ + ros::Duration(0, 1000) : stamp;
+  a.header.stamp = b.header.stamp = stamp;
   // tf: the transform maps child points into the parent frame.
   a.header.frame_id = lidar_frame_;
   a.child_frame_id = params_.left_frame;
-  a.transform = ros_conv::toTransformMsg(e->T_cam_lidar.inverse());
+  a.transform = ros_conv::toTransformMsg(e.T_cam_lidar.inverse());
   b.header.frame_id = params_.left_frame;
   b.child_frame_id = params_.right_frame;
-  b.transform = ros_conv::toTransformMsg(e->T_right_left.inverse());
-  tf_pub_->sendTransform({a, b});
-  last_tf_stamp_ = a.header.stamp;
+  b.transform = ros_conv::toTransformMsg(e.T_right_left.inverse());
+  tf_pub_->sendTransform(std::vector<geometry_msgs::TransformStamped>{a, b});
 }
 
 std::string CalibrationNodelet::silentTopics() const {
@@ -452,6 +442,14 @@ std::string CalibrationNodelet::silentTopics() const {
   for (int i = 0; i < 5; ++i)
     if (topic_messages_[i] == 0) silent += (silent.empty() ? "" : ", ") + topics[i];
   return silent;
+}
+
+void CalibrationNodelet::startDiagnostics(ros::NodeHandle& nh, ros::NodeHandle& pnh) {
+  // Named after the nodelet, not the manager it runs in ("/tescalib: calibration"), so that two
+  // calibrations in one manager are told apart.
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
+  diagnostics_->setHardwareID("tescalib");
+  diagnostics_->add("calibration", this, &CalibrationNodelet::diagnose);
 }
 
 void CalibrationNodelet::watchdog(const ros::WallTimerEvent&) {
@@ -529,9 +527,19 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::ERROR, param_error_);
     return;
   }
+  double since_last_set = -1;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (sync_sets_ > 0) since_last_set = (ros::WallTime::now() - last_set_wall_).toSec();
+  }
   if (!calibrator())
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN,
                  "waiting for synchronized data");
+  else if (since_last_set > kStaleSeconds)
+    // The estimate stays on tf and on the latched topics, but nothing is being calibrated.
+    stat.summaryf(diagnostic_updater::DiagnosticStatusWrapper::WARN,
+                  "no synchronized set for %.0f s (%s)", since_last_set,
+                  e ? "last estimate kept" : "no converged estimate yet");
   else if (!e)
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "no converged estimate yet");
   else
@@ -540,6 +548,7 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   stat.add("window size", params_.online.window_size);
   stat.add("keyframes", keyframes_.load());
   stat.add("synchronized sets", sync_sets_.load());
+  stat.add("seconds since last synchronized set", since_last_set);
   stat.add("dropped keyframe candidates", dropped_.load());
   stat.add("rejected frames", rejected_.load());
   stat.add("last solve seconds", last_solve_seconds_.load());

@@ -415,7 +415,8 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
     m.sigma_rot_deg[i] = std::sqrt(std::max(0.0, cov(i, i))) * kDegPerRad;
     m.sigma_trans_m[i] = std::sqrt(std::max(0.0, cov(3 + i, 3 + i)));
   }
-  for (int i = 0; i < 6; ++i) m.observable[i] = observable[i];
+  // A given extrinsic constrains nothing from the data: no axis is called observable.
+  for (int i = 0; i < 6; ++i) m.observable[i] = estimated && observable[i];
   m.converged = converged;
   m.estimated = estimated;
   m.keyframes_used = static_cast<uint32_t>(keyframes);
@@ -426,8 +427,8 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
 }
 
 geometry_msgs::PoseWithCovarianceStamped toPoseMsg(const std_msgs::Header& header,
-                                                   const Eigen::Isometry3d& T,
-                                                   const Matrix6d& cov) {
+                                                   const Eigen::Isometry3d& T, const Matrix6d& cov,
+                                                   bool estimated) {
   geometry_msgs::PoseWithCovarianceStamped m;
   m.header = header;
   const geometry_msgs::Transform t = toTransformMsg(T);
@@ -438,6 +439,10 @@ geometry_msgs::PoseWithCovarianceStamped toPoseMsg(const std_msgs::Header& heade
   const int order[6] = {3, 4, 5, 0, 1, 2};  // ROS index -> our index
   for (int r = 0; r < 6; ++r)
     for (int c = 0; c < 6; ++c) m.pose.covariance[6 * r + c] = cov(order[r], order[c]);
+  if (!estimated) {  // unknown, as sensor_msgs/Imu marks it: not "exact" (zeros)
+    m.pose.covariance.fill(0.0);
+    m.pose.covariance[0] = -1.0;
+  }
   return m;
 }
 

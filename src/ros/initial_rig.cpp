@@ -104,6 +104,28 @@ bool initialRig(const NodeParams& params, const sensor_msgs::PointCloud2& cloud,
     return false;
   out->lidar_frame =
       tf2Frame(params.lidar_frame.empty() ? cloud.header.frame_id : params.lidar_frame);
+  const std::string cloud_frame = tf2Frame(cloud.header.frame_id);
+  if (!cloud_frame.empty() && out->lidar_frame != cloud_frame)
+    out->warnings.push_back("frames/lidar '" + out->lidar_frame + "' is not the clouds' frame '" +
+                            cloud_frame +
+                            "': the clouds are taken to be in it as they are, not transformed "
+                            "(right when the driver's frame_id names the same frame otherwise)");
+  // The node publishes lidar -> left -> right: a frame that already has a parent on tf (a URDF's
+  // camera frame, the bag's own) would get a second one, and lookups would flip between them.
+  for (const auto& [name, frame] : {std::pair<std::string, std::string>{"left", params.left_frame},
+                                    {"right", params.right_frame}}) {
+    if (tf2Frame(frame) == out->lidar_frame) {
+      *error = "frames/" + name + " '" + frame + "' is the LiDAR's frame: choose another name";
+      return false;
+    }
+    if (tf._frameExists(tf2Frame(frame))) {
+      *error = "frames/" + name + " '" + frame +
+               "' is already on tf (a URDF's or the bag's frame?): the node would give it a "
+               "second parent. Set frames/" +
+               name + " to a name of the node's own (default tescalib_" + name + ")";
+      return false;
+    }
+  }
   const std::string distortion = distortionWarning(left_info, right_info);
   if (!distortion.empty()) out->warnings.push_back(distortion);
   const std::string rectification = rectificationWarning(left_info, params.left_frame);

@@ -12,13 +12,49 @@ namespace tescalib {
 namespace {
 /// Reads private parameters, remembering every name it was asked for, so that the names on the
 /// parameter server it never read (typos) can be reported.
+/// Whether a parameter server value can be read as T without losing anything: roscpp itself
+/// rounds 10.7 to an int and keeps the default for "true" given to a bool, silently.
+bool hasType(const XmlRpc::XmlRpcValue& v, bool*) {
+  return v.getType() == XmlRpc::XmlRpcValue::TypeBoolean;
+}
+bool hasType(const XmlRpc::XmlRpcValue& v, int*) {
+  return v.getType() == XmlRpc::XmlRpcValue::TypeInt;
+}
+bool hasType(const XmlRpc::XmlRpcValue& v, double*) {
+  return v.getType() == XmlRpc::XmlRpcValue::TypeDouble ||
+         v.getType() == XmlRpc::XmlRpcValue::TypeInt;
+}
+bool hasType(const XmlRpc::XmlRpcValue& v, std::string*) {
+  return v.getType() == XmlRpc::XmlRpcValue::TypeString;
+}
+bool hasType(const XmlRpc::XmlRpcValue& v, std::vector<double>*) {
+  if (v.getType() != XmlRpc::XmlRpcValue::TypeArray) return false;
+  for (int i = 0; i < v.size(); ++i)
+    if (!hasType(v[i], static_cast<double*>(nullptr))) return false;
+  return true;
+}
+const char* typeName(bool*) { return "true or false"; }
+const char* typeName(int*) { return "an integer"; }
+const char* typeName(double*) { return "a number"; }
+const char* typeName(std::string*) { return "a string"; }
+const char* typeName(std::vector<double>*) { return "a list of numbers"; }
+
+/// Reads private parameters, remembering every name it was asked for, so that the names on the
+/// parameter server it never read (typos) can be reported, and every value of the wrong type.
 struct Reader {
   const ros::NodeHandle& nh;
   std::set<std::string> names;
+  std::ostringstream wrong_type;
   template <typename T>
   void operator()(const std::string& name, T* value) {
     names.insert(name);
-    nh.param(name, *value, *value);
+    XmlRpc::XmlRpcValue raw;
+    if (!nh.getParam(name, raw)) return;  // not set: the default stays
+    if (!hasType(raw, value)) {
+      wrong_type << name << " must be " << typeName(value) << " (got " << raw.toXml() << "); ";
+      return;
+    }
+    nh.getParam(name, *value);
   }
 };
 
@@ -108,7 +144,9 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
     }
     std::sort(unknown->begin(), unknown->end());
   }
-  return validateNodeParams(*p, error);
+  const bool valid = validateNodeParams(*p, error);
+  *error = get.wrong_type.str() + *error;
+  return valid && get.wrong_type.str().empty();
 }
 
 bool validateNodeParams(const NodeParams& p, std::string* error) {

@@ -28,10 +28,9 @@ std::string staticTransformLaunch(const OnlineEstimate& e, const CalibrationFram
 /// The rig's intrinsics with the estimate's extrinsics (see the file comment).
 KittiOdometryCalib calibrationAsKitti(const StereoRig& rig, const OnlineEstimate& e);
 
-/// Writes `text` to `path` atomically (a temporary file beside it, then rename).
-bool writeAtomically(const std::string& path, const std::string& text, std::string* error);
-
-/// Writes the three files. `message`: the files written, or what went wrong.
+/// Writes the three files BASE.yaml, BASE_calib.txt and BASE_static_tf.launch, as a set: each to
+/// a temporary file beside it first, renamed only when all three were written. `message`: the
+/// files written, or what went wrong (with the system's reason).
 bool writeCalibrationFiles(const std::string& base, const StereoRig& rig, const OnlineEstimate& e,
                            const CalibrationFrames& frames, std::string* message);
 

@@ -25,7 +25,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
 #include <tescalib/Reset.h>
@@ -93,8 +93,11 @@ class CalibrationNodelet : public nodelet::Nodelet {
   void preprocessLoop();
   void solveLoop();
   void publish(const OnlineEstimate& e, const ros::Time& stamp);
-  /// tf of the current estimate at `stamp`, or (after_newest) 1 us after the newest stamp sent.
-  void publishTf(const ros::Time& stamp, bool after_newest = false);
+  /// The estimate on /tf_static (latched, valid at every time), as robot_state_publisher sends
+  /// fixed joints: lookups at now() or at any sensor stamp find it, and it stays after the data
+  /// stop or a ~reset (the last published estimate is the best the node has).
+  void publishTf(const OnlineEstimate& e, const ros::Time& stamp);
+  void startDiagnostics(ros::NodeHandle& nh, ros::NodeHandle& pnh);
   void watchdog(const ros::WallTimerEvent&);
   bool onReset(Reset::Request& req, Reset::Response& res);
   bool onSave(Save::Request& req, Save::Response& res);
@@ -127,7 +130,7 @@ class CalibrationNodelet : public nodelet::Nodelet {
   void publishKeyframe(const Keyframe& kf);
   ros::ServiceServer reset_srv_, save_srv_;
   ros::WallTimer watchdog_timer_;
-  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_pub_;
+  std::unique_ptr<tf2_ros::StaticTransformBroadcaster> tf_pub_;  ///< solve thread only
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
@@ -163,7 +166,10 @@ class CalibrationNodelet : public nodelet::Nodelet {
   // fill is not counted (that is what `first_estimate_*` reports).
   Durations build_time_, solve_time_, update_latency_;
   std::vector<ros::WallTime> unsolved_arrivals_;
-  ros::WallTime first_set_wall_;
+  ros::WallTime first_set_wall_;  ///< GUARDED_BY(mutex_)
+  ros::WallTime last_set_wall_;   ///< GUARDED_BY(mutex_), when the last synchronized set came
+  /// Wall seconds without a synchronized set after which /diagnostics warns (data stopped).
+  static constexpr double kStaleSeconds = 5.0;
   double first_set_stamp_ = 0;
   int first_estimate_keyframes_ = 0;   ///< keyframes built when the first estimate was published
   double first_estimate_wall_s_ = -1;  ///< wall s from the first synchronized set to it
@@ -172,8 +178,6 @@ class CalibrationNodelet : public nodelet::Nodelet {
   /// deskew/enabled: the last set's scan (callback thread only) and its stamp.
   std::shared_ptr<const LidarScan> last_scan_;
   double last_scan_stamp_ = -1e300;
-  std::mutex tf_mutex_;
-  ros::Time last_tf_stamp_;         ///< GUARDED_BY(tf_mutex_), of the last tf sent
   std::string last_problem_;        ///< GUARDED_BY(mutex_)
   std::string last_solve_message_;  ///< GUARDED_BY(mutex_)
 };

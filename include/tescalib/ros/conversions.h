@@ -87,7 +87,8 @@ namespace ros_conv {
 /// Fills an ExtrinsicEstimate: `T` maps child-frame points into the parent frame, `cov` is over
 /// [phi; tau] in the parent frame (our convention), copied as is. `status`: empty for a
 /// published estimate, why it was not published for a candidate. `estimated` false: `T` is the
-/// given extrinsic (left_to_right without co-calibration), not an estimate.
+/// given extrinsic (left_to_right without co-calibration), not an estimate, and no axis is
+/// `observable`.
 ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::string& parent,
                                 const std::string& child, const Eigen::Isometry3d& T,
                                 const Matrix6d& cov, const bool observable[6], bool converged,
@@ -95,9 +96,11 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
                                 const std::string& status = "", bool estimated = true);
 
 /// The same as a PoseWithCovarianceStamped (header.frame_id = parent). ROS orders the pose
-/// covariance [x y z rx ry rz]; ours is [phi; tau]: the blocks are swapped.
+/// covariance [x y z rx ry rz]; ours is [phi; tau]: the blocks are swapped. `estimated` false:
+/// the covariance is unknown, marked as sensor_msgs/Imu does: -1 in its first element, 0 else.
 geometry_msgs::PoseWithCovarianceStamped toPoseMsg(const std_msgs::Header& header,
-                                                   const Eigen::Isometry3d& T, const Matrix6d& cov);
+                                                   const Eigen::Isometry3d& T, const Matrix6d& cov,
+                                                   bool estimated = true);
 
 /// A keyframe's stereo cloud (left camera frame) as PointCloud2 with fields x y z and disparity
 /// (float32), for rviz.
