@@ -34,6 +34,16 @@ void usage() {
          "A trial perturbs the ground truth by exactly R deg about a random axis and T m in a "
          "random\n"
          "direction and succeeds when the error is below 0.2 deg and 3 cm.\n"
+         "Defaults: --mode lidar_stereo --method tescalib --trials 10 --init-rot-deg 3\n"
+         "--init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1 --window "
+         "20\n"
+         "--windows first (doc/evaluation.md has the conventions and the JSON).\n"
+         "--stages coarse,fine: the LiDAR-stereo stages to run (coarse, fine or both).\n"
+         "--cov-cells XxY: image cells per keyframe of the LiDAR-stereo covariance's sandwich\n"
+         "estimator (LidarStereoSettings::cov_cells_x/y; default 8x3).\n"
+         "--cov-model-scale K: scales the LiDAR-stereo covariance's model error (the common "
+         "biases\n"
+         "and per-axis floor; default 1, 0: without it).\n"
          "--windows disjoint splits all keyframes into consecutive windows of W and trial t uses\n"
          "window t mod (number of windows): independent windows, so mean NEES means something.\n"
          "--smooth-keypoints PX: full-resolution photometric key points only where the LiDAR "
@@ -168,6 +178,16 @@ bool parse(int argc, char** argv, Args* a) {
     return true;
   };
   if (!cli::parseOptions(argc, argv, "tescalib_eval", usage, option)) return false;
+  for (const auto& stage : cli::splitList(a->stages))
+    if (stage != "coarse" && stage != "fine") {
+      std::cerr << "tescalib_eval: --stages takes coarse, fine or coarse,fine (got '" << a->stages
+                << "')\n";
+      return false;
+    }
+  if (cli::splitList(a->stages).empty()) {
+    std::cerr << "tescalib_eval: --stages is empty\n";
+    return false;
+  }
   if (a->windows != "first" && a->windows != "disjoint") {
     std::cerr << "tescalib_eval: --windows must be first or disjoint\n";
     return false;

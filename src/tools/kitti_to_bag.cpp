@@ -28,7 +28,8 @@ void usage() {
          "          P2 / P3), /tf_static (base_link -> velo_link -> cameras)\n"
          "  --like-kitti2bag 1: as kitti2bag's raw mode lays a bag out (imu_link above\n"
          "  velo_link and the cameras, bgr8 images, x y z i clouds without ring), to check a\n"
-         "  pipeline against such bags.\n";
+         "  pipeline against such bags.\n"
+         "  --max-frames N: at most the first N frames of each DIR (not of the whole bag).\n";
 }
 }  // namespace
 
