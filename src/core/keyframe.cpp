@@ -27,20 +27,32 @@ LidarMeshSettings meshSettingsForView(const StereoRig& rig,
   return ms;
 }
 
-Keyframe makeKeyframe(const Frame& frame, const StereoRig& rig,
-                      const Eigen::Isometry3d& T_cam_lidar_guess,
-                      const Eigen::Isometry3d& T_right_left, const KeyframeSettings& s) {
+Keyframe makeImageKeyframe(const Frame& frame, const StereoRig& rig,
+                           const Eigen::Isometry3d& T_right_left, const KeyframeSettings& s) {
   Keyframe kf;
   kf.stamp = frame.stamp;
-  kf.scan = frame.scan;
-  const auto t0 = std::chrono::steady_clock::now();
-  kf.mesh = buildLidarMesh(frame.scan, meshSettingsForView(rig, T_cam_lidar_guess, s));
-  kf.seconds_mesh = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   cv::cvtColor(frame.left, kf.left_gray, cv::COLOR_BGR2GRAY);
   cv::cvtColor(frame.right, kf.right_gray, cv::COLOR_BGR2GRAY);
   kf.stereo = computeStereoCloud(frame.left, frame.right, rig, T_right_left, s.stereo);
   kf.T_right_left_used = T_right_left;
   keepMatches(&kf);
+  return kf;
+}
+
+void addScanToKeyframe(Keyframe* kf, const Frame& frame, const StereoRig& rig,
+                       const Eigen::Isometry3d& T_cam_lidar_guess, const KeyframeSettings& s) {
+  kf->stamp = frame.stamp;
+  kf->scan = frame.scan;
+  const auto t0 = std::chrono::steady_clock::now();
+  kf->mesh = buildLidarMesh(frame.scan, meshSettingsForView(rig, T_cam_lidar_guess, s));
+  kf->seconds_mesh = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+Keyframe makeKeyframe(const Frame& frame, const StereoRig& rig,
+                      const Eigen::Isometry3d& T_cam_lidar_guess,
+                      const Eigen::Isometry3d& T_right_left, const KeyframeSettings& s) {
+  Keyframe kf = makeImageKeyframe(frame, rig, T_right_left, s);
+  addScanToKeyframe(&kf, frame, rig, T_cam_lidar_guess, s);
   return kf;
 }
 

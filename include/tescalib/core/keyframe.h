@@ -46,6 +46,16 @@ Keyframe makeKeyframe(const Frame& frame, const StereoRig& rig,
                       const Eigen::Isometry3d& T_cam_lidar_guess,
                       const Eigen::Isometry3d& T_right_left, const KeyframeSettings& settings = {});
 
+/// makeKeyframe in two halves, so that the online calibrator can match the images while it
+/// registers the scan for de-skewing: the images' half (grey images, stereo cloud; no mesh) ...
+Keyframe makeImageKeyframe(const Frame& frame, const StereoRig& rig,
+                           const Eigen::Isometry3d& T_right_left,
+                           const KeyframeSettings& settings = {});
+/// ... and the scan's (stamp, scan, mesh) into it.
+void addScanToKeyframe(Keyframe* kf, const Frame& frame, const StereoRig& rig,
+                       const Eigen::Isometry3d& T_cam_lidar_guess,
+                       const KeyframeSettings& settings = {});
+
 /// Recomputes only the stereo cloud of a keyframe with a new left->right estimate (SGBM again).
 void recomputeStereo(Keyframe* kf, const StereoRig& rig, const Eigen::Isometry3d& T_right_left,
                      const StereoSettings& settings);
