@@ -500,3 +500,29 @@ TEST(Conversions, AGivenExtrinsicIsNotCalledObservableOrExact) {
   EXPECT_DOUBLE_EQ(known.pose.covariance[0], 1e-6);
   EXPECT_DOUBLE_EQ(known.pose.covariance[35], 1e-6);
 }
+
+TEST(Conversions, BinningAndRoiScaleTheIntrinsicsNotTheBaseline) {
+  // ROS audit: a binned camera was rejected for its image size instead of P being scaled.
+  CameraIntrinsics c;
+  c.fx = c.fy = 700.0, c.cx = 620.0, c.cy = 180.0, c.width = 1240, c.height = 376;
+  std_msgs::Header h;
+  sensor_msgs::CameraInfo left = ros_conv::toCameraInfo(c, 0.0, h);
+  sensor_msgs::CameraInfo right = ros_conv::toCameraInfo(c, -700.0 * 0.54, h);
+  for (sensor_msgs::CameraInfo* info : {&left, &right}) {
+    info->binning_x = info->binning_y = 2;
+    info->roi.x_offset = 20, info->roi.y_offset = 10;
+    info->roi.width = 1200, info->roi.height = 360;
+  }
+  StereoRig rig;
+  std::string error;
+  ASSERT_TRUE(ros_conv::stereoFromCameraInfo(left, right, true, &rig, &error)) << error;
+  EXPECT_DOUBLE_EQ(rig.left.fx, 350.0);
+  EXPECT_DOUBLE_EQ(rig.left.cx, 300.0);  // (620 - 20) / 2
+  EXPECT_DOUBLE_EQ(rig.left.cy, 85.0);   // (180 - 10) / 2
+  EXPECT_EQ(rig.left.width, 600);
+  EXPECT_EQ(rig.left.height, 180);
+  EXPECT_NEAR(rig.T_right_left.translation().x(), -0.54, 1e-12);
+  left.roi.width = 1300;  // beyond the 1240 px image
+  EXPECT_FALSE(ros_conv::stereoFromCameraInfo(left, right, true, &rig, &error));
+  EXPECT_NE(error.find("roi lies outside"), std::string::npos) << error;
+}

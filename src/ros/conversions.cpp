@@ -277,12 +277,22 @@ bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* c, st
     *error = "camera_info has no rectified projection matrix P";
     return false;
   }
-  c->fx = info.P[0];
-  c->fy = info.P[5];
-  c->cx = info.P[2];
-  c->cy = info.P[6];
-  c->width = static_cast<int>(info.width);
-  c->height = static_cast<int>(info.height);
+  // The delivered image is the region of interest (full-resolution pixels) binned, as
+  // image_geometry::PinholeCameraModel reads camera_info: P describes the full image.
+  const double bx = std::max(1u, info.binning_x), by = std::max(1u, info.binning_y);
+  const bool roi = info.roi.width > 0 && info.roi.height > 0;
+  if (roi && (info.roi.x_offset + info.roi.width > info.width ||
+              info.roi.y_offset + info.roi.height > info.height)) {
+    *error = "camera_info's roi lies outside its " + std::to_string(info.width) + "x" +
+             std::to_string(info.height) + " image";
+    return false;
+  }
+  c->fx = info.P[0] / bx;
+  c->fy = info.P[5] / by;
+  c->cx = (info.P[2] - (roi ? info.roi.x_offset : 0)) / bx;
+  c->cy = (info.P[6] - (roi ? info.roi.y_offset : 0)) / by;
+  c->width = static_cast<int>((roi ? info.roi.width : info.width) / bx);
+  c->height = static_cast<int>((roi ? info.roi.height : info.height) / by);
   return true;
 }
 
@@ -295,10 +305,13 @@ bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs
   if (!baseline_from_p) return true;
   // P = K [I | t]: t = K^-1 P[:,3] is the camera's position (negated, in its own axes) in the
   // frame both P refer to; the rectified cameras share their orientation.
-  const auto position = [](const sensor_msgs::CameraInfo& info, const CameraIntrinsics& c) {
-    return Eigen::Vector3d(c.K().inverse() * Eigen::Vector3d(info.P[3], info.P[7], info.P[11]));
+  // With P's own (full-resolution) K: binning and ROI do not move the cameras.
+  const auto position = [](const sensor_msgs::CameraInfo& info) {
+    Eigen::Matrix3d K;
+    K << info.P[0], info.P[1], info.P[2], 0, info.P[5], info.P[6], 0, 0, 1;
+    return Eigen::Vector3d(K.inverse() * Eigen::Vector3d(info.P[3], info.P[7], info.P[11]));
   };
-  const Eigen::Vector3d t = position(right, rig->right) - position(left, rig->left);
+  const Eigen::Vector3d t = position(right) - position(left);
   if (t.allFinite() && t.x() < 0 && std::hypot(t.y(), t.z()) > 0.2 * -t.x()) {
     *error = "the camera_infos put the right camera at (" + std::to_string(t.x()) + ", " +
              std::to_string(t.y()) + ", " + std::to_string(t.z()) +

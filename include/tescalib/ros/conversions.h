@@ -48,8 +48,9 @@ sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, const Eigen::Vec
 sensor_msgs::CameraInfo toCameraInfo(const CameraIntrinsics& c, double Tx,
                                      const std_msgs::Header& header);
 
-/// CameraInfo -> intrinsics, taken from P (the rectified projection). Returns false with a
-/// message when P is zero or the size is missing.
+/// CameraInfo -> intrinsics of the delivered image, taken from P (the rectified projection) with
+/// the region of interest and binning applied as image_geometry does. Returns false with a
+/// message when P is zero, the size is missing or the ROI lies outside the image.
 bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* c, std::string* error);
 
 /// Both cameras' intrinsics from their camera_info and, with `baseline_from_p`, the rectified
