@@ -252,6 +252,12 @@ class BadInput(unittest.TestCase):
         back = self.t - rospy.Duration(30.0)
         self.wait_problem('time went backwards by 3', lambda: self.send(stamp=back))
 
+    def test_7b_camera_info_changing_after_start_up(self):
+        # The rig is made from the first usable camera_infos; a later change is said, not used.
+        other_fx = lambda t: camera_info(t, 'camera_color_left', 0.0, fx=FX * 1.1)
+        self.wait_problem('camera_info changed since start-up',
+                          lambda: self.send(left_info=other_fx))
+
     def test_8_node_still_running_and_silent(self):
         t0 = time.time()
         time.sleep(2.5)

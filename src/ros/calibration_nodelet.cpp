@@ -133,6 +133,8 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
     return false;
   }
   for (const auto& w : init.warnings) NODELET_WARN("tescalib: %s", w.c_str());
+  start_left_info_ = left_info;
+  start_right_info_ = right_info;
   lidar_frame_ = init.lidar_frame;
   const StereoRig& rig = init.rig;
   calibrator_owner_ = std::make_unique<OnlineCalibrator>(rig, params_.online);
@@ -161,6 +163,14 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
   if (!calibrator() && !initCalibrator(*cloud, *left_info, *right_info)) return;
   const double stamp = left->header.stamp.toSec();
   calibrator()->noteStamp(stamp);  // a solve of the old loop's window discards its result now
+  if (left_info->P != start_left_info_.P || right_info->P != start_right_info_.P ||
+      left_info->width != start_left_info_.width || right_info->width != start_right_info_.width) {
+    const std::string what =
+        "camera_info changed since start-up (P or size): the node keeps the intrinsics and "
+        "baseline it started with; restart it to use the new ones";
+    NODELET_WARN_THROTTLE(30.0, "tescalib: %s", what.c_str());
+    noteProblem(what);
+  }
   // Cheap keyframe pre-selection here; time going backwards is passed on (the window resets).
   const bool candidate =
       stamp < last_enqueued_stamp_ || !params_.online.tooClose(stamp, last_enqueued_stamp_);

@@ -156,9 +156,11 @@ class CalibrationNodelet : public nodelet::Nodelet {
   std::atomic<double> last_solve_seconds_{0};
   uint64_t last_candidate_id_ = 0;
   int init_attempts_ = 0;
-  bool rings_checked_ = false;  ///< sync callback only: the ring count was checked  ///< sync
-                                ///< callback only: initCalibrator calls so far  ///< solve thread
-                                ///< only: the last ~candidate/* published
+  bool rings_checked_ = false;  ///< sync callback only: the ring count was checked
+  /// Sync callback only: the camera_infos the rig was made from (a later change is said).
+  Info start_left_info_, start_right_info_;
+  ///< callback only: initCalibrator calls so far  ///< solve thread
+  ///< only: the last ~candidate/* published
   std::atomic<bool> solving_{false};
   // Timing, GUARDED_BY(mutex_). The update latency of a keyframe runs from the arrival of its
   // synchronized set to the end of the first solve that includes it; it is only recorded for
