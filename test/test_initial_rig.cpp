@@ -88,18 +88,33 @@ TEST(InitialRig, TheCameraFrameParameterAndTheLidarFrameParameterWin) {
 TEST(InitialRig, OutputFramesThatAlreadyHaveAParentAreRefused) {
   // ROS audit: frames/left set to the camera's real frame gave it two parents, silently.
   Inputs in;
-  in.publishTf("camera_left");
+  in.publishTf("camera_left");        // camera_left -> velo_link, as the tests' tf has it
+  geometry_msgs::TransformStamped t;  // and velo_link -> camera_right, as kitti2bag bags have it
+  t.header.frame_id = "velo_link";
+  t.child_frame_id = "camera_right";
+  t.transform.rotation.w = 1.0;
+  in.tf.setTransform(t, "test", /*is_static=*/true);
   NodeParams p;
-  p.left_frame = "camera_left";
+  p.left_frame = "camera_right";
   InitialRig r;
   std::string error;
   EXPECT_FALSE(initialRig(p, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error));
-  EXPECT_NE(error.find("frames/left 'camera_left' is already on tf"), std::string::npos) << error;
+  EXPECT_NE(error.find("frames/left 'camera_right' already has a parent on tf ('velo_link'"),
+            std::string::npos)
+      << error;
+  p.left_frame = "camera_left";  // the LiDAR's parent: the node's edge would close a loop
+  EXPECT_FALSE(initialRig(p, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error));
+  EXPECT_NE(error.find("frames/left 'camera_left' is above the LiDAR's frame"), std::string::npos)
+      << error;
   p = NodeParams{};
   p.right_frame = "velo_link";
   EXPECT_FALSE(initialRig(p, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error));
   EXPECT_NE(error.find("frames/right 'velo_link' is the LiDAR's frame"), std::string::npos)
       << error;
+  // A frame that is only a parent elsewhere (nothing above it) is not refused.
+  t.header.frame_id = "tescalib_left";
+  t.child_frame_id = "some_tool";
+  in.tf.setTransform(t, "test", /*is_static=*/true);
   EXPECT_TRUE(initialRig(defaults, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error)) << error;
 }
 

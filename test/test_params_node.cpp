@@ -105,9 +105,9 @@ TEST(Params, ValuesOfTheWrongTypeAreNamed) {
   tescalib::NodeParams p;
   std::string error;
   EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
-  for (const char* expected :
-       {"deskew/enabled must be true or false", "sync/max_skew must be a number",
-        "frames/left must be a string", "window/size must be an integer"})
+  for (const char* expected : {"deskew/enabled must be true or false (got the string \"true\")",
+                               "sync/max_skew must be a number", "frames/left must be a string",
+                               "window/size must be an integer"})
     EXPECT_NE(error.find(expected), std::string::npos) << error;
   EXPECT_EQ(error.find("deskew/max_dt"), std::string::npos) << error;
   EXPECT_DOUBLE_EQ(p.online.deskew_max_dt, 1.0);

@@ -91,7 +91,7 @@ KittiOdometryCalib calibrationAsKitti(const StereoRig& rig, const OnlineEstimate
 bool writeCalibrationFiles(const std::string& base, const StereoRig& rig, const OnlineEstimate& e,
                            const CalibrationFrames& frames, std::string* message) {
   namespace fs = std::filesystem;
-  if (base.empty() || base.back() == '/' || fs::is_directory(base)) {
+  if (base.empty() || base.back() == '/') {
     *message = "'" + base + "' names a folder: give a file name without extension (BASE)";
     return false;
   }
@@ -101,6 +101,8 @@ bool writeCalibrationFiles(const std::string& base, const StereoRig& rig, const 
       {base + "_static_tf.launch", staticTransformLaunch(e, frames)}};
   // All three are written to .tmp files first and renamed only when every one was written, so a
   // failure to write (a full disk, a missing folder, no permission) leaves the previous set whole.
+  // The renames themselves are not atomic as a set (they fail only in odd cases: a folder of
+  // that name); the message then says which file is old.
   size_t written = 0;
   auto removeTemporaries = [&] {
     std::error_code ec;
@@ -118,7 +120,8 @@ bool writeCalibrationFiles(const std::string& base, const StereoRig& rig, const 
   }
   for (const auto& f : files)
     if (std::rename((f.first + ".tmp").c_str(), f.first.c_str()) != 0) {
-      *message = "cannot rename " + f.first + ".tmp to " + f.first + ": " + std::strerror(errno);
+      *message = "cannot rename " + f.first + ".tmp to " + f.first + ": " + std::strerror(errno) +
+                 " (the files renamed before it are new, the others old)";
       removeTemporaries();
       return false;
     }

@@ -163,10 +163,15 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
   if (!calibrator() && !initCalibrator(*cloud, *left_info, *right_info)) return;
   const double stamp = left->header.stamp.toSec();
   calibrator()->noteStamp(stamp);  // a solve of the old loop's window discards its result now
-  if (left_info->P != start_left_info_.P || right_info->P != start_right_info_.P ||
-      left_info->width != start_left_info_.width || right_info->width != start_right_info_.width) {
+  // Everything fromCameraInfo reads: P, the size, binning and the region of interest.
+  const auto sameRig = [](const Info& a, const Info& b) {
+    return a.P == b.P && a.width == b.width && a.height == b.height && a.binning_x == b.binning_x &&
+           a.binning_y == b.binning_y && a.roi == b.roi;
+  };
+  if (!sameRig(*left_info, start_left_info_) || !sameRig(*right_info, start_right_info_)) {
     const std::string what =
-        "camera_info changed since start-up (P or size): the node keeps the intrinsics and "
+        "camera_info changed since start-up (P, size, binning or ROI): the node keeps the "
+        "intrinsics and "
         "baseline it started with; restart it to use the new ones";
     NODELET_WARN_THROTTLE(30.0, "tescalib: %s", what.c_str());
     noteProblem(what);
@@ -542,7 +547,10 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
     std::lock_guard<std::mutex> lock(mutex_);
     if (sync_sets_ > 0) since_last_set = (ros::WallTime::now() - last_set_wall_).toSec();
   }
-  if (!calibrator())
+  if (!calibrator() && sync_sets_ > 0 && !problem.empty())
+    // Sets come but the node cannot start from them (no initial extrinsic, a frame clash, ...).
+    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "not started: " + problem);
+  else if (!calibrator())
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN,
                  "waiting for synchronized data");
   else if (since_last_set > kStaleSeconds)

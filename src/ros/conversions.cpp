@@ -281,8 +281,9 @@ bool fromCameraInfo(const sensor_msgs::CameraInfo& info, CameraIntrinsics* c, st
   // image_geometry::PinholeCameraModel reads camera_info: P describes the full image.
   const double bx = std::max(1u, info.binning_x), by = std::max(1u, info.binning_y);
   const bool roi = info.roi.width > 0 && info.roi.height > 0;
-  if (roi && (info.roi.x_offset + info.roi.width > info.width ||
-              info.roi.y_offset + info.roi.height > info.height)) {
+  if (roi &&
+      (info.roi.x_offset > info.width || info.roi.width > info.width - info.roi.x_offset ||
+       info.roi.y_offset > info.height || info.roi.height > info.height - info.roi.y_offset)) {
     *error = "camera_info's roi lies outside its " + std::to_string(info.width) + "x" +
              std::to_string(info.height) + " image";
     return false;

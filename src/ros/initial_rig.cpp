@@ -110,22 +110,6 @@ bool initialRig(const NodeParams& params, const sensor_msgs::PointCloud2& cloud,
                             cloud_frame +
                             "': the clouds are taken to be in it as they are, not transformed "
                             "(right when the driver's frame_id names the same frame otherwise)");
-  // The node publishes lidar -> left -> right: a frame that already has a parent on tf (a URDF's
-  // camera frame, the bag's own) would get a second one, and lookups would flip between them.
-  for (const auto& [name, frame] : {std::pair<std::string, std::string>{"left", params.left_frame},
-                                    {"right", params.right_frame}}) {
-    if (tf2Frame(frame) == out->lidar_frame) {
-      *error = "frames/" + name + " '" + frame + "' is the LiDAR's frame: choose another name";
-      return false;
-    }
-    if (tf._frameExists(tf2Frame(frame))) {
-      *error = "frames/" + name + " '" + frame +
-               "' is already on tf (a URDF's or the bag's frame?): the node would give it a "
-               "second parent. Set frames/" +
-               name + " to a name of the node's own (default tescalib_" + name + ")";
-      return false;
-    }
-  }
   const std::string distortion = distortionWarning(left_info, right_info);
   if (!distortion.empty()) out->warnings.push_back(distortion);
   const std::string rectification = rectificationWarning(left_info, params.left_frame);
@@ -135,6 +119,38 @@ bool initialRig(const NodeParams& params, const sensor_msgs::PointCloud2& cloud,
   else if (!initialFromTf(params, left_info, out->lidar_frame, tf, tf_timeout, &rig.T_cam_lidar,
                           error))
     return false;
+  // The node publishes lidar -> left -> right: a frame that already has a parent on tf (a URDF's
+  // camera frame, the bag's own, the BASE_static_tf.launch of an earlier ~save) would get a
+  // second one, and lookups would flip between them. Checked after the tf lookup above, which
+  // waited for /tf_static on the first attempt.
+  for (const auto& [name, frame] : {std::pair<std::string, std::string>{"left", params.left_frame},
+                                    {"right", params.right_frame}}) {
+    std::string parent;
+    if (tf2Frame(frame) == out->lidar_frame) {
+      *error = "frames/" + name + " '" + frame + "' is the LiDAR's frame: choose another name";
+      return false;
+    }
+    // Above the LiDAR frame (its parent's parent, ...), the node's edge would close a loop.
+    std::string above = out->lidar_frame;
+    for (int depth = 0; depth < 64 && tf._getParent(above, ros::Time(0), parent); ++depth) {
+      above = parent;
+      if (above == tf2Frame(frame)) {
+        *error = "frames/" + name + " '" + frame +
+                 "' is above the LiDAR's frame on tf: the node's " + out->lidar_frame + " -> " +
+                 frame + " would close a loop. Set frames/" + name +
+                 " to a name nothing else publishes";
+        return false;
+      }
+    }
+    if (tf._getParent(tf2Frame(frame), ros::Time(0), parent)) {
+      *error = "frames/" + name + " '" + frame + "' already has a parent on tf ('" + parent +
+               "': a URDF's or the bag's frame, a BASE_static_tf.launch of an earlier ~save, or "
+               "a bag recorded with this node's /tf_static?): the node would give it a second "
+               "one. Stop that publisher, or set frames/" +
+               name + " to a name nothing else publishes";
+      return false;
+    }
+  }
   if (!params.initial_T_right_left.empty())
     rig.T_right_left = fromVector7(params.initial_T_right_left);
   if (params.initial_perturb_rot_deg > 0 || params.initial_perturb_trans_m > 0) {

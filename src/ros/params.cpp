@@ -39,6 +39,31 @@ const char* typeName(double*) { return "a number"; }
 const char* typeName(std::string*) { return "a string"; }
 const char* typeName(std::vector<double>*) { return "a list of numbers"; }
 
+/// What a parameter server value is, for a message: `the string "true"`, `the number 10.7`.
+std::string describe(XmlRpc::XmlRpcValue& v) {
+  std::ostringstream o;
+  switch (v.getType()) {
+    case XmlRpc::XmlRpcValue::TypeString:
+      o << "the string \"" << static_cast<std::string&>(v) << "\"";
+      break;
+    case XmlRpc::XmlRpcValue::TypeDouble:
+      o << "the number " << static_cast<double&>(v);
+      break;
+    case XmlRpc::XmlRpcValue::TypeInt:
+      o << "the integer " << static_cast<int&>(v);
+      break;
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      o << (static_cast<bool&>(v) ? "true" : "false");
+      break;
+    case XmlRpc::XmlRpcValue::TypeArray:
+      o << "a list of " << v.size();
+      break;
+    default:
+      o << "a value of another type";
+  }
+  return o.str();
+}
+
 /// Reads private parameters, remembering every name it was asked for, so that the names on the
 /// parameter server it never read (typos) can be reported, and every value of the wrong type.
 struct Reader {
@@ -51,7 +76,7 @@ struct Reader {
     XmlRpc::XmlRpcValue raw;
     if (!nh.getParam(name, raw)) return;  // not set: the default stays
     if (!hasType(raw, value)) {
-      wrong_type << name << " must be " << typeName(value) << " (got " << raw.toXml() << "); ";
+      wrong_type << name << " must be " << typeName(value) << " (got " << describe(raw) << "); ";
       return;
     }
     nh.getParam(name, *value);
