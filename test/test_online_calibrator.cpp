@@ -77,7 +77,9 @@ TEST(OnlineCalibrator, RejectsBadInputWithAClearMessage) {
 
 TEST(OnlineCalibrator, KeyframeSpacingAndTimeGoingBackwards) {
   const StereoRig rig = smallRig();
-  OnlineCalibrator cal(rig, OnlineSettings{});
+  OnlineSettings settings;
+  settings.min_stereo_points = 0;  // the synthetic frames have no texture to match
+  OnlineCalibrator cal(rig, settings);
   std::string msg;
   ASSERT_EQ(cal.addFrame(syntheticFrame(rig, 10.0), 10.0, &msg), FrameResult::kKeyframe) << msg;
   EXPECT_EQ(cal.addFrame(syntheticFrame(rig, 10.2), 10.2, &msg), FrameResult::kTooClose);
@@ -161,21 +163,35 @@ TEST(OnlineCalibratorReal, PublishesOnlyTrustworthyEstimates) {
   EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.3);
   EXPECT_LT(e.tail<3>().norm(), 0.15);
 
-  // Now the right camera delivers garbage: no stereo structure. The solve must not replace the
-  // published estimate.
+  // Now the right camera delivers garbage: no stereo structure. Such keyframes are rejected
+  // (their stereo clouds are nearly empty), so they never reach the window.
+  for (auto f : frames) {
+    f.stamp = t, t += 0.5;
+    f.right = f.right.clone();  // the frames' own images stay for the next part
+    cv::randu(f.right, 0, 255);
+    EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kRejected);
+    EXPECT_NE(msg.find("its stereo cloud has only"), std::string::npos) << msg;
+  }
+  // Without that check they were taken: the solve must still not replace the estimate.
+  OnlineSettings unchecked = settings;
+  unchecked.min_stereo_points = 0;
+  OnlineCalibrator garbage(rig, unchecked);
+  for (const auto& f : frames) garbage.addFrame(f, f.stamp, &msg);
+  ASSERT_TRUE(garbage.solve(&msg)) << msg;
+  const auto good = garbage.estimate();
   for (auto f : frames) {
     f.stamp = t, t += 0.5;
     cv::randu(f.right, 0, 255);
-    cal.addFrame(f, f.stamp, &msg);
+    garbage.addFrame(f, f.stamp, &msg);
   }
-  EXPECT_FALSE(cal.solve(&msg));
+  EXPECT_FALSE(garbage.solve(&msg));
   EXPECT_FALSE(msg.empty());
-  const auto after = cal.estimate();
+  const auto after = garbage.estimate();
   ASSERT_TRUE(after.has_value());
-  EXPECT_LT(poseError(after->T_cam_lidar, first->T_cam_lidar).norm(), 1e-12);
-  ASSERT_TRUE(cal.lastSolve().has_value());
-  EXPECT_FALSE(cal.lastSolve()->converged);
-  EXPECT_EQ(cal.lastSolve()->message, msg);
+  EXPECT_LT(poseError(after->T_cam_lidar, good->T_cam_lidar).norm(), 1e-12);
+  ASSERT_TRUE(garbage.lastSolve().has_value());
+  EXPECT_FALSE(garbage.lastSolve()->converged);
+  EXPECT_EQ(garbage.lastSolve()->message, msg);
   cal.reset();
   EXPECT_FALSE(cal.lastSolve().has_value());
 }
@@ -555,4 +571,61 @@ TEST(OnlineCalibratorGenerated, WithoutTheAzimuthModelOnlyCloudsWithPointTimesAr
   ASSERT_EQ(kf->scan.size(), f1.scan.size());
   EXPECT_GT(largestCorrection(kf->scan, f1.scan), 0.2);  // 8-14 m/s over up to 50 ms
   EXPECT_GT(kf->seconds_deskew, 0.0);
+}
+
+TEST(OnlineCalibratorGenerated, AFewKeyframesAfterALoopDoNotReplaceAFullWindowsEstimate) {
+  // Session 22 audit: after a bag's loop the window restarts, and its first 3-keyframe solve
+  // replaced a 10-keyframe estimate (rotation errors 2-3x larger): the trace-ratio gate only saw
+  // translation (rotation was 0.5 % of the trace), and a few keyframes' covariance is mostly the
+  // model error's floor, like a full window's.
+  SimOptions o;
+  o.frames = 46;
+  o.seed = 4;
+  const Simulator sim(o);
+  OnlineSettings settings;
+  settings.window_size = 10;
+  OnlineCalibrator cal(perturbedRig(sim, 3, 1.0, 0.1), settings);
+  std::string msg;
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 46));  // 10 keyframes
+  OnlineEstimate full;
+  ASSERT_TRUE(cal.solve(&msg, &full)) << msg;
+  EXPECT_EQ(full.keyframes_used, 10);
+  // The loop: time jumps back, then three keyframes of the drive's start again.
+  Frame again = sim.renderFrame(0);
+  again.stamp = sim.stamp(45) - 20.0;
+  EXPECT_EQ(cal.addFrame(again, again.stamp, &msg), FrameResult::kReset) << msg;
+  for (int i = 0; i < 15; i += 5) {
+    Frame f = sim.renderFrame(i);
+    f.stamp += again.stamp + 1.0;
+    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  }
+  EXPECT_FALSE(cal.solve(&msg)) << "a 3-keyframe estimate replaced the 10-keyframe one";
+  std::cout << "[ gate     ] " << msg << "\n";
+  EXPECT_NE(msg.find("from 3 keyframes, fewer than the published estimate's 10"), std::string::npos)
+      << msg;
+  EXPECT_EQ(cal.estimate()->keyframes_used, 10);
+  // Refilled to 10 keyframes, the window's solves are published again.
+  for (int i = 15; i < 50; i += 5) {
+    Frame f = sim.renderFrame(std::min(i, 45));
+    f.stamp = again.stamp + 1.0 + 0.5 * i;
+    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  }
+  EXPECT_TRUE(cal.solve(&msg)) << msg;
+  EXPECT_EQ(cal.estimate()->keyframes_used, 10);
+}
+
+TEST(OnlineCalibratorGenerated, AKeyframeWithoutAStereoCloudIsRejected) {
+  // Session 22 audit: right images gone black were taken as keyframes, silently.
+  SimOptions o;
+  o.frames = 1;
+  o.seed = 4;
+  const Simulator sim(o);
+  OnlineCalibrator cal(sim.rig(), OnlineSettings{});
+  Frame f = sim.renderFrame(0);
+  f.right.setTo(cv::Scalar::all(0));
+  std::string msg;
+  EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kRejected);
+  EXPECT_NE(msg.find("its stereo cloud has only 0 points"), std::string::npos) << msg;
+  f = sim.renderFrame(0);  // the same frame with its right image is a keyframe
+  EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
 }

@@ -126,6 +126,12 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
            " mesh faces in the cameras' view (no ring structure?)";
     return rejectAfterSelection(previous_keyframe_stamp);
   }
+  if (static_cast<int>(kf->stereo.points.size()) < settings_.min_stereo_points) {
+    *msg = "frame rejected: its stereo cloud has only " + std::to_string(kf->stereo.points.size()) +
+           " points (at least " + std::to_string(settings_.min_stereo_points) +
+           "): a dark, blurred or mismatched right image?";
+    return rejectAfterSelection(previous_keyframe_stamp);
+  }
   bool check_rows = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -347,15 +353,32 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
     return notPublished("not converged (" + *msg + "): " +
                         (estimate_ ? "keeping the previous estimate" : "nothing published yet"));
   if (estimate_) {
-    // Like with like: the stereo part counts only when both estimated it.
+    // After the window restarted (a reset of the window by a bag's loop; the estimate is kept),
+    // its first solves come from a few keyframes, and their covariances hardly show it (the
+    // model error's floor dominates them): wait until the window holds as many as the estimate
+    // it would replace (session 22 audit: 3 keyframes replaced 10, rotation errors 2-3x larger).
+    if (e.keyframes_used < std::min(estimate_->keyframes_used, settings_.window_size))
+      return notPublished("from " + std::to_string(e.keyframes_used) +
+                          " keyframes, fewer than the published estimate's " +
+                          std::to_string(estimate_->keyframes_used) +
+                          ": kept it until the window refills");
+    // Like with like: the stereo part counts only when both estimated it. Axis by axis.
     const bool both = e.stereo_estimated && estimate_->stereo_estimated;
-    const double trace_new = e.cov_lidar.trace() + (both ? e.cov_stereo.trace() : 0.0);
-    const double trace_old =
-        estimate_->cov_lidar.trace() + (both ? estimate_->cov_stereo.trace() : 0.0);
-    if (!std::isfinite(trace_new) || trace_new > settings_.max_trace_growth * trace_old)
-      return notPublished("new estimate is less certain than the published one (covariance trace " +
-                          std::to_string(trace_new) + " vs " + std::to_string(trace_old) +
-                          "): kept the old one");
+    static const char* kAxes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
+    for (int part = 0; part < (both ? 2 : 1); ++part) {
+      const Matrix6d& now = part == 0 ? e.cov_lidar : e.cov_stereo;
+      const Matrix6d& before = part == 0 ? estimate_->cov_lidar : estimate_->cov_stereo;
+      for (int i = 0; i < 6; ++i)
+        if (!std::isfinite(now(i, i)) || now(i, i) > settings_.max_variance_growth * before(i, i)) {
+          char buf[200];
+          std::snprintf(buf, sizeof buf,
+                        "new estimate is less certain than the published one (%s sigma of %s "
+                        "%.3g vs %.3g, from %d vs %d keyframes): kept the old one",
+                        part == 0 ? "LiDAR" : "stereo", kAxes[i], std::sqrt(now(i, i)),
+                        std::sqrt(before(i, i)), e.keyframes_used, estimate_->keyframes_used);
+          return notPublished(buf);
+        }
+    }
   }
   estimate_ = last_solve_ = e;
   if (published) *published = e;

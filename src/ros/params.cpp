@@ -108,7 +108,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("window/size", &p->online.window_size);
   get("window/min_keyframes", &p->online.min_keyframes);
   get("window/min_keyframes_co", &p->online.min_keyframes_co);
-  get("window/max_trace_growth", &p->online.max_trace_growth);
+  get("window/max_variance_growth", &p->online.max_variance_growth);
   get("window/warm_start_fine_only", &p->online.warm_start_fine_only);
   get("window/keyframe_selection", &p->online.keyframe_selection);
   get("deskew/enabled", &p->online.deskew);
@@ -131,6 +131,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("stereo/block_size", &p->online.keyframe.stereo.block_size);
   get("stereo/max_depth", &p->online.keyframe.stereo.max_depth);
   get("stereo/max_row_offset_px", &p->online.max_row_offset_px);
+  get("stereo/min_points", &p->online.min_stereo_points);
   get("stereo/disparity_sigma", &p->online.keyframe.stereo.disparity_sigma);
   get("stereo/refine_iterations", &p->online.keyframe.stereo.refinement.iterations);
   get("stereo/refine_window_radius", &p->online.keyframe.stereo.refinement.window_radius);
@@ -184,7 +185,8 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
     e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes << "); ";
   if (o.min_keyframes_co < 1 || o.min_keyframes_co > o.window_size)
     e << "window/min_keyframes_co must be in [1, window/size] (got " << o.min_keyframes_co << "); ";
-  if (o.max_trace_growth < 1) e << "window/max_trace_growth must be >= 1; ";
+  if (o.max_variance_growth < 1) e << "window/max_variance_growth must be >= 1; ";
+  if (o.min_stereo_points < 0) e << "stereo/min_points must be >= 0; ";
   if (o.keyframe_selection != "information" && o.keyframe_selection != "fifo")
     e << "window/keyframe_selection must be information or fifo (got '" << o.keyframe_selection
       << "'); ";

@@ -48,9 +48,14 @@ struct OnlineSettings {
   bool estimate_stereo = true;      ///< co-calibration; false: LiDAR-stereo only, stereo fixed
   double max_sync_skew = 0.05;      ///< s; LiDAR and image stamps further apart are rejected
   double max_time_jump_back = 0.0;  ///< s; a stamp earlier than the last by more resets the window
-  /// A new estimate replaces the current one only when converged and its covariance trace is at
-  /// most this factor times the current one's (never publish something less trustworthy).
-  double max_trace_growth = 2.0;
+  /// A new estimate replaces the current one only when converged and no axis's variance is more
+  /// than this factor times the current one's (never publish something less trustworthy). Per
+  /// axis, since a trace adds rad^2 to m^2: rotation was 0.5 % of it, so a window of 3 keyframes
+  /// after a bag's loop replaced one of 10 with rotation errors 2-3x larger (session 22 audit).
+  double max_variance_growth = 2.0;
+  /// A keyframe whose stereo cloud has fewer points is rejected (a black or noise right image:
+  /// generated and KITTI keyframes have 7600-14000 at full size, a black right image 0).
+  int min_stereo_points = 200;
   /// LiDAR-stereo only: once an estimate is published, solve from it with the fine stage alone.
   /// The coarse stage exists to bring a start degrees / decimetres off into the fine stage's
   /// basin; from a converged estimate it only costs time (70-80 % of a 10-keyframe solve).
