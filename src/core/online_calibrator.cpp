@@ -127,7 +127,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
     return rejectAfterSelection(previous_keyframe_stamp);
   }
   if (static_cast<int>(kf->stereo.points.size()) < settings_.min_stereo_points) {
-    *msg = "frame rejected: its stereo cloud has only " + std::to_string(kf->stereo.points.size()) +
+    *msg = "its stereo cloud has only " + std::to_string(kf->stereo.points.size()) +
            " points (at least " + std::to_string(settings_.min_stereo_points) +
            "): a dark, blurred or mismatched right image?";
     return rejectAfterSelection(previous_keyframe_stamp);
