@@ -245,6 +245,12 @@ class BadInput(unittest.TestCase):
                                           -FX * BASELINE)
         self.wait_problem('left and right image stamps differ by 0.2',
                           lambda: self.send(right=late_right, right_info=late_info))
+        # 40 ms: within sync/max_skew (LiDAR vs images), beyond sync/max_stereo_skew (0.02 s).
+        right_40 = lambda t: image(t + rospy.Duration(0.04), 'camera_color_right', seed=2)
+        info_40 = lambda t: camera_info(t + rospy.Duration(0.04), 'camera_color_right',
+                                        -FX * BASELINE)
+        self.wait_problem('left and right image stamps differ by 0.04',
+                          lambda: self.send(right=right_40, right_info=info_40))
 
     def test_7_time_going_backwards(self):
         # A set accepted as far as its stamps go (its toy scan then gives a keyframe or not), and

@@ -24,6 +24,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_EQ(p.online.search_min_keyframes, 8);
   EXPECT_FALSE(p.online.deskew);  // KITTI odometry scans are compensated already
   EXPECT_DOUBLE_EQ(p.online.deskew_max_dt, 0.25);
+  EXPECT_DOUBLE_EQ(p.max_stereo_skew, 0.02);
   EXPECT_DOUBLE_EQ(p.online.max_row_offset_px, 0.5);
   EXPECT_TRUE(p.online.sweep.clockwise);
   EXPECT_EQ(p.online.keyframe.stereo.refinement.iterations, 2);

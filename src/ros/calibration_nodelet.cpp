@@ -184,11 +184,11 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
   // The sync pairs each cloud with the nearest left and right images but bounds neither
   // interval: a dropped right frame would pair the left image with the one before.
   const double right_skew = right->header.stamp.toSec() - stamp;
-  if (candidate && std::fabs(right_skew) > params_.online.max_sync_skew) {
+  if (candidate && std::fabs(right_skew) > params_.max_stereo_skew) {
     ++rejected_;
     const std::string what = "frame rejected: left and right image stamps differ by " +
-                             std::to_string(right_skew) + " s (sync/max_skew " +
-                             std::to_string(params_.online.max_sync_skew) + " s)";
+                             std::to_string(right_skew) + " s (sync/max_stereo_skew " +
+                             std::to_string(params_.max_stereo_skew) + " s)";
     NODELET_WARN_THROTTLE(5.0, "tescalib: %s", what.c_str());
     noteProblem(what);
     return;

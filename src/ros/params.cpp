@@ -101,6 +101,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("sync/approximate", &p->approximate_sync);
   get("sync/queue_size", &p->sync_queue);
   get("sync/max_skew", &p->online.max_sync_skew);
+  get("sync/max_stereo_skew", &p->max_stereo_skew);
   get("frames/lidar", &p->lidar_frame);
   get("frames/left", &p->left_frame);
   get("frames/right", &p->right_frame);
@@ -191,6 +192,7 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
     e << "window/keyframe_selection must be information or fifo (got '" << o.keyframe_selection
       << "'); ";
   if (o.max_sync_skew <= 0) e << "sync/max_skew must be > 0; ";
+  if (p.max_stereo_skew <= 0) e << "sync/max_stereo_skew must be > 0; ";
   if (o.deskew_max_dt <= 0) e << "deskew/max_dt must be > 0 (got " << o.deskew_max_dt << "); ";
   if (!std::isfinite(o.sweep.reference_azimuth_rad))
     e << "deskew/reference_azimuth_deg must be a number; ";

@@ -14,6 +14,9 @@ namespace tescalib {
 struct NodeParams {
   OnlineSettings online;
   bool approximate_sync = true;  ///< message_filters ApproximateTime (else ExactTime)
+  /// s; left and right image stamps further apart are not one stereo pair (a dropped frame paired
+  /// with its neighbour): a pair's cameras fire together, and 20 ms at 12 m/s is 24 cm of motion.
+  double max_stereo_skew = 0.02;
   int sync_queue = 10;
   std::string lidar_frame;                     ///< empty: the point cloud's header frame
   std::string left_frame = "tescalib_left";    ///< published (child of the LiDAR frame)
