@@ -129,12 +129,19 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
   return d;
 }
 
-/// The covariance of what the window constrains: the statistical part plus the common biases.
-Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {
-  const auto& h = r.bias_sensitivity;
+/// The statistical part plus the common biases through `h` (LidarStereoResult::bias_sensitivity
+/// or bias_sensitivity_held).
+Matrix6d withCommonBiases(const LidarStereoResult& r, const LidarStereoSettings& s,
+                          const Eigen::Matrix<double, 6, 2>& h) {
   return r.covariance_statistical +
          std::pow(disparityBiasSigma(r, s), 2) * h.col(0) * h.col(0).transpose() +
          std::pow(s.model_sigma_range_m, 2) * h.col(1) * h.col(1).transpose();
+}
+
+/// The covariance of what the window constrains (the trust flags): the statistical part plus
+/// the common biases, with the clouds' scale and yaw held (they absorb only a uniform offset).
+Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {
+  return withCommonBiases(r, s, r.bias_sensitivity_held);
 }
 
 bool smallUpdate(const Vector6d& d, const LidarStereoSettings& s) {
@@ -443,6 +450,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       res.covariance_model = H_inv;
       const Eigen::MatrixXd bias_moves = -(H_inv_full * JtD);  // pose, scale, yaw per bias
       res.bias_sensitivity = bias_moves.topRows<6>();
+      res.bias_sensitivity_held = -(H.topLeftCorner<6, 6>().ldlt().solve(JtD.topRows<6>()));
       // The window-common disparity offset these residuals show: one Gauss-Newton step of the
       // problem with the offset added as a parameter, from this estimate (offset 0), the pose
       // (and scale) re-solved with it, and its cluster-robust sigma (the same sandwich as the
@@ -503,8 +511,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       // What the window constrains is the statistical part and the common biases (a weakly
       // constrained axis is the one they move furthest: the highway's optical axis), without
       // the scene-independent floor.
-      res.covariance = constrainedCovariance(res, s);
-      all_observable = trustFlags(res.covariance, s, res.observable);
+      all_observable = trustFlags(constrainedCovariance(res, s), s, res.observable);
+      res.covariance = withCommonBiases(res, s, res.bias_sensitivity);
       addAxisVariances(&res.covariance, s.model_sigma_rot_deg, s.model_sigma_trans_m);
     } else {
       res.information = H.topLeftCorner<6, 6>();
