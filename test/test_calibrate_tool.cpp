@@ -3,6 +3,7 @@
 // write an estimate it does not trust), and on bad arguments.
 #include <array>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <memory>
 #include <sstream>
@@ -158,7 +159,28 @@ TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
             << err.tail<3>().norm() * 100 << " cm\n";
   EXPECT_LT(err.head<3>().norm() * kDegPerRad, 0.1);
   EXPECT_LT(err.tail<3>().norm(), 0.015);
-  EXPECT_NE(readAll(base + ".yaml").find("converged: true"), std::string::npos);
+  const std::string yaml = readAll(base + ".yaml");
+  EXPECT_NE(yaml.find("converged: true"), std::string::npos);
+  // Each estimate's NEES against the truth: the last one printed is the written estimate's,
+  // e^T P^-1 e with its covariance (over [phi; tau] as the yaml says), and the mean is given.
+  const size_t cov_at = yaml.find("covariance_phi_tau: [", yaml.find("T_cam_lidar:"));
+  ASSERT_NE(cov_at, std::string::npos) << yaml;
+  std::istringstream cov_in(yaml.substr(cov_at + std::strlen("covariance_phi_tau: [")));
+  Matrix6d cov;
+  for (int i = 0; i < 36; ++i) {
+    cov_in >> cov(i / 6, i % 6);
+    cov_in.ignore(1);  // ", " or "]"
+  }
+  ASSERT_TRUE(cov_in) << yaml;
+  const double nees_written = err.dot(cov.ldlt().solve(err));
+  const size_t printed_at = r.output.rfind(", NEES ");
+  ASSERT_NE(printed_at, std::string::npos) << r.output;
+  const double nees_printed = std::stod(r.output.substr(printed_at + std::strlen(", NEES ")));
+  std::cout << "[ calibrate] NEES " << nees_printed << " printed, " << nees_written
+            << " from the written estimate\n";
+  EXPECT_NEAR(nees_printed, nees_written, 0.05 + 0.02 * nees_written);
+  EXPECT_NE(r.output.find("published T_cam_lidar against the data's calibration"),
+            std::string::npos);
   EXPECT_NE(readAll(base + "_static_tf.launch").find(" my_velo tescalib_left\"/>"),
             std::string::npos);
   // The last keyframe twice, the scan drawn with the initial guess and with the estimate.

@@ -5,12 +5,14 @@
 // --init FILE as the initial guess, prints every estimate the node would publish, and writes the
 // last one as the node's ~save service does (BASE.yaml, BASE_calib.txt, BASE_static_tf.launch).
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
 #include <random>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <rosbag/bag.h>
@@ -74,7 +76,8 @@ void usage() {
          "BASE_calib.txt);\n"
          "  intrinsics stay those of DIR. Default: DIR's own calibration.\n"
          "--perturb-rot-deg / --perturb-trans-m: start that far from the initial T_cam_lidar\n"
-         "  (random direction, --seed); the errors against DIR's calibration are then printed.\n"
+         "  (random direction, --seed); the errors against DIR's calibration are then printed,\n"
+         "  with each estimate's NEES (e^T P^-1 e, 6 DoF: does its covariance cover the error?).\n"
          "--deskew: motion-compensate the scans (default for folders: on for KITTI raw\n"
          "  recordings and swept generated scans; for --bag: off, give --deskew 1 for a bag of\n"
          "  raw driver sweeps such as kitti2bag's of a raw drive).\n"
@@ -178,6 +181,12 @@ std::string sigma6(const Matrix6d& cov) {
   return out;
 }
 
+/// Normalised estimation error squared e^T P^-1 e (6 DoF; NaN when P is not positive definite).
+double nees(const Vector6d& e, const Matrix6d& cov) {
+  const Eigen::LLT<Matrix6d> llt(cov);
+  return llt.info() == Eigen::Success ? e.dot(llt.solve(e)) : std::nan("");
+}
+
 std::string trusted(const bool observable[6]) {
   const std::string weak = untrustedAxes(observable);
   return weak.empty() ? "every axis trusted" : "not trusted: " + weak;
@@ -200,6 +209,7 @@ struct Session {
   Eigen::Isometry3d T_initial, T_reference, T_reference_stereo;
   bool perturbed = false;
   int keyframes = 0, rejected = 0, solves = 0, published = 0;
+  std::vector<std::pair<int, double>> published_nees;  ///< (keyframes used, NEES), --perturb-*
   std::string last_solve;
   std::string lidar_frame = "velo_link";  // the data's (a bag's cloud frame); --lidar-frame wins
   bool keep_last_keyframe = false;        // --overlay
@@ -249,8 +259,15 @@ struct Session {
     if (changed && e) {
       ++published;
       std::printf("new estimate");
-      if (perturbed)
-        std::printf(", error %s", pose6(poseError(e->T_cam_lidar, T_reference)).c_str());
+      if (perturbed) {
+        // Against the data's calibration (the truth of a generated drive): does the published
+        // covariance cover the error? (doc/evaluation.md: NEES, ideal mean 6.)
+        const Vector6d err = poseError(e->T_cam_lidar, T_reference);
+        const double n = nees(err, e->cov_lidar);
+        std::printf(", error %s, NEES %.1f (%d keyframes)", pose6(err).c_str(), n,
+                    e->keyframes_used);
+        if (std::isfinite(n)) published_nees.push_back({e->keyframes_used, n});
+      }
       std::printf(", %.2f s\n", e->solve_seconds);
     } else {
       std::printf("%s\n", last_solve.c_str());
@@ -279,10 +296,36 @@ struct Session {
       std::cerr << "tescalib_calibrate: cannot write " << path << "\n";
   }
 
+  /// --perturb-*: the published estimates' NEES (LiDAR extrinsic) against the data's
+  /// calibration, all and split at the full window. Successive estimates share keyframes, so
+  /// they are not independent samples.
+  void reportNees() const {
+    if (published_nees.empty()) return;
+    double all = 0, part = 0, full = 0;
+    int n_part = 0, n_full = 0;
+    for (const auto& [kfs, n] : published_nees) {
+      all += n;
+      if (kfs < settings.window_size)
+        part += n, ++n_part;
+      else
+        full += n, ++n_full;
+    }
+    std::printf(
+        "NEES of the %zu published T_cam_lidar against the data's calibration (6 DoF, "
+        "ideal mean 6; successive estimates share keyframes): mean %.2f",
+        published_nees.size(), all / published_nees.size());
+    if (n_part)
+      std::printf("; from fewer than %d keyframes %.2f (%d)", settings.window_size, part / n_part,
+                  n_part);
+    if (n_full) std::printf("; from full windows %.2f (%d)", full / n_full, n_full);
+    std::printf("\n");
+  }
+
   /// The final estimate (or the last untrusted solve), the files; the exit status.
   int report(const Args& args, double seconds) const {
     std::printf("%d keyframes, %d rejected, %d solves, %d estimates, %.1f s\n", keyframes, rejected,
                 solves, published, seconds);
+    reportNees();
     const auto e = calibrator ? calibrator->estimate() : std::nullopt;
     if (!e) {
       std::printf("no converged estimate%s%s\n", last_solve.empty() ? "" : ": ",
