@@ -267,6 +267,9 @@ struct Session {
         std::printf(", error %s, NEES %.1f (%d keyframes)", pose6(err).c_str(), n,
                     e->keyframes_used);
         if (std::isfinite(n)) published_nees.push_back({e->keyframes_used, n});
+        if (e->stereo_estimated)
+          std::printf(", T_right_left NEES %.1f",
+                      nees(poseError(e->T_right_left, T_reference_stereo), e->cov_stereo));
       }
       std::printf(", %.2f s\n", e->solve_seconds);
     } else {
