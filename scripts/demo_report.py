@@ -116,6 +116,10 @@ def print_estimate(title, msg, ref):
         print('    error vs reference: rotation [%s] deg (norm %.4f deg), translation [%s] cm '
               '(norm %.2f cm)' % (fmt(phi, 57.29577951308232), ex.norm(phi) * 57.29577951308232,
                                   fmt(tau, 100, 2), 100 * ex.norm(tau)))
+        n = ex.nees(phi, tau, list(msg.covariance)) if msg.estimated else None
+        if n is not None:
+            print('    NEES against it %.1f (e^T P^-1 e over 6 DoF: mean 6 when the covariance '
+                  'tells the truth)' % n)
 
 
 def main():

@@ -116,3 +116,22 @@ def is_symmetric_positive_definite(m, n=6, rel_tol=1e-9):
             else:
                 L[i][j] = s / L[j][j]
     return True
+
+
+def nees(phi, tau, cov, n=6):
+    """e^T P^-1 e for e = [phi; tau] and the row-major 6x6 covariance P over the same [phi; tau]
+    (the normalised estimation error squared: mean 6 when P tells the truth); None when P is not
+    positive definite."""
+    if not is_symmetric_positive_definite(cov, n):
+        return None
+    a = [[cov[i * n + j] for j in range(n)] for i in range(n)]
+    L = [[0.0] * n for _ in range(n)]
+    for i in range(n):
+        for j in range(i + 1):
+            s = a[i][j] - sum(L[i][k] * L[j][k] for k in range(j))
+            L[i][j] = math.sqrt(s) if i == j else s / L[j][j]
+    e = list(phi) + list(tau)
+    y = [0.0] * n  # L y = e; e^T P^-1 e = |y|^2
+    for i in range(n):
+        y[i] = (e[i] - sum(L[i][k] * y[k] for k in range(i))) / L[i][i]
+    return sum(v * v for v in y)

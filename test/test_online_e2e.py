@@ -180,6 +180,13 @@ class OnlineEndToEnd(unittest.TestCase):
         if self.estimate_stereo:
             self.assertTrue(ex.is_symmetric_positive_definite(
                 list(self.est['left_to_right'][-1].covariance)))
+        # The covariance covers the error against the truth: NEES (6 DoF) below the 99.99 %
+        # quantile of chi-square(6), 27.86 (a covariance 100x too small would not pass).
+        phi, tau = ex.error(ex.from_msg(last.transform), self.truth['T_cam_lidar'])
+        n = ex.nees(phi, tau, list(last.covariance))
+        rospy.loginfo('e2e: NEES of the last estimate against the truth %.2f', n)
+        self.assertIsNotNone(n)
+        self.assertLess(n, 27.86)
 
     def test_3_tf_carries_the_estimate(self):
         self.assertTrue(self.tf, 'no tf velo_link -> tescalib_left')
