@@ -214,6 +214,8 @@ TEST(LidarStereoSolver, EstimatesTheRightCameraYawOfTheClouds) {
   // Besides the yaw these disparities carry no common bias. The trust flags hold the yaw when they
   // propagate the model's 0.05 px disparity bias (a real matcher's is not uniform, so the yaw
   // need not absorb it), and against that this canyon's tz is loose (see the plane test above).
+  const LidarStereoResult with_default_bias = solveLidarStereo(window, T_init, s);
+  EXPECT_FALSE(with_default_bias.observable[5]) << "tz against the default 0.05 px bias";
   s.model_sigma_disparity_px = 0;
   const LidarStereoResult with = solveLidarStereo(window, T_init, s);
   const Vector6d e = poseError(with.T_cam_lidar, rig.T_cam_lidar);

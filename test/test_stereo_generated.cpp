@@ -271,7 +271,13 @@ TEST(LidarStereoGenerated, HighwayIsWeakInTheDirectionsThePaperNames) {
             << hn.bias_sensitivity_held(5, 1) << "; tz statistical sigma "
             << std::sqrt(hn.covariance_statistical(5, 5)) * 100 << " cm, trusted "
             << hn.observable[5] << ", " << hn.message << "\n";
-  EXPECT_TRUE(h.bias_sensitivity_held.isApprox(h.bias_sensitivity, 1e-9));
+  EXPECT_EQ(h.bias_sensitivity_held, h.bias_sensitivity);
+  // Held at their estimates (scale about 1, yaw about 0), the nuisances leave the pose as
+  // sensitive as a solve without them (the two estimates differ a little).
+  std::cout << "[ highway  ] tz per px without the nuisances " << h.bias_sensitivity(5, 0)
+            << " m\n";
+  EXPECT_NEAR(hn.bias_sensitivity_held(5, 0), h.bias_sensitivity(5, 0),
+              0.15 * std::fabs(h.bias_sensitivity(5, 0)));
   EXPECT_LT(std::fabs(hn.bias_sensitivity(5, 0)), 0.5 * std::fabs(hn.bias_sensitivity_held(5, 0)));
   EXPECT_FALSE(hn.observable[5]) << "highway tz with the clouds' scale and yaw free";
   EXPECT_FALSE(hn.converged);

@@ -450,7 +450,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       res.covariance_model = H_inv;
       const Eigen::MatrixXd bias_moves = -(H_inv_full * JtD);  // pose, scale, yaw per bias
       res.bias_sensitivity = bias_moves.topRows<6>();
-      res.bias_sensitivity_held = -(H.topLeftCorner<6, 6>().ldlt().solve(JtD.topRows<6>()));
+      if (n == 6)
+        res.bias_sensitivity_held = res.bias_sensitivity;
+      else
+        res.bias_sensitivity_held = -(H.topLeftCorner<6, 6>().ldlt().solve(JtD.topRows<6>()));
       // The window-common disparity offset these residuals show: one Gauss-Newton step of the
       // problem with the offset added as a parameter, from this estimate (offset 0), the pose
       // (and scale) re-solved with it, and its cluster-robust sigma (the same sandwich as the

@@ -110,6 +110,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("window/min_keyframes", &p->online.min_keyframes);
   get("window/min_keyframes_co", &p->online.min_keyframes_co);
   get("window/max_variance_growth", &p->online.max_variance_growth);
+  get("window/max_variance_growth_first_co", &p->online.max_variance_growth_first_co);
   get("window/warm_start_fine_only", &p->online.warm_start_fine_only);
   get("window/keyframe_selection", &p->online.keyframe_selection);
   get("deskew/enabled", &p->online.deskew);
@@ -187,6 +188,8 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.min_keyframes_co < 1 || o.min_keyframes_co > o.window_size)
     e << "window/min_keyframes_co must be in [1, window/size] (got " << o.min_keyframes_co << "); ";
   if (o.max_variance_growth < 1) e << "window/max_variance_growth must be >= 1; ";
+  if (!(o.max_variance_growth_first_co >= 1))
+    e << "window/max_variance_growth_first_co must be >= 1; ";
   if (o.min_stereo_points < 0) e << "stereo/min_points must be >= 0; ";
   if (o.keyframe_selection != "information" && o.keyframe_selection != "fifo")
     e << "window/keyframe_selection must be information or fifo (got '" << o.keyframe_selection

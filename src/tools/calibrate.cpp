@@ -210,6 +210,7 @@ struct Session {
   bool perturbed = false;
   int keyframes = 0, rejected = 0, solves = 0, published = 0;
   std::vector<std::pair<int, double>> published_nees;  ///< (keyframes used, NEES), --perturb-*
+  int nees_skipped = 0;  ///< published estimates whose covariance was not positive definite
   std::string last_solve;
   std::string lidar_frame = "velo_link";  // the data's (a bag's cloud frame); --lidar-frame wins
   bool keep_last_keyframe = false;        // --overlay
@@ -266,7 +267,10 @@ struct Session {
         const double n = nees(err, e->cov_lidar);
         std::printf(", error %s, NEES %.1f (%d keyframes)", pose6(err).c_str(), n,
                     e->keyframes_used);
-        if (std::isfinite(n)) published_nees.push_back({e->keyframes_used, n});
+        if (std::isfinite(n))
+          published_nees.push_back({e->keyframes_used, n});
+        else
+          ++nees_skipped;
         if (e->stereo_estimated)
           std::printf(", T_right_left NEES %.1f",
                       nees(poseError(e->T_right_left, T_reference_stereo), e->cov_stereo));
@@ -321,6 +325,8 @@ struct Session {
       std::printf("; from fewer than %d keyframes %.2f (%d)", settings.window_size, part / n_part,
                   n_part);
     if (n_full) std::printf("; from full windows %.2f (%d)", full / n_full, n_full);
+    if (nees_skipped)
+      std::printf("; %d more without a positive definite covariance (NEES nan)", nees_skipped);
     std::printf("\n");
   }
 

@@ -73,7 +73,9 @@ struct LidarStereoSettings {
   double fine_settle_trans_m = 3e-4;
   int min_inliers = 300;
   /// An axis whose sigma is looser than this (1 sigma; the statistical part plus the common
-  /// biases through this window's sensitivity, without the per-axis floor) is unconstrained.
+  /// biases through this window's sensitivity with the clouds' scale and yaw held,
+  /// LidarStereoResult::bias_sensitivity_held, without the per-axis floor) is unconstrained. With
+  /// the nuisances estimated this sigma can exceed the published one's (which marginalises them).
   double max_sigma_rot_deg = 0.1;
   double max_sigma_trans_m = 0.01;
   // Covariance: clusters of the sandwich estimator (image cells per keyframe), and the model
@@ -178,7 +180,8 @@ struct LidarStereoResult {
   /// clouds' scale and yaw leave loose, the marginalised sensitivity called tz trusted at
   /// 3-7 cm error (sigma 0.5-0.9 cm; session 23).
   Eigen::Matrix<double, 6, 2> bias_sensitivity_held = Eigen::Matrix<double, 6, 2>::Zero();
-  /// Per axis: constrained within max_sigma_* (false: do not trust this axis of the estimate).
+  /// Per axis: constrained within max_sigma_* (false: do not trust this axis of the estimate),
+  /// judged with the common biases through `bias_sensitivity_held`.
   bool observable[6] = {false, false, false, false, false, false};
   double seconds_coarse = 0, seconds_fine = 0;
   /// solveLidarStereoSearch: the starts solved (1: the guess converged or no search) and the
