@@ -96,40 +96,41 @@ def norm(v):
     return math.sqrt(sum(c * c for c in v))
 
 
-def is_symmetric_positive_definite(m, n=6, rel_tol=1e-9):
-    """True when the row-major n x n matrix m is symmetric (to rel_tol of its largest entry)
-    and its Cholesky factorisation succeeds with positive pivots."""
+def cholesky(m, n=6, rel_tol=1e-9):
+    """Lower-triangular L with L L^T = m for the row-major n x n matrix m, or None when m is not
+    symmetric (to rel_tol of its largest entry) or a pivot is not positive."""
     scale = max(abs(v) for v in m) or 1.0
     a = [[m[i * n + j] for j in range(n)] for i in range(n)]
     for i in range(n):
         for j in range(i):
             if abs(a[i][j] - a[j][i]) > rel_tol * scale:
-                return False
+                return None
     L = [[0.0] * n for _ in range(n)]
     for i in range(n):
         for j in range(i + 1):
             s = a[i][j] - sum(L[i][k] * L[j][k] for k in range(j))
             if i == j:
                 if s <= 0:
-                    return False
+                    return None
                 L[i][i] = math.sqrt(s)
             else:
                 L[i][j] = s / L[j][j]
-    return True
+    return L
+
+
+def is_symmetric_positive_definite(m, n=6, rel_tol=1e-9):
+    """True when the row-major n x n matrix m is symmetric (to rel_tol of its largest entry)
+    and its Cholesky factorisation succeeds with positive pivots."""
+    return cholesky(m, n, rel_tol) is not None
 
 
 def nees(phi, tau, cov, n=6):
     """e^T P^-1 e for e = [phi; tau] and the row-major 6x6 covariance P over the same [phi; tau]
     (the normalised estimation error squared: mean 6 when P tells the truth); None when P is not
     positive definite."""
-    if not is_symmetric_positive_definite(cov, n):
+    L = cholesky(cov, n)
+    if L is None:
         return None
-    a = [[cov[i * n + j] for j in range(n)] for i in range(n)]
-    L = [[0.0] * n for _ in range(n)]
-    for i in range(n):
-        for j in range(i + 1):
-            s = a[i][j] - sum(L[i][k] * L[j][k] for k in range(j))
-            L[i][j] = math.sqrt(s) if i == j else s / L[j][j]
     e = list(phi) + list(tau)
     y = [0.0] * n  # L y = e; e^T P^-1 e = |y|^2
     for i in range(n):
