@@ -37,7 +37,7 @@ def camera_info(stamp, frame, tx, width=W, height=H, fx=FX):
     return m
 
 
-def image(stamp, frame, width=W, height=H, encoding='rgb8', seed=0):
+def image(stamp, frame, width=W, height=H, encoding='rgb8', seed=0, black=False):
     m = Image()
     m.header.stamp, m.header.frame_id = stamp, frame
     m.width, m.height, m.encoding = width, height, encoding
@@ -48,6 +48,8 @@ def image(stamp, frame, width=W, height=H, encoding='rgb8', seed=0):
         m.data = bytes(v for v in rng.randbytes(height * width) for _ in range(3))
     else:
         m.data = rng.randbytes(height * m.step)
+    if black:
+        m.data = bytes(len(m.data))
     return m
 
 
@@ -235,6 +237,10 @@ class BadInput(unittest.TestCase):
         self.wait_problem('frame rejected: image size 80x60 / 80x60 does not match camera_info '
                           '160x120', lambda: self.send(left=small('camera_color_left'),
                                                        right=small('camera_color_right')))
+        # A right camera gone black (covered, or its driver failing).
+        black = lambda t: image(t, 'camera_color_right', black=True)
+        self.wait_problem("frame rejected: 100 % of the right image's pixels are black or "
+                          "saturated", lambda: self.send(right=black))
 
     def test_6_lidar_and_images_not_synchronized(self):
         self.wait_problem('frame rejected: LiDAR and image stamps differ by',

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -167,6 +168,63 @@ VerticalAlignment verticalAlignment(const cv::Mat& left, const cv::Mat& right,
   out.slope_y_px = c[2];
   out.spread_px = 1.4826 * medianOf(res);
   return out;
+}
+
+ImageQuality imageQuality(const cv::Mat& image) {
+  ImageQuality q;
+  if (image.empty()) return q;
+  const cv::Mat g = grey(image);
+  cv::Scalar mean, sd;
+  cv::meanStdDev(g, mean, sd);
+  q.contrast = sd[0];
+  q.clipped_fraction =
+      static_cast<double>(cv::countNonZero(g <= 2) + cv::countNonZero(g >= 253)) / g.total();
+  cv::Mat gx, gy;
+  cv::Sobel(g, gx, CV_16S, 1, 0);
+  cv::Sobel(g, gy, CV_16S, 0, 1);
+  const double gradient = cv::mean(cv::abs(gx))[0] + cv::mean(cv::abs(gy))[0];
+  q.sharpness = q.contrast > 0 ? gradient / q.contrast : 0;
+  return q;
+}
+
+std::string pairQualityProblem(const cv::Mat& left, const cv::Mat& right,
+                               const ImageQualitySettings& s, ImageQuality* left_quality,
+                               ImageQuality* right_quality) {
+  const ImageQuality l = imageQuality(left), r = imageQuality(right);
+  if (left_quality) *left_quality = l;
+  if (right_quality) *right_quality = r;
+  char buf[300];
+  for (const auto& [name, q] : {std::pair<const char*, const ImageQuality&>{"left", l},
+                                std::pair<const char*, const ImageQuality&>{"right", r}}) {
+    if (q.clipped_fraction > s.max_clipped_fraction) {
+      std::snprintf(buf, sizeof buf,
+                    "%.0f %% of the %s image's pixels are black or saturated (images/"
+                    "max_clipped_fraction %.0f %%): a blinded or covered camera, or its exposure?",
+                    100 * q.clipped_fraction, name, 100 * s.max_clipped_fraction);
+      return buf;
+    }
+    if (q.contrast < s.min_contrast) {
+      std::snprintf(buf, sizeof buf,
+                    "the %s image has almost no contrast (grey values' standard deviation %.1f, "
+                    "images/min_contrast %.1f): a dark, covered or blinded camera?",
+                    name, q.contrast, s.min_contrast);
+      return buf;
+    }
+  }
+  if (s.min_sharpness_ratio > 0 && l.sharpness > 0) {
+    const double ratio = r.sharpness / l.sharpness;
+    if (ratio < s.min_sharpness_ratio || ratio > 1.0 / s.min_sharpness_ratio) {
+      std::snprintf(buf, sizeof buf,
+                    "the right image is %s than the left (sharpness ratio right / left %.2f, "
+                    "images/min_sharpness_ratio %.2f allows %.2f-%.2f): %s",
+                    ratio < 1 ? "blurrier" : "much sharper or noisier", ratio,
+                    s.min_sharpness_ratio, s.min_sharpness_ratio, 1.0 / s.min_sharpness_ratio,
+                    ratio < 1 ? "a defocused right camera, or a wet or dirty lens?"
+                              : "a blurred left camera, or a noisy right one?");
+      return buf;
+    }
+  }
+  return {};
 }
 
 }  // namespace tescalib

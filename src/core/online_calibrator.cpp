@@ -126,6 +126,12 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
            " mesh faces in the cameras' view (no ring structure?)";
     return rejectAfterSelection(previous_keyframe_stamp);
   }
+  const std::string quality =
+      pairQualityProblem(kf->left_gray, kf->right_gray, settings_.image_quality);
+  if (!quality.empty()) {
+    *msg = quality;
+    return rejectAfterSelection(previous_keyframe_stamp);
+  }
   if (static_cast<int>(kf->stereo.points.size()) < settings_.min_stereo_points) {
     *msg = "its stereo cloud has only " + std::to_string(kf->stereo.points.size()) +
            " points (at least " + std::to_string(settings_.min_stereo_points) +

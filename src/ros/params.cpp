@@ -134,6 +134,9 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("stereo/max_depth", &p->online.keyframe.stereo.max_depth);
   get("stereo/max_row_offset_px", &p->online.max_row_offset_px);
   get("stereo/min_points", &p->online.min_stereo_points);
+  get("images/min_contrast", &p->online.image_quality.min_contrast);
+  get("images/max_clipped_fraction", &p->online.image_quality.max_clipped_fraction);
+  get("images/min_sharpness_ratio", &p->online.image_quality.min_sharpness_ratio);
   get("stereo/disparity_sigma", &p->online.keyframe.stereo.disparity_sigma);
   get("stereo/refine_iterations", &p->online.keyframe.stereo.refinement.iterations);
   get("stereo/refine_window_radius", &p->online.keyframe.stereo.refinement.window_radius);
@@ -191,6 +194,15 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (!(o.max_variance_growth_first_co >= 1))
     e << "window/max_variance_growth_first_co must be >= 1; ";
   if (o.min_stereo_points < 0) e << "stereo/min_points must be >= 0; ";
+  if (!(o.image_quality.min_contrast >= 0))
+    e << "images/min_contrast must be >= 0 (0: no check; got " << o.image_quality.min_contrast
+      << "); ";
+  if (!(o.image_quality.max_clipped_fraction > 0 && o.image_quality.max_clipped_fraction <= 1))
+    e << "images/max_clipped_fraction must be in (0, 1] (1: no check; got "
+      << o.image_quality.max_clipped_fraction << "); ";
+  if (!(o.image_quality.min_sharpness_ratio >= 0 && o.image_quality.min_sharpness_ratio <= 1))
+    e << "images/min_sharpness_ratio must be in [0, 1] (0: no check; got "
+      << o.image_quality.min_sharpness_ratio << "); ";
   if (o.keyframe_selection != "information" && o.keyframe_selection != "fifo")
     e << "window/keyframe_selection must be information or fifo (got '" << o.keyframe_selection
       << "'); ";

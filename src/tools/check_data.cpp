@@ -1,6 +1,7 @@
 // tescalib_check_data: opens KITTI sequences (odometry or raw layout) and reports what the reader
 // sees, whether the dataset's own calibration predicts the stereo disparity and how well the
 // rectified pair's rows agree: a quick check of a user's data before calibrating.
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
@@ -19,7 +20,8 @@ int main(int argc, char** argv) {
       "  DIR: a KITTI sequence (odometry or raw layout, or tescalib_simulate output). Prints the\n"
       "  frames, keyframes and rings the reader sees, how well the data's own calibration\n"
       "  predicts the stereo disparity (SGBM minus the LiDAR-predicted disparity by depth) and\n"
-      "  whether the right image's rows are where that calibration puts them.\n";
+      "  whether the right image's rows are where that calibration puts them, and the pair's\n"
+      "  contrast, clipped pixels and sharpness as the online node's image check sees them.\n";
   if (argc < 2 || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help") {
     std::cout << usage;
     return argc < 2 ? 2 : 0;
@@ -79,6 +81,17 @@ int main(int argc, char** argv) {
         if (va.points > 0 && std::fabs(va.median_px) > 0.25)
           std::cout << "  note: the rows disagree with the calibration by more than 0.25 px; SGBM "
                        "matches along rows, so the disparities of oblique texture are biased\n";
+        tescalib::ImageQuality ql, qr;
+        const std::string problem = tescalib::pairQualityProblem(
+            f.left, f.right, tescalib::ImageQualitySettings{}, &ql, &qr);
+        std::cout << std::setprecision(2) << "  images: contrast (grey std dev) " << ql.contrast
+                  << " / " << qr.contrast << ", black or saturated " << 100 * ql.clipped_fraction
+                  << " / " << 100 * qr.clipped_fraction << " %, sharpness right / left "
+                  << qr.sharpness / std::max(ql.sharpness, 1e-9) << std::setprecision(4) << "\n";
+        if (!problem.empty())
+          std::cout << "  note: the online node would refuse this pair with the default images/ "
+                       "parameters: "
+                    << problem << "\n";
       }
     } catch (const tescalib::DataError& e) {
       std::cerr << "tescalib_check_data: " << e.what() << "\n";
