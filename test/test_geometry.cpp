@@ -28,6 +28,19 @@ TEST(Geometry, PerturbationHasExactSizeAndErrorRecoversIt) {
   }
 }
 
+TEST(Geometry, NeesByHandAndWithoutAPositiveDefiniteCovariance) {
+  // e = (1, 0, 0, 0, 0, 2), P = diag(3, 1, 1, 1, 1, 1) with P(0,5) = P(5,0) = 1:
+  // P^-1 e solves 3x + y = 1, x + y = 2 -> x = -0.5, y = 2.5; e . P^-1 e = -0.5 + 5 = 4.5.
+  Vector6d e = Vector6d::Zero();
+  e(0) = 1, e(5) = 2;
+  Matrix6d P = Matrix6d::Identity();
+  P(0, 0) = 3, P(0, 5) = P(5, 0) = 1;
+  EXPECT_NEAR(nees(e, P), 4.5, 1e-12);
+  P(5, 5) = 0.2;  // indefinite (3 * 0.2 < 1): no NEES
+  EXPECT_TRUE(std::isnan(nees(e, P)));
+  EXPECT_TRUE(std::isnan(nees(e, Matrix6d::Constant(std::nan("")))));
+}
+
 TEST(Overlay, StatusTextOnADarkBand) {
   cv::Mat img(120, 400, CV_8UC3, cv::Scalar(200, 200, 200));
   drawStatusText({"LiDAR->left: converged", "left->right: converged"}, &img);

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include <Eigen/Cholesky>
+
 namespace tescalib {
 
 Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
@@ -26,6 +28,11 @@ Eigen::Isometry3d perturb(const Eigen::Isometry3d& T, const Vector6d& delta) {
   out.linear() = expSO3(delta.head<3>()) * T.linear();
   out.translation() = T.translation() + delta.tail<3>();
   return out;
+}
+
+double nees(const Vector6d& error, const Matrix6d& covariance) {
+  const Eigen::LLT<Matrix6d> llt(covariance);
+  return llt.info() == Eigen::Success ? error.dot(llt.solve(error)) : std::nan("");
 }
 
 void addAxisVariances(Matrix6d* covariance, const std::array<double, 3>& sigma_rot_deg,

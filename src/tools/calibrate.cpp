@@ -181,12 +181,6 @@ std::string sigma6(const Matrix6d& cov) {
   return out;
 }
 
-/// Normalised estimation error squared e^T P^-1 e (6 DoF; NaN when P is not positive definite).
-double nees(const Vector6d& e, const Matrix6d& cov) {
-  const Eigen::LLT<Matrix6d> llt(cov);
-  return llt.info() == Eigen::Success ? e.dot(llt.solve(e)) : std::nan("");
-}
-
 std::string trusted(const bool observable[6]) {
   const std::string weak = untrustedAxes(observable);
   return weak.empty() ? "every axis trusted" : "not trusted: " + weak;

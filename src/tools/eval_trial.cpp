@@ -351,14 +351,11 @@ Trial runTrial(const Args& args, int t, const LidarStereoSettings& solver_settin
   ExtrinsicOutcome& est = stereo_mode ? tr.stereo : tr.lidar;
   if (!stereo_mode) tr.lidar.err = poseError(T_est, d.rig.T_cam_lidar);
   if (args.method == "tescalib") {
-    Eigen::LDLT<Matrix6d> ldlt(est.cov);
-    tr.nees = est.err.dot(ldlt.solve(est.err));
-    if (tr.lidar_cov_model.allFinite())
-      tr.nees_model = est.err.dot(tr.lidar_cov_model.ldlt().solve(est.err));
-    if (co_mode) {  // mean of both extrinsics' 6-DoF NEES
-      Eigen::LDLT<Matrix6d> ldlt_s(tr.stereo.cov);
-      tr.nees = 0.5 * (tr.nees + tr.stereo.err.dot(ldlt_s.solve(tr.stereo.err)));
-    }
+    // NaN (left out of the means) when a covariance is not positive definite.
+    tr.nees = nees(est.err, est.cov);
+    if (tr.lidar_cov_model.allFinite()) tr.nees_model = nees(est.err, tr.lidar_cov_model);
+    if (co_mode)  // mean of both extrinsics' 6-DoF NEES
+      tr.nees = 0.5 * (tr.nees + nees(tr.stereo.err, tr.stereo.cov));
   }
   return tr;
 }

@@ -29,6 +29,11 @@ Eigen::Isometry3d perturb(const Eigen::Isometry3d& T, const Vector6d& delta);
 /// Error of an estimate against ground truth in the same model: [Log(R_est R_gt^T); t_est - t_gt].
 Vector6d poseError(const Eigen::Isometry3d& T_est, const Eigen::Isometry3d& T_gt);
 
+/// Normalised estimation error squared e^T P^-1 e of an error over [phi; tau] under its
+/// covariance (6 DoF: mean 6 over many estimates when the covariance tells the truth); NaN when
+/// the covariance is not positive definite (an estimate without one has no NEES).
+double nees(const Vector6d& error, const Matrix6d& covariance);
+
 /// Adds independent per-axis variances to a covariance over [phi; tau]: 1-sigma rotations (deg)
 /// and translations (m) about / along the camera axes (the solvers' model-error floors).
 void addAxisVariances(Matrix6d* covariance, const std::array<double, 3>& sigma_rot_deg,
