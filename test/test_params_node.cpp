@@ -27,7 +27,9 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_DOUBLE_EQ(p.max_stereo_skew, 0.02);
   EXPECT_DOUBLE_EQ(p.online.max_row_offset_px, 0.5);
   EXPECT_DOUBLE_EQ(p.online.image_quality.min_contrast, 8.0);
-  EXPECT_DOUBLE_EQ(p.online.image_quality.max_clipped_fraction, 0.4);
+  EXPECT_DOUBLE_EQ(p.online.image_quality.max_clipped_difference, 0.4);
+  EXPECT_DOUBLE_EQ(p.online.keyframe.stereo.equalize_contrast_ratio, 1.2);
+  EXPECT_DOUBLE_EQ(p.online.co.stereo_cloud.equalize_contrast_ratio, 1.2);
   EXPECT_DOUBLE_EQ(p.online.image_quality.min_sharpness_ratio, 0.75);
   EXPECT_TRUE(p.online.sweep.clockwise);
   EXPECT_EQ(p.online.keyframe.stereo.refinement.iterations, 2);
@@ -75,16 +77,17 @@ TEST(Params, InvalidValuesAreNamed) {
   pnh.setParam("stereo/refine_smoothed_rounds", 2);
   pnh.setParam("co_calibration/refine_iterations", 7);
   pnh.setParam("lidar_stereo/search_deg", 45.0);
-  pnh.setParam("images/min_sharpness_ratio", 1.5);
-  pnh.setParam("images/max_clipped_fraction", 0.0);
+  pnh.setParam("images/min_sharpness_ratio", 1.0);  // [1, 1]: nothing would pass
+  pnh.setParam("images/max_clipped_difference", 0.0);
   tescalib::NodeParams p;
   std::string error;
   EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
   EXPECT_NE(error.find("stereo/num_disparities"), std::string::npos) << error;
   EXPECT_NE(error.find("window/size"), std::string::npos) << error;
   EXPECT_NE(error.find("co_calibration/yaw_handover_deg"), std::string::npos) << error;
-  EXPECT_NE(error.find("images/min_sharpness_ratio must be in [0, 1]"), std::string::npos) << error;
-  EXPECT_NE(error.find("images/max_clipped_fraction must be in (0, 1]"), std::string::npos) << error;
+  EXPECT_NE(error.find("images/min_sharpness_ratio must be in [0, 1)"), std::string::npos) << error;
+  EXPECT_NE(error.find("images/max_clipped_difference must be in (0, 1]"), std::string::npos)
+      << error;
   EXPECT_NE(error.find("lidar_stereo/halves_chi2_limit"), std::string::npos) << error;
   EXPECT_NE(error.find("deskew/max_dt must be > 0"), std::string::npos) << error;
   EXPECT_NE(error.find("deskew/rate_hz must be > 0"), std::string::npos) << error;

@@ -3,11 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <vector>
 
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
+
+#include "tescalib/core/error.h"
 
 namespace tescalib {
 
@@ -172,18 +175,30 @@ VerticalAlignment verticalAlignment(const cv::Mat& left, const cv::Mat& right,
 
 ImageQuality imageQuality(const cv::Mat& image) {
   ImageQuality q;
+  if (image.depth() != CV_8U ||
+      (image.channels() != 1 && image.channels() != 3 && image.channels() != 4))
+    throw DataError("image quality: the image must be 8-bit grey, BGR or BGRA (got depth " +
+                    std::to_string(image.depth()) + ", " + std::to_string(image.channels()) +
+                    " channels)");
   if (image.empty()) return q;
-  const cv::Mat g = grey(image);
+  cv::Mat g = image;
+  if (image.channels() == 3) cv::cvtColor(image, g, cv::COLOR_BGR2GRAY);
+  if (image.channels() == 4) cv::cvtColor(image, g, cv::COLOR_BGRA2GRAY);
   cv::Scalar mean, sd;
   cv::meanStdDev(g, mean, sd);
   q.contrast = sd[0];
   q.clipped_fraction =
       static_cast<double>(cv::countNonZero(g <= 2) + cv::countNonZero(g >= 253)) / g.total();
-  cv::Mat gx, gy;
-  cv::Sobel(g, gx, CV_16S, 1, 0);
-  cv::Sobel(g, gy, CV_16S, 0, 1);
-  const double gradient = cv::mean(cv::abs(gx))[0] + cv::mean(cv::abs(gy))[0];
-  q.sharpness = q.contrast > 0 ? gradient / q.contrast : 0;
+  const auto gradient = [](const cv::Mat& m) {
+    cv::Mat gx, gy;
+    cv::Sobel(m, gx, CV_16S, 1, 0);
+    cv::Sobel(m, gy, CV_16S, 0, 1);
+    return cv::mean(cv::abs(gx))[0] + cv::mean(cv::abs(gy))[0];
+  };
+  cv::Mat smooth;
+  cv::GaussianBlur(g, smooth, cv::Size(0, 0), 2.0);
+  const double coarse = gradient(smooth);
+  q.sharpness = coarse > 0 ? gradient(g) / coarse : 0;
   return q;
 }
 
@@ -193,34 +208,40 @@ std::string pairQualityProblem(const cv::Mat& left, const cv::Mat& right,
   const ImageQuality l = imageQuality(left), r = imageQuality(right);
   if (left_quality) *left_quality = l;
   if (right_quality) *right_quality = r;
-  char buf[300];
+  char buf[400];
   for (const auto& [name, q] : {std::pair<const char*, const ImageQuality&>{"left", l},
                                 std::pair<const char*, const ImageQuality&>{"right", r}}) {
-    if (q.clipped_fraction > s.max_clipped_fraction) {
-      std::snprintf(buf, sizeof buf,
-                    "%.0f %% of the %s image's pixels are black or saturated (images/"
-                    "max_clipped_fraction %.0f %%): a blinded or covered camera, or its exposure?",
-                    100 * q.clipped_fraction, name, 100 * s.max_clipped_fraction);
-      return buf;
-    }
     if (q.contrast < s.min_contrast) {
       std::snprintf(buf, sizeof buf,
-                    "the %s image has almost no contrast (grey values' standard deviation %.1f, "
-                    "images/min_contrast %.1f): a dark, covered or blinded camera?",
+                    "the %s image has almost no contrast (grey values' standard deviation %.2f, "
+                    "images/min_contrast %.2f): a dark, covered or blinded camera?",
                     name, q.contrast, s.min_contrast);
       return buf;
     }
   }
-  if (s.min_sharpness_ratio > 0 && l.sharpness > 0) {
+  const double clipped = r.clipped_fraction - l.clipped_fraction;
+  if (std::fabs(clipped) > s.max_clipped_difference) {
+    std::snprintf(
+        buf, sizeof buf,
+        "%.1f %% of the %s image's pixels are black or saturated against %.1f %% of the "
+        "%s one's (images/max_clipped_difference %.1f %%): a blinded or partly covered "
+        "%s camera, or its exposure?",
+        100 * std::max(l.clipped_fraction, r.clipped_fraction), clipped > 0 ? "right" : "left",
+        100 * std::min(l.clipped_fraction, r.clipped_fraction), clipped > 0 ? "left" : "right",
+        100 * s.max_clipped_difference, clipped > 0 ? "right" : "left");
+    return buf;
+  }
+  if (s.min_sharpness_ratio > 0 && l.sharpness > 0 && r.sharpness > 0) {
     const double ratio = r.sharpness / l.sharpness;
     if (ratio < s.min_sharpness_ratio || ratio > 1.0 / s.min_sharpness_ratio) {
+      const bool right_softer = ratio < 1;
       std::snprintf(buf, sizeof buf,
-                    "the right image is %s than the left (sharpness ratio right / left %.2f, "
-                    "images/min_sharpness_ratio %.2f allows %.2f-%.2f): %s",
-                    ratio < 1 ? "blurrier" : "much sharper or noisier", ratio,
+                    "the %s image is blurrier than the %s one (sharpness ratio right / left %.3f, "
+                    "images/min_sharpness_ratio %.3f allows %.3f-%.3f): a defocused %s camera, a "
+                    "wet or dirty window in front of it, or a noisy %s one?",
+                    right_softer ? "right" : "left", right_softer ? "left" : "right", ratio,
                     s.min_sharpness_ratio, s.min_sharpness_ratio, 1.0 / s.min_sharpness_ratio,
-                    ratio < 1 ? "a defocused right camera, or a wet or dirty lens?"
-                              : "a blurred left camera, or a noisy right one?");
+                    right_softer ? "right" : "left", right_softer ? "left" : "right");
       return buf;
     }
   }

@@ -165,6 +165,18 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
     left = lr, right = rr;
   }
   if (out.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
+  if (s.equalize_contrast_ratio > 1) {
+    cv::Scalar mean_l, sd_l, mean_r, sd_r;
+    cv::meanStdDev(left, mean_l, sd_l);
+    cv::meanStdDev(right, mean_r, sd_r);
+    const double ratio = sd_r[0] / std::max(sd_l[0], 1e-9);
+    if (sd_r[0] > 0 &&
+        (ratio > s.equalize_contrast_ratio || ratio < 1 / s.equalize_contrast_ratio)) {
+      // right' = (right - mean_r) * sd_l / sd_r + mean_l, saturated to 8 bits.
+      right.convertTo(right, -1, 1 / ratio, mean_l[0] - mean_r[0] / ratio);
+      out.contrast_equalized = true;
+    }
+  }
 
   const auto t_sgbm = std::chrono::steady_clock::now();
   const int bs = s.block_size;

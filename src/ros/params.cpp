@@ -135,9 +135,10 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("stereo/max_row_offset_px", &p->online.max_row_offset_px);
   get("stereo/min_points", &p->online.min_stereo_points);
   get("images/min_contrast", &p->online.image_quality.min_contrast);
-  get("images/max_clipped_fraction", &p->online.image_quality.max_clipped_fraction);
+  get("images/max_clipped_difference", &p->online.image_quality.max_clipped_difference);
   get("images/min_sharpness_ratio", &p->online.image_quality.min_sharpness_ratio);
   get("stereo/disparity_sigma", &p->online.keyframe.stereo.disparity_sigma);
+  get("stereo/equalize_contrast_ratio", &p->online.keyframe.stereo.equalize_contrast_ratio);
   get("stereo/refine_iterations", &p->online.keyframe.stereo.refinement.iterations);
   get("stereo/refine_window_radius", &p->online.keyframe.stereo.refinement.window_radius);
   get("stereo/refine_smoothed_rounds",
@@ -197,11 +198,11 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (!(o.image_quality.min_contrast >= 0))
     e << "images/min_contrast must be >= 0 (0: no check; got " << o.image_quality.min_contrast
       << "); ";
-  if (!(o.image_quality.max_clipped_fraction > 0 && o.image_quality.max_clipped_fraction <= 1))
-    e << "images/max_clipped_fraction must be in (0, 1] (1: no check; got "
-      << o.image_quality.max_clipped_fraction << "); ";
-  if (!(o.image_quality.min_sharpness_ratio >= 0 && o.image_quality.min_sharpness_ratio <= 1))
-    e << "images/min_sharpness_ratio must be in [0, 1] (0: no check; got "
+  if (!(o.image_quality.max_clipped_difference > 0 && o.image_quality.max_clipped_difference <= 1))
+    e << "images/max_clipped_difference must be in (0, 1] (1: no check; got "
+      << o.image_quality.max_clipped_difference << "); ";
+  if (!(o.image_quality.min_sharpness_ratio >= 0 && o.image_quality.min_sharpness_ratio < 1))
+    e << "images/min_sharpness_ratio must be in [0, 1) (0: no check; got "
       << o.image_quality.min_sharpness_ratio << "); ";
   if (o.keyframe_selection != "information" && o.keyframe_selection != "fifo")
     e << "window/keyframe_selection must be information or fifo (got '" << o.keyframe_selection
@@ -219,6 +220,8 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.keyframe.stereo.block_size < 1 || o.keyframe.stereo.block_size % 2 == 0)
     e << "stereo/block_size must be odd (got " << o.keyframe.stereo.block_size << "); ";
   if (o.keyframe.stereo.disparity_sigma <= 0) e << "stereo/disparity_sigma must be > 0; ";
+  if (!std::isfinite(o.keyframe.stereo.equalize_contrast_ratio))
+    e << "stereo/equalize_contrast_ratio must be a number (<= 1: off); ";
   checkRefinementRounds(o.keyframe.stereo.refinement, "stereo/", e);
   if (o.keyframe.stereo.refinement.window_radius < 1 ||
       o.keyframe.stereo.refinement.window_radius > 15)

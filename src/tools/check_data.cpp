@@ -84,13 +84,14 @@ int main(int argc, char** argv) {
         tescalib::ImageQuality ql, qr;
         const std::string problem = tescalib::pairQualityProblem(
             f.left, f.right, tescalib::ImageQualitySettings{}, &ql, &qr);
-        std::cout << std::setprecision(2) << "  images: contrast (grey std dev) " << ql.contrast
-                  << " / " << qr.contrast << ", black or saturated " << 100 * ql.clipped_fraction
-                  << " / " << 100 * qr.clipped_fraction << " %, sharpness right / left "
+        std::cout << std::setprecision(2) << "  frame " << f.index
+                  << " images, left / right: contrast (grey std dev) " << ql.contrast << " / "
+                  << qr.contrast << ", black or saturated " << 100 * ql.clipped_fraction << " / "
+                  << 100 * qr.clipped_fraction << " %; sharpness right / left "
                   << qr.sharpness / std::max(ql.sharpness, 1e-9) << std::setprecision(4) << "\n";
         if (!problem.empty())
-          std::cout << "  note: the online node would refuse this pair with the default images/ "
-                       "parameters: "
+          std::cout << "  note: with the default images/ parameters the online node would refuse "
+                       "this frame's pair: "
                     << problem << "\n";
       }
     } catch (const tescalib::DataError& e) {

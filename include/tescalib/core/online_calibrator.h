@@ -62,10 +62,10 @@ struct OnlineSettings {
   /// A keyframe whose stereo cloud has fewer points is rejected (a black or noise right image:
   /// generated and KITTI keyframes have 7600-14000 at full size, a black right image 0).
   int min_stereo_points = 200;
-  /// A keyframe whose pair fails these (pairQualityProblem: contrast, black or saturated pixels,
-  /// one camera blurred) is rejected with the measured value: generated urban keyframes with the
-  /// right image blurred by 1 px (sharpness ratio 0.71) gave a LiDAR-stereo estimate 1.6 cm off
-  /// (declared not converged, but without saying why). Checked before the stereo cloud's size.
+  /// A keyframe whose pair fails these (pairQualityProblem: contrast, one image much more black
+  /// or saturated than the other, one camera blurred) is rejected with the measured value, before
+  /// its stereo cloud is computed: generated urban keyframes with the right image blurred by 1 px
+  /// gave a LiDAR-stereo estimate 1.6 cm off (declared not converged, but without saying why).
   ImageQualitySettings image_quality;
   /// LiDAR-stereo only: once an estimate is published, solve from it with the fine stage alone.
   /// The coarse stage exists to bring a start degrees / decimetres off into the fine stage's
