@@ -28,8 +28,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_DOUBLE_EQ(p.online.max_row_offset_px, 0.5);
   EXPECT_DOUBLE_EQ(p.online.image_quality.min_contrast, 8.0);
   EXPECT_DOUBLE_EQ(p.online.image_quality.max_clipped_difference, 0.4);
-  EXPECT_DOUBLE_EQ(p.online.keyframe.stereo.equalize_contrast_ratio, 1.2);
-  EXPECT_DOUBLE_EQ(p.online.co.stereo_cloud.equalize_contrast_ratio, 1.2);
+  EXPECT_DOUBLE_EQ(p.online.keyframe.stereo.equalize_exposure_ratio, 1.15);
   EXPECT_DOUBLE_EQ(p.online.image_quality.min_sharpness_ratio, 0.75);
   EXPECT_TRUE(p.online.sweep.clockwise);
   EXPECT_EQ(p.online.keyframe.stereo.refinement.iterations, 2);
@@ -56,11 +55,15 @@ TEST(Params, MisspelledKeysAreReported) {
   pnh.setParam("sync/max_skw", 0.1);
   pnh.setParam("window/size", 12);
   pnh.setParam("stereo/refine/iterations", 1);
+  pnh.setParam("stereo/equalize_exposure_ratio", 1.5);
   tescalib::NodeParams p;
   std::string error;
   std::vector<std::string> unknown;
   EXPECT_TRUE(tescalib::loadNodeParams(pnh, &p, &error, &unknown)) << error;
   EXPECT_EQ(p.online.window_size, 12);
+  // The keyframes' stereo settings reach the clouds co-calibration matches again.
+  EXPECT_DOUBLE_EQ(p.online.keyframe.stereo.equalize_exposure_ratio, 1.5);
+  EXPECT_DOUBLE_EQ(p.online.co.stereo_cloud.equalize_exposure_ratio, 1.5);
   EXPECT_EQ(unknown, (std::vector<std::string>{"stereo/refine/iterations", "sync/max_skw"}));
 }
 

@@ -221,27 +221,29 @@ std::string pairQualityProblem(const cv::Mat& left, const cv::Mat& right,
   }
   const double clipped = r.clipped_fraction - l.clipped_fraction;
   if (std::fabs(clipped) > s.max_clipped_difference) {
-    std::snprintf(
-        buf, sizeof buf,
-        "%.1f %% of the %s image's pixels are black or saturated against %.1f %% of the "
-        "%s one's (images/max_clipped_difference %.1f %%): a blinded or partly covered "
-        "%s camera, or its exposure?",
-        100 * std::max(l.clipped_fraction, r.clipped_fraction), clipped > 0 ? "right" : "left",
-        100 * std::min(l.clipped_fraction, r.clipped_fraction), clipped > 0 ? "left" : "right",
-        100 * s.max_clipped_difference, clipped > 0 ? "right" : "left");
+    const char* worse = clipped > 0 ? "right" : "left";
+    const char* better = clipped > 0 ? "left" : "right";
+    std::snprintf(buf, sizeof buf,
+                  "%.1f %% of the %s image's pixels are black or saturated against %.1f %% of the "
+                  "%s one's (images/max_clipped_difference %.3f, a share): a blinded or partly "
+                  "covered %s camera, or its exposure?",
+                  100 * std::max(l.clipped_fraction, r.clipped_fraction), worse,
+                  100 * std::min(l.clipped_fraction, r.clipped_fraction), better,
+                  s.max_clipped_difference, worse);
     return buf;
   }
   if (s.min_sharpness_ratio > 0 && l.sharpness > 0 && r.sharpness > 0) {
     const double ratio = r.sharpness / l.sharpness;
     if (ratio < s.min_sharpness_ratio || ratio > 1.0 / s.min_sharpness_ratio) {
-      const bool right_softer = ratio < 1;
+      const char* softer = ratio < 1 ? "right" : "left";
+      const char* sharper = ratio < 1 ? "left" : "right";
       std::snprintf(buf, sizeof buf,
-                    "the %s image is blurrier than the %s one (sharpness ratio right / left %.3f, "
-                    "images/min_sharpness_ratio %.3f allows %.3f-%.3f): a defocused %s camera, a "
-                    "wet or dirty window in front of it, or a noisy %s one?",
-                    right_softer ? "right" : "left", right_softer ? "left" : "right", ratio,
-                    s.min_sharpness_ratio, s.min_sharpness_ratio, 1.0 / s.min_sharpness_ratio,
-                    right_softer ? "right" : "left", right_softer ? "left" : "right");
+                    "the %s image has much less fine detail than the %s one (sharpness ratio "
+                    "right / left %.3f, images/min_sharpness_ratio %.3f allows %.3f-%.3f): a "
+                    "defocused %s camera, a wet or dirty window in front of it, or a noisy %s "
+                    "one?",
+                    softer, sharper, ratio, s.min_sharpness_ratio, s.min_sharpness_ratio,
+                    1.0 / s.min_sharpness_ratio, softer, sharper);
       return buf;
     }
   }

@@ -136,7 +136,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   if (static_cast<int>(kf->stereo.points.size()) < settings_.min_stereo_points) {
     *msg = "its stereo cloud has only " + std::to_string(kf->stereo.points.size()) +
            " points (at least " + std::to_string(settings_.min_stereo_points) +
-           "): a dark, blurred or mismatched right image?";
+           "): a dark, blurred, differently exposed or mismatched right image?";
     return rejectAfterSelection(previous_keyframe_stamp);
   }
   bool check_rows = false;
@@ -146,8 +146,11 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
     rows_checked_ = true;
   }
   if (check_rows) {
+    // On the grey values SGBM matched (Lucas-Kanade assumes equal brightness too).
+    cv::Mat left = kf->left_gray.clone(), right = kf->right_gray.clone();
+    matchExposure(&left, &right, ks.stereo.equalize_exposure_ratio);
     const VerticalAlignment rows =
-        verticalAlignment(kf->left_gray, kf->right_gray, kf->stereo, rig_, kf->T_right_left_used);
+        verticalAlignment(left, right, kf->stereo, rig_, kf->T_right_left_used);
     if (rows.points < 100) {  // too little texture to tell: the next keyframe is checked
       std::lock_guard<std::mutex> lock(mutex_);
       rows_checked_ = false;

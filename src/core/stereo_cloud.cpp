@@ -1,5 +1,7 @@
 #include "tescalib/core/stereo_cloud.h"
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -120,6 +122,44 @@ Eigen::Vector3d StereoCloud::pointAt(double u, double v, double d) const {
   return R_rect_left.transpose() * p_rect;
 }
 
+bool matchExposure(cv::Mat* left_grey, cv::Mat* right_grey, double ratio_limit) {
+  if (!(ratio_limit > 1) || left_grey->empty() || right_grey->empty()) return false;
+  cv::Scalar mean_l, sd_l, mean_r, sd_r;
+  cv::meanStdDev(*left_grey, mean_l, sd_l);
+  cv::meanStdDev(*right_grey, mean_r, sd_r);
+  const auto apart = [ratio_limit](double a, double b) {
+    return a <= 0 || b <= 0 || std::max(a / b, b / a) > ratio_limit;
+  };
+  if (!apart(mean_l[0], mean_r[0]) && !apart(sd_l[0], sd_r[0])) return false;
+  if (sd_l[0] <= 0 || sd_r[0] <= 0) return false;  // a flat image has nothing to map
+  // Histogram matching: each grey level of the source goes to the target's level at the same
+  // quantile (the middle of its bin), so clipped highlights and any monotonic response map too.
+  cv::Mat* source = sd_l[0] < sd_r[0] ? left_grey : right_grey;
+  const cv::Mat& target = source == left_grey ? *right_grey : *left_grey;
+  const auto cdf = [](const cv::Mat& m) {
+    std::array<double, 256> c{};
+    for (int v = 0; v < m.rows; ++v) {
+      const uint8_t* p = m.ptr<uint8_t>(v);
+      for (int u = 0; u < m.cols; ++u) c[p[u]] += 1;
+    }
+    double sum = 0;
+    for (double& x : c) x = (sum += x) / m.total();
+    return c;
+  };
+  const std::array<double, 256> cs = cdf(*source), ct = cdf(target);
+  cv::Mat lut(1, 256, CV_8U);
+  int w = 0;
+  for (int v = 0; v < 256; ++v) {
+    const double q = 0.5 * ((v ? cs[v - 1] : 0.0) + cs[v]);
+    while (w < 255 && ct[w] < q) ++w;
+    lut.at<uint8_t>(v) = static_cast<uint8_t>(w);
+  }
+  cv::Mat mapped;
+  cv::LUT(*source, lut, mapped);
+  *source = mapped;
+  return true;
+}
+
 StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
                                const StereoRig& rig, const Eigen::Isometry3d& T_right_left,
                                const StereoSettings& s) {
@@ -142,6 +182,7 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
   cv::Mat left, right;
   cv::cvtColor(left_bgr, left, cv::COLOR_BGR2GRAY);
   cv::cvtColor(right_bgr, right, cv::COLOR_BGR2GRAY);
+  out.exposure_equalized = matchExposure(&left, &right, s.equalize_exposure_ratio);
   const Rectification rect = rectificationFor(rig, T_right_left, left.size());
   setRectification(rect, &out);
   if (rect.identity) {
@@ -165,18 +206,6 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
     left = lr, right = rr;
   }
   if (out.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
-  if (s.equalize_contrast_ratio > 1) {
-    cv::Scalar mean_l, sd_l, mean_r, sd_r;
-    cv::meanStdDev(left, mean_l, sd_l);
-    cv::meanStdDev(right, mean_r, sd_r);
-    const double ratio = sd_r[0] / std::max(sd_l[0], 1e-9);
-    if (sd_r[0] > 0 &&
-        (ratio > s.equalize_contrast_ratio || ratio < 1 / s.equalize_contrast_ratio)) {
-      // right' = (right - mean_r) * sd_l / sd_r + mean_l, saturated to 8 bits.
-      right.convertTo(right, -1, 1 / ratio, mean_l[0] - mean_r[0] / ratio);
-      out.contrast_equalized = true;
-    }
-  }
 
   const auto t_sgbm = std::chrono::steady_clock::now();
   const int bs = s.block_size;
@@ -233,6 +262,7 @@ StereoCloud retriangulateStereoCloud(const StereoCloud& matched, const StereoRig
   const cv::Mat& in = matched.disparity;
   if (in.empty()) throw DataError("stereo cloud: no disparity to re-triangulate");
   StereoCloud out;
+  out.exposure_equalized = matched.exposure_equalized;
   const Rectification rect = rectificationFor(rig, T_right_left, in.size());
   if (rect.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
   setRectification(rect, &out);

@@ -138,7 +138,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("images/max_clipped_difference", &p->online.image_quality.max_clipped_difference);
   get("images/min_sharpness_ratio", &p->online.image_quality.min_sharpness_ratio);
   get("stereo/disparity_sigma", &p->online.keyframe.stereo.disparity_sigma);
-  get("stereo/equalize_contrast_ratio", &p->online.keyframe.stereo.equalize_contrast_ratio);
+  get("stereo/equalize_exposure_ratio", &p->online.keyframe.stereo.equalize_exposure_ratio);
   get("stereo/refine_iterations", &p->online.keyframe.stereo.refinement.iterations);
   get("stereo/refine_window_radius", &p->online.keyframe.stereo.refinement.window_radius);
   get("stereo/refine_smoothed_rounds",
@@ -220,8 +220,8 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.keyframe.stereo.block_size < 1 || o.keyframe.stereo.block_size % 2 == 0)
     e << "stereo/block_size must be odd (got " << o.keyframe.stereo.block_size << "); ";
   if (o.keyframe.stereo.disparity_sigma <= 0) e << "stereo/disparity_sigma must be > 0; ";
-  if (!std::isfinite(o.keyframe.stereo.equalize_contrast_ratio))
-    e << "stereo/equalize_contrast_ratio must be a number (<= 1: off); ";
+  if (!std::isfinite(o.keyframe.stereo.equalize_exposure_ratio))
+    e << "stereo/equalize_exposure_ratio must be a number (<= 1: off); ";
   checkRefinementRounds(o.keyframe.stereo.refinement, "stereo/", e);
   if (o.keyframe.stereo.refinement.window_radius < 1 ||
       o.keyframe.stereo.refinement.window_radius > 15)

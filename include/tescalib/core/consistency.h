@@ -90,7 +90,7 @@ ImageQuality imageQuality(const cv::Mat& image);
 
 struct ImageQualitySettings {
   /// Either image with less contrast is refused: a dark, covered or flat image (generated 32-38,
-  /// KITTI 59-80 grey levels; the generated right image at 15 % brightness: 5.2). 0: no check.
+  /// KITTI 58.8-80.7 grey levels; the generated right image at 15 % brightness: 5.2). 0: no check.
   double min_contrast = 8.0;
   /// Refused when the share of black or saturated pixels of one image exceeds the other's by more
   /// than this: one camera blinded or covered (the sky or the night clips both alike; KITTI's
