@@ -34,7 +34,7 @@ struct StereoSettings {
   /// before SGBM, which compares grey values (matchExposure). Decided on the images as delivered,
   /// so every re-rectification of a keyframe decides alike. Session 24, a right image exposed
   /// 1.5x / 2x the left: a generated window kept 2691 / 593 of 11460 stereo points per keyframe
-  /// and its LiDAR-stereo solve ended 29 cm off at 2x; KITTI's 00 frame 0 kept 659 of 9509 at
+  /// and its LiDAR-stereo solve ended 29 cm off at 2x; KITTI's 00 frame 0 kept 655 of 9509 at
   /// 1.6x. Generated pairs (contrast ratio 0.90) and KITTI's (0.98-1.05) are within it, so not
   /// changed. <= 1: off.
   double equalize_exposure_ratio = 1.15;
