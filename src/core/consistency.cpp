@@ -181,9 +181,7 @@ ImageQuality imageQuality(const cv::Mat& image) {
                     std::to_string(image.depth()) + ", " + std::to_string(image.channels()) +
                     " channels)");
   if (image.empty()) return q;
-  cv::Mat g = image;
-  if (image.channels() == 3) cv::cvtColor(image, g, cv::COLOR_BGR2GRAY);
-  if (image.channels() == 4) cv::cvtColor(image, g, cv::COLOR_BGRA2GRAY);
+  const cv::Mat g = grey(image);  // COLOR_BGR2GRAY takes BGRA too
   cv::Scalar mean, sd;
   cv::meanStdDev(g, mean, sd);
   q.contrast = sd[0];
