@@ -20,7 +20,8 @@ from geometry_msgs.msg import TransformStamped
 from sensor_msgs import point_cloud2
 from sensor_msgs.msg import CameraInfo, Image, PointCloud2, PointField
 from tescalib.msg import ExtrinsicEstimate
-from tescalib.srv import Reset, Save
+from std_srvs.srv import Trigger
+from tescalib.srv import Save
 from tf2_msgs.msg import TFMessage
 
 W, H, FX = 160, 120, 100.0
@@ -80,6 +81,7 @@ class BadInput(unittest.TestCase):
         cls.lock = threading.Lock()
         cls.diag = []
         cls.bad_params_diag = []
+        cls.bad_transport_diag = []
         cls.published = []
         cls.tf_children = set()
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diag)
@@ -111,6 +113,9 @@ class BadInput(unittest.TestCase):
             if s.hardware_id == 'tescalib' and 'bad_params' in s.name:
                 with cls.lock:
                     cls.bad_params_diag.append((s.level, s.message))
+            elif s.hardware_id == 'tescalib' and 'bad_transport' in s.name:
+                with cls.lock:
+                    cls.bad_transport_diag.append((s.level, s.message))
             elif s.hardware_id == 'tescalib':
                 with cls.lock:
                     cls.diag.append((time.time(), s.message, {kv.key: kv.value for kv in s.values}))
@@ -179,6 +184,17 @@ class BadInput(unittest.TestCase):
         level, message = self.bad_params_diag[-1]
         self.assertEqual(level, DiagnosticStatus.ERROR)
         self.assertIn('invalid parameters: window/size must be >= 1 (got 0)', message)
+
+    def test_0b_an_image_transport_that_is_not_installed(self):
+        # The node stays inert and names the transport and the ones it could load.
+        deadline = time.time() + 15
+        while time.time() < deadline and not self.bad_transport_diag:
+            time.sleep(0.2)
+        self.assertTrue(self.bad_transport_diag, 'the node with a missing transport is silent')
+        level, message = self.bad_transport_diag[-1]
+        self.assertEqual(level, DiagnosticStatus.ERROR)
+        self.assertIn('image_transport "no_such_transport" cannot be used: installed here: raw',
+                      message)
 
     def test_1_images_without_the_other_topics(self):
         for _ in range(25):
@@ -295,7 +311,7 @@ class BadInput(unittest.TestCase):
         res = save(path='/tmp/tescalib_bad_input_never_written')
         self.assertFalse(res.success)
         self.assertIn('no converged estimate', res.message)
-        self.assertTrue(rospy.ServiceProxy('/tescalib/reset', Reset)().success)
+        self.assertTrue(rospy.ServiceProxy('/tescalib/reset', Trigger)().success)
 
 
     def test_9_overlay_draws_an_untrusted_candidate(self):

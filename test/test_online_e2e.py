@@ -21,7 +21,8 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import Image, PointCloud2
 from tescalib.msg import ExtrinsicEstimate
-from tescalib.srv import Reset, Save
+from std_srvs.srv import Trigger
+from tescalib.srv import Save
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker
 
@@ -291,7 +292,7 @@ class OnlineEndToEnd(unittest.TestCase):
             self.assertIn('tescalib_left', f.read())
 
     def test_9_reset_clears_the_window(self):
-        self.assertTrue(rospy.ServiceProxy('/tescalib/reset', Reset)().success)
+        self.assertTrue(rospy.ServiceProxy('/tescalib/reset', Trigger)().success)
         t0 = time.time()
         deadline = t0 + 5
         while time.time() < deadline:

@@ -25,6 +25,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_FALSE(p.online.deskew);  // KITTI odometry scans are compensated already
   EXPECT_DOUBLE_EQ(p.online.deskew_max_dt, 0.25);
   EXPECT_DOUBLE_EQ(p.max_stereo_skew, 0.02);
+  EXPECT_EQ(p.image_transport, "raw");
   EXPECT_DOUBLE_EQ(p.online.max_row_offset_px, 0.5);
   EXPECT_DOUBLE_EQ(p.online.image_quality.min_contrast, 8.0);
   EXPECT_DOUBLE_EQ(p.online.image_quality.max_clipped_difference, 0.4);
@@ -82,6 +83,7 @@ TEST(Params, InvalidValuesAreNamed) {
   pnh.setParam("lidar_stereo/search_deg", 45.0);
   pnh.setParam("images/min_sharpness_ratio", 1.0);  // [1, 1]: nothing would pass
   pnh.setParam("images/max_clipped_difference", 0.0);
+  pnh.setParam("image_transport", std::string("/left/image_raw/compressed"));  // a topic
   tescalib::NodeParams p;
   std::string error;
   EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
@@ -92,6 +94,7 @@ TEST(Params, InvalidValuesAreNamed) {
   EXPECT_NE(error.find("images/max_clipped_difference must be in (0, 1]"), std::string::npos)
       << error;
   EXPECT_NE(error.find("lidar_stereo/halves_chi2_limit"), std::string::npos) << error;
+  EXPECT_NE(error.find("image_transport must be a transport's name"), std::string::npos) << error;
   EXPECT_NE(error.find("deskew/max_dt must be > 0"), std::string::npos) << error;
   EXPECT_NE(error.find("deskew/rate_hz must be > 0"), std::string::npos) << error;
   EXPECT_NE(error.find("stereo/refine_smoothed_rounds must be between 0 and stereo/"),

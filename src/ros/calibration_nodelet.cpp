@@ -14,6 +14,17 @@
 #include "tescalib/ros/initial_rig.h"
 
 namespace tescalib {
+namespace {
+
+/// The ROS topic an image subscription listens on: the base topic, with the transport's suffix
+/// when it is not raw (/left/image_raw/compressed).
+std::string imageTopic(const image_transport::SubscriberFilter& sub) {
+  const std::string transport = sub.getTransport();
+  return transport.empty() || transport == "raw" ? sub.getTopic()
+                                                 : sub.getTopic() + "/" + transport;
+}
+
+}  // namespace
 
 CalibrationNodelet::~CalibrationNodelet() {
   // No new callbacks into members about to go: the timer and the inputs stop first.
@@ -36,6 +47,16 @@ CalibrationNodelet::~CalibrationNodelet() {
   if (solve_thread_.joinable()) solve_thread_.join();
 }
 
+void CalibrationNodelet::stayInert(const std::string& why) {
+  // The manager and its other nodelets keep running; this one says why on /diagnostics, every
+  // second, as an error.
+  NODELET_FATAL("tescalib: %s", why.c_str());
+  param_error_ = why;
+  startDiagnostics(getNodeHandle(), getPrivateNodeHandle());
+  watchdog_timer_ =
+      getNodeHandle().createWallTimer(ros::WallDuration(1.0), &CalibrationNodelet::watchdog, this);
+}
+
 void CalibrationNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
@@ -43,13 +64,8 @@ void CalibrationNodelet::onInit() {
   std::vector<std::string> unknown;
   start_wall_ = ros::WallTime::now();
   if (!loadNodeParams(pnh, &params_, &error, &unknown)) {
-    NODELET_FATAL("tescalib: invalid parameters: %s", error.c_str());
-    // Stays inert (the manager and its other nodelets keep running) and says why on
-    // /diagnostics, every second, as an error.
-    param_error_ = "invalid parameters: " + error;
-    startDiagnostics(nh, pnh);
-    watchdog_timer_ =
-        nh.createWallTimer(ros::WallDuration(1.0), &CalibrationNodelet::watchdog, this);
+    while (!error.empty() && (error.back() == ' ' || error.back() == ';')) error.pop_back();
+    stayInert("invalid parameters: " + error);
     return;
   }
   if (!unknown.empty()) {
@@ -78,10 +94,32 @@ void CalibrationNodelet::onInit() {
   save_srv_ = pnh.advertiseService("save", &CalibrationNodelet::onSave, this);
 
   const uint32_t q = 5;
+  // The images through image_transport (~image_transport: raw, or compressed where that plugin
+  // is installed); a transport that cannot be loaded leaves the node inert, saying why.
+  image_transport_ = std::make_unique<image_transport::ImageTransport>(nh);
+  const image_transport::TransportHints hints(params_.image_transport, ros::TransportHints(), pnh);
+  try {
+    left_sub_.subscribe(*image_transport_, "left/image_raw", q, hints);
+    right_sub_.subscribe(*image_transport_, "right/image_raw", q, hints);
+  } catch (const std::exception& ex) {
+    std::string available;
+    bool installed = false;
+    for (std::string t : image_transport_->getLoadableTransports()) {
+      if (t.rfind("image_transport/", 0) == 0) t = t.substr(16);
+      installed = installed || t == params_.image_transport;
+      available += (available.empty() ? "" : ", ") + t;
+    }
+    std::string why = ex.what();
+    std::replace(why.begin(), why.end(), '\n', ' ');
+    stayInert("image_transport \"" + params_.image_transport + "\" cannot be used: " +
+              (installed ? why
+                         : "installed here: " + available +
+                               " (other transports need their plugin package, e.g. "
+                               "compressed_image_transport)"));
+    return;
+  }
   cloud_sub_.subscribe(nh, "points", q);
-  left_sub_.subscribe(nh, "left/image_raw", q);
   left_info_sub_.subscribe(nh, "left/camera_info", q);
-  right_sub_.subscribe(nh, "right/image_raw", q);
   right_info_sub_.subscribe(nh, "right/camera_info", q);
   left_sub_.registerCallback(boost::function<void(const Image::ConstPtr&)>(
       [this](const Image::ConstPtr&) { ++topic_messages_[1]; }));
@@ -113,9 +151,8 @@ void CalibrationNodelet::onInit() {
   NODELET_INFO(
       "tescalib: waiting for synchronized %s, %s + %s, %s + %s (window %d keyframes >= %.2f s "
       "apart, %s sync)",
-      cloud_sub_.getSubscriber().getTopic().c_str(), left_sub_.getSubscriber().getTopic().c_str(),
-      left_info_sub_.getSubscriber().getTopic().c_str(),
-      right_sub_.getSubscriber().getTopic().c_str(),
+      cloud_sub_.getSubscriber().getTopic().c_str(), imageTopic(left_sub_).c_str(),
+      left_info_sub_.getSubscriber().getTopic().c_str(), imageTopic(right_sub_).c_str(),
       right_info_sub_.getSubscriber().getTopic().c_str(), params_.online.window_size,
       params_.online.keyframe_min_dt, params_.approximate_sync ? "approximate" : "exact");
 }
@@ -449,10 +486,9 @@ void CalibrationNodelet::publishTf(const OnlineEstimate& e, const ros::Time& sta
 }
 
 std::string CalibrationNodelet::silentTopics() const {
-  const std::string topics[5] = {
-      cloud_sub_.getSubscriber().getTopic(), left_sub_.getSubscriber().getTopic(),
-      left_info_sub_.getSubscriber().getTopic(), right_sub_.getSubscriber().getTopic(),
-      right_info_sub_.getSubscriber().getTopic()};
+  const std::string topics[5] = {cloud_sub_.getSubscriber().getTopic(), imageTopic(left_sub_),
+                                 left_info_sub_.getSubscriber().getTopic(), imageTopic(right_sub_),
+                                 right_info_sub_.getSubscriber().getTopic()};
   std::string silent;
   for (int i = 0; i < 5; ++i)
     if (topic_messages_[i] == 0) silent += (silent.empty() ? "" : ", ") + topics[i];
@@ -495,7 +531,7 @@ void CalibrationNodelet::watchdog(const ros::WallTimerEvent&) {
   noteProblem(what);
 }
 
-bool CalibrationNodelet::onReset(Reset::Request&, Reset::Response& res) {
+bool CalibrationNodelet::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   if (calibrator()) calibrator()->reset();
   last_enqueued_stamp_ = -1e300;
   res.success = true;

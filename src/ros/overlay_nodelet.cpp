@@ -38,8 +38,12 @@ void OverlayNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
   pnh.param("max_depth", max_depth_, max_depth_);
-  left_pub_ = pnh.advertise<Image>("left/overlay", 1);
-  right_pub_ = pnh.advertise<Image>("right/overlay", 1);
+  // Images in and out through image_transport: ~image_transport names the input's transport
+  // (raw by default); the overlays are offered on every transport installed.
+  image_transport_ = std::make_unique<image_transport::ImageTransport>(nh);
+  image_transport::ImageTransport private_it(pnh);
+  left_pub_ = private_it.advertise("left/overlay", 1);
+  right_pub_ = private_it.advertise("right/overlay", 1);
   lidar_est_sub_ = nh.subscribe<ExtrinsicEstimate>("lidar_to_left", 1,
                                                    [this](const ExtrinsicEstimate::ConstPtr& m) {
                                                      std::lock_guard<std::mutex> lock(mutex_);
@@ -55,10 +59,17 @@ void OverlayNodelet::onInit() {
                                                       std::lock_guard<std::mutex> lock(mutex_);
                                                       stereo_est_ = *m;
                                                     });
+  const image_transport::TransportHints hints("raw", ros::TransportHints(), pnh);
+  try {
+    left_sub_.subscribe(*image_transport_, "left/image_raw", 2, hints);
+    right_sub_.subscribe(*image_transport_, "right/image_raw", 2, hints);
+  } catch (const std::exception& ex) {
+    NODELET_FATAL("tescalib overlay: image_transport \"%s\" cannot be used: %s",
+                  hints.getTransport().c_str(), ex.what());
+    return;
+  }
   cloud_sub_.subscribe(nh, "points", 2);
-  left_sub_.subscribe(nh, "left/image_raw", 2);
   left_info_sub_.subscribe(nh, "left/camera_info", 2);
-  right_sub_.subscribe(nh, "right/image_raw", 2);
   right_info_sub_.subscribe(nh, "right/camera_info", 2);
   sync_ = std::make_unique<message_filters::Synchronizer<Policy>>(
       Policy(5), cloud_sub_, left_sub_, left_info_sub_, right_sub_, right_info_sub_);

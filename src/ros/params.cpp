@@ -102,6 +102,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("sync/queue_size", &p->sync_queue);
   get("sync/max_skew", &p->online.max_sync_skew);
   get("sync/max_stereo_skew", &p->max_stereo_skew);
+  get("image_transport", &p->image_transport);
   get("frames/lidar", &p->lidar_frame);
   get("frames/left", &p->left_frame);
   get("frames/right", &p->right_frame);
@@ -214,6 +215,9 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
     e << "deskew/reference_azimuth_deg must be a number; ";
   if (o.sweep.rate_hz <= 0) e << "deskew/rate_hz must be > 0 (got " << o.sweep.rate_hz << "); ";
   if (p.sync_queue < 1) e << "sync/queue_size must be >= 1; ";
+  if (p.image_transport.empty() || p.image_transport.find('/') != std::string::npos)
+    e << "image_transport must be a transport's name (raw, compressed, ...; got \""
+      << p.image_transport << "\"); ";
   if (o.keyframe.stereo.num_disparities < 16 || o.keyframe.stereo.num_disparities % 16)
     e << "stereo/num_disparities must be a positive multiple of 16 (got "
       << o.keyframe.stereo.num_disparities << "); ";

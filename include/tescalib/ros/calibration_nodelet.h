@@ -15,6 +15,8 @@
 #include <vector>
 
 #include <diagnostic_updater/diagnostic_updater.h>
+#include <image_transport/image_transport.h>
+#include <image_transport/subscriber_filter.h>
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/sync_policies/exact_time.h>
@@ -28,7 +30,7 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
-#include <tescalib/Reset.h>
+#include <std_srvs/Trigger.h>
 #include <tescalib/Save.h>
 
 #include "tescalib/core/online_calibrator.h"
@@ -98,8 +100,11 @@ class CalibrationNodelet : public nodelet::Nodelet {
   /// stop or a ~reset (the last published estimate is the best the node has).
   void publishTf(const OnlineEstimate& e, const ros::Time& stamp);
   void startDiagnostics(ros::NodeHandle& nh, ros::NodeHandle& pnh);
+  /// Start-up failed (invalid parameters, an image transport that cannot be loaded): log `why`,
+  /// keep it on /diagnostics as an error every second, and do nothing else.
+  void stayInert(const std::string& why);
   void watchdog(const ros::WallTimerEvent&);
-  bool onReset(Reset::Request& req, Reset::Response& res);
+  bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onSave(Save::Request& req, Save::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
   /// Keeps `what` as /diagnostics' "last problem" (every rejection and start-up problem: the
@@ -114,8 +119,9 @@ class CalibrationNodelet : public nodelet::Nodelet {
   OnlineCalibrator* calibrator() const { return calibrator_.load(std::memory_order_acquire); }
   std::string lidar_frame_;
 
+  std::unique_ptr<image_transport::ImageTransport> image_transport_;
   message_filters::Subscriber<Cloud> cloud_sub_;
-  message_filters::Subscriber<Image> left_sub_, right_sub_;
+  image_transport::SubscriberFilter left_sub_, right_sub_;  ///< through ~image_transport
   message_filters::Subscriber<Info> left_info_sub_, right_info_sub_;
   std::unique_ptr<message_filters::Synchronizer<ApproxPolicy>> approx_sync_;
   std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;

@@ -7,6 +7,8 @@
 #include <mutex>
 #include <optional>
 
+#include <image_transport/image_transport.h>
+#include <image_transport/subscriber_filter.h>
 #include <message_filters/subscriber.h>
 #include <message_filters/sync_policies/approximate_time.h>
 #include <message_filters/synchronizer.h>
@@ -31,12 +33,13 @@ class OverlayNodelet : public nodelet::Nodelet {
   void onSet(const Cloud::ConstPtr& cloud, const Image::ConstPtr& left, const Info::ConstPtr& li,
              const Image::ConstPtr& right, const Info::ConstPtr& ri);
 
+  std::unique_ptr<image_transport::ImageTransport> image_transport_;
   message_filters::Subscriber<Cloud> cloud_sub_;
-  message_filters::Subscriber<Image> left_sub_, right_sub_;
+  image_transport::SubscriberFilter left_sub_, right_sub_;  ///< through ~image_transport
   message_filters::Subscriber<Info> left_info_sub_, right_info_sub_;
   std::unique_ptr<message_filters::Synchronizer<Policy>> sync_;
   ros::Subscriber lidar_est_sub_, stereo_est_sub_, lidar_candidate_sub_;
-  ros::Publisher left_pub_, right_pub_;
+  image_transport::Publisher left_pub_, right_pub_;
   std::mutex mutex_;
   std::optional<ExtrinsicEstimate> lidar_est_, stereo_est_;  ///< GUARDED_BY(mutex_)
   /// The calibration's last solve (candidate/lidar_to_left), drawn only while no estimate has

@@ -18,6 +18,9 @@ struct NodeParams {
   /// with its neighbour): a pair's cameras fire together, and 20 ms at 12 m/s is 24 cm of motion.
   double max_stereo_skew = 0.02;
   int sync_queue = 10;
+  /// image_transport plugin the images arrive through ("raw"; "compressed" or "theora" where
+  /// those plugins are installed): the standard `~image_transport` parameter.
+  std::string image_transport = "raw";
   std::string lidar_frame;                     ///< empty: the point cloud's header frame
   std::string left_frame = "tescalib_left";    ///< published (child of the LiDAR frame)
   std::string right_frame = "tescalib_right";  ///< published (child of left_frame)
