@@ -331,16 +331,18 @@ TEST(LidarStereoSolver, FailsHonestlyWithoutStructure) {
   std::cout << "road only: " << r.message << "; sigma";
   for (int i = 0; i < 6; ++i) std::cout << " " << std::sqrt(r.covariance(i, i));
   std::cout << "\n";
-  EXPECT_FALSE(r.observable[1]);  // rotation about camera y
-  EXPECT_FALSE(r.observable[3]);  // translation along camera x
-  EXPECT_FALSE(r.observable[5]);  // translation along camera z
-  EXPECT_TRUE(r.observable[4]);   // height above the road is constrained
+  EXPECT_FALSE(r.observable[1]);    // rotation about camera y
+  EXPECT_FALSE(r.observable[3]);    // translation along camera x
+  EXPECT_FALSE(r.observable[5]);    // translation along camera z
+  EXPECT_TRUE(r.observable[4]);     // height above the road is constrained
+  EXPECT_TRUE(r.covariance_known);  // weak axes are a covariance with large sigma, not none
 }
 
 TEST(LidarStereoSolver, EmptyWindowIsNotConverged) {
   const LidarStereoResult r = solveLidarStereo({}, Eigen::Isometry3d::Identity());
   EXPECT_FALSE(r.converged);
   EXPECT_EQ(r.message, "empty window");
+  EXPECT_FALSE(r.covariance_known);  // its identity covariance is a placeholder
 }
 
 TEST(LidarStereoSolverReal, KittiWindowConvergesToOnePointFromPerturbations) {

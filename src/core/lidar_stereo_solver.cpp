@@ -447,6 +447,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       const Eigen::MatrixXd H_inv_full = H.inverse();
       const Matrix6d H_inv = H_inv_full.topLeftCorner<6, 6>();
       res.information = H_inv.inverse();  // the pose's marginal information
+      res.covariance_known = true;
       res.covariance_model = H_inv;
       const Eigen::MatrixXd bias_moves = -(H_inv_full * JtD);  // pose, scale, yaw per bias
       res.bias_sensitivity = bias_moves.topRows<6>();

@@ -217,7 +217,8 @@ Eigen::Isometry3d solveCo(const Args& args, const EvalData& d,
   tr.stage_seconds = {{"photometric", r.seconds_photometric},
                       {"stereo_cloud", r.seconds_stereo_cloud},
                       {"lidar_stereo", r.seconds_lidar}};
-  tr.lidar.cov = r.lidar.covariance;
+  // A placeholder covariance (singular information) is no claim: NaN, left out of the NEES.
+  tr.lidar.cov = r.lidar.covariance_known ? r.lidar.covariance : Matrix6d::Constant(std::nan(""));
   tr.lidar.cov_stat = r.lidar.covariance_statistical;
   tr.lidar.bias = r.lidar.bias_sensitivity;
   tr.stereo.cov = r.stereo.covariance;
@@ -264,10 +265,10 @@ Eigen::Isometry3d solveLidar(const LidarStereoSettings& solver_settings,
   const LidarStereoResult r = solveLidarStereoSearch(window, T_init, solver_settings);
   tr.converged = r.converged;
   tr.iterations = r.iterations;
-  tr.lidar.cov = r.covariance;
+  tr.lidar.cov = r.covariance_known ? r.covariance : Matrix6d::Constant(std::nan(""));
   tr.lidar.cov_stat = r.covariance_statistical;
   tr.lidar.bias = r.bias_sensitivity;
-  tr.lidar_cov_model = r.covariance_model;
+  if (r.covariance_known) tr.lidar_cov_model = r.covariance_model;
   tr.halves = r.halves;
   tr.message = r.message;
   if (solver_settings.estimate_stereo_scale) {

@@ -161,7 +161,11 @@ struct LidarStereoResult {
   double disparity_offset_sigma_px = 0.0;  ///< its cluster-robust sigma (0: not measured)
   double residual_scale = 1.0;  ///< robust std of the normalised residuals (1 if the model fits)
   /// Published covariance over [phi; tau] (rad, m): cluster-robust sandwich (see the solver).
+  /// Without `covariance_known` a placeholder (identity, or 1e6 I), not an uncertainty.
   Matrix6d covariance = Matrix6d::Identity();
+  /// The covariances were computed (false: no associations, or the information matrix was
+  /// singular; then no axis is observable and a NEES of the placeholder means nothing).
+  bool covariance_known = false;
   /// The paper's eq. residual_uncertainty, information^-1 (independent residuals assumed).
   Matrix6d covariance_model = Matrix6d::Identity();
   /// `covariance` without the model error: what this window's residuals alone constrain (scene
