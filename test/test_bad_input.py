@@ -247,7 +247,7 @@ class BadInput(unittest.TestCase):
 
     def test_5_bad_images(self):
         float_image = lambda t: image(t, 'camera_color_left', encoding='32FC1')
-        self.wait_problem("image rejected: unsupported image encoding '32FC1'",
+        self.wait_problem("image rejected: left image: unsupported image encoding '32FC1'",
                           lambda: self.send(left=float_image))
         small = lambda frame: (lambda t: image(t, frame, width=W // 2, height=H // 2))
         self.wait_problem('frame rejected: image size 80x60 / 80x60 does not match camera_info '

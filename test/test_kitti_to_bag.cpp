@@ -418,14 +418,40 @@ TEST(Conversions, Mono16IsScaledByTheBitsItUses) {
   cv_bridge::CvImage(h, "mono16", sixteen).toImageMsg(right);
   ASSERT_TRUE(ros_conv::toBgr8(right, &out, &err)) << err;
   EXPECT_EQ(out.at<cv::Vec3b>(1, 1)[0], 125);  // 32000 / 257 = 124.5
-  // A pair takes the left image's scale for both, so that SGBM sees them alike.
-  double scale = 0;
-  ASSERT_TRUE(ros_conv::toBgr8(left, &out, &err, &scale)) << err;
-  EXPECT_NEAR(scale, 255.0 / 4095.0, 1e-12);
-  cv::Mat darker = twelve / 2;  // its values use 11 bits, but it is the pair's right image
+  // A pair takes one scale for both, so that SGBM sees them alike: the brighter image's, so
+  // that it does not clip whichever camera it is.
+  cv::Mat darker = twelve / 2;  // its values use 11 bits
+  darker.at<uint16_t>(0, 0) = 2047;
   cv_bridge::CvImage(h, "mono16", darker).toImageMsg(right);
-  ASSERT_TRUE(ros_conv::toBgr8(right, &out, &err, &scale)) << err;
-  EXPECT_EQ(out.at<cv::Vec3b>(1, 1)[0], 62);  // 1000 * 255 / 4095 = 62.3
+  for (const bool left_darker : {false, true}) {
+    const sensor_msgs::Image& a = left_darker ? right : left;  // the pair's left image
+    const sensor_msgs::Image& b = left_darker ? left : right;
+    double scale = ros_conv::mono16Scale({&a, &b});
+    EXPECT_NEAR(scale, 255.0 / 4095.0, 1e-12) << left_darker;
+    cv::Mat out_a, out_b;
+    ASSERT_TRUE(ros_conv::toBgr8(a, &out_a, &err, &scale)) << err;
+    ASSERT_TRUE(ros_conv::toBgr8(b, &out_b, &err, &scale)) << err;
+    const cv::Mat& bright = left_darker ? out_b : out_a;
+    const cv::Mat& dark = left_darker ? out_a : out_b;
+    EXPECT_EQ(bright.at<cv::Vec3b>(0, 0)[0], 255);  // 4095: not clipped below it
+    EXPECT_EQ(bright.at<cv::Vec3b>(1, 1)[0], 125);
+    EXPECT_EQ(dark.at<cv::Vec3b>(1, 1)[0], 62);   // 1000 * 255 / 4095 = 62.3
+    EXPECT_EQ(dark.at<cv::Vec3b>(0, 0)[0], 127);  // 2047 * 255 / 4095 = 127.5: not 255
+  }
+  // toBgr8Pair does the same, and names the camera of an unusable image.
+  cv::Mat out_l, out_r;
+  ASSERT_TRUE(ros_conv::toBgr8Pair(right, left, &out_l, &out_r, &err)) << err;
+  EXPECT_EQ(out_l.at<cv::Vec3b>(1, 1)[0], 62);
+  EXPECT_EQ(out_r.at<cv::Vec3b>(0, 0)[0], 255);
+  sensor_msgs::Image float_image = right;
+  float_image.encoding = "32FC1";
+  EXPECT_FALSE(ros_conv::toBgr8Pair(left, float_image, &out_l, &out_r, &err));
+  EXPECT_EQ(err.rfind("right image: unsupported image encoding '32FC1'", 0), 0u) << err;
+  // Alone, the darker image uses its own 11 bits; without a mono16 image there is no scale.
+  EXPECT_NEAR(ros_conv::mono16Scale({&right}), 255.0 / 2047.0, 1e-12);
+  sensor_msgs::Image colour;
+  cv_bridge::CvImage(h, "bgr8", cv::Mat(4, 6, CV_8UC3, cv::Scalar(1, 2, 3))).toImageMsg(colour);
+  EXPECT_EQ(ros_conv::mono16Scale({&colour}), 0.0);
 }
 
 TEST(Conversions, CameraInfoRoundTrip) {

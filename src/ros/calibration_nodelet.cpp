@@ -289,9 +289,7 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     NODELET_WARN_THROTTLE(30.0,
                           "tescalib: point cloud has no 'ring' field; rings recovered from "
                           "scan order (KITTI-style clouds)");
-  double mono16_scale = 0;  // the left image's, for both
-  if (!ros_conv::toBgr8(*left, &pf.frame.left, &error, &mono16_scale) ||
-      !ros_conv::toBgr8(*right, &pf.frame.right, &error, &mono16_scale)) {
+  if (!ros_conv::toBgr8Pair(*left, *right, &pf.frame.left, &pf.frame.right, &error)) {
     ++rejected_;
     NODELET_WARN_THROTTLE(5.0, "tescalib: image rejected: %s", error.c_str());
     noteProblem("image rejected: " + error);

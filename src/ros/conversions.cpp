@@ -332,6 +332,25 @@ bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs
   return true;
 }
 
+double mono16Scale(const std::vector<const sensor_msgs::Image*>& images) {
+  // The bits the images use (a 12-bit camera's values end at 4095): dividing by 256 would leave
+  // such an image 16 grey levels. The brightest of the images sets it, so none of them clips.
+  double max_value = -1;
+  for (const sensor_msgs::Image* m : images) {
+    if (!m || m->encoding != sensor_msgs::image_encodings::MONO16) continue;
+    try {
+      double v = 0;
+      cv::minMaxLoc(cv_bridge::toCvCopy(*m, sensor_msgs::image_encodings::MONO16)->image, nullptr,
+                    &v);
+      max_value = std::max(max_value, v);
+    } catch (const cv_bridge::Exception&) {
+    }  // toBgr8 reports it
+  }
+  if (max_value < 0) return 0.0;
+  const int bits = std::clamp(int(std::ceil(std::log2(max_value + 1.0))), 8, 16);
+  return 255.0 / ((1 << bits) - 1);
+}
+
 bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error, double* mono16_scale) {
   namespace enc = sensor_msgs::image_encodings;
   const std::string& e = msg.encoding;
@@ -355,12 +374,7 @@ bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error, dou
       const auto cv = cv_bridge::toCvCopy(msg, enc::MONO16);
       double scale = mono16_scale ? *mono16_scale : 0.0;
       if (!(scale > 0)) {
-        // The bits the image uses (a 12-bit camera's values end at 4095): dividing by 256
-        // would leave such an image 16 grey levels.
-        double max_value = 0;
-        cv::minMaxLoc(cv->image, nullptr, &max_value);
-        const int bits = std::clamp(int(std::ceil(std::log2(max_value + 1.0))), 8, 16);
-        scale = 255.0 / ((1 << bits) - 1);
+        scale = mono16Scale({&msg});
         if (mono16_scale) *mono16_scale = scale;
       }
       cv::Mat m8;
@@ -371,6 +385,20 @@ bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error, dou
     }
   } catch (const cv_bridge::Exception& ex) {
     *error = std::string("cv_bridge: ") + ex.what();
+    return false;
+  }
+  return true;
+}
+
+bool toBgr8Pair(const sensor_msgs::Image& left, const sensor_msgs::Image& right, cv::Mat* left_bgr,
+                cv::Mat* right_bgr, std::string* error) {
+  double scale = mono16Scale({&left, &right});
+  if (!toBgr8(left, left_bgr, error, &scale)) {
+    *error = "left image: " + *error;
+    return false;
+  }
+  if (!toBgr8(right, right_bgr, error, &scale)) {
+    *error = "right image: " + *error;
     return false;
   }
   return true;

@@ -506,9 +506,7 @@ void runBag(const Args& args, Session* session) {
       previous_stamp = stamp;  // the set's (left image) stamp, as frame.stamp and the node's
       if (!candidate) return;
     }
-    double mono16_scale = 0;  // the left image's, for both
-    if (!ros_conv::toBgr8(*set.left, &frame.left, &error, &mono16_scale) ||
-        !ros_conv::toBgr8(*set.right, &frame.right, &error, &mono16_scale)) {
+    if (!ros_conv::toBgr8Pair(*set.left, *set.right, &frame.left, &frame.right, &error)) {
       std::printf("  %s: image rejected: %s\n", label, error.c_str());
       ++session->rejected;
       return;

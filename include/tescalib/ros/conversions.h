@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <geometry_msgs/PoseWithCovarianceStamped.h>
 #include <geometry_msgs/Transform.h>
@@ -71,6 +72,16 @@ bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs
 /// of a stereo pair are scaled alike.
 bool toBgr8(const sensor_msgs::Image& msg, cv::Mat* bgr, std::string* error,
             double* mono16_scale = nullptr);
+
+/// The mono16 -> 8-bit scale for `images` together (255 / (2^bits - 1), bits those of the
+/// brightest value among the mono16 ones, at least 8), so that a stereo pair is scaled alike and
+/// the brighter image does not clip; 0 when none is mono16.
+double mono16Scale(const std::vector<const sensor_msgs::Image*>& images);
+
+/// A stereo pair's images -> CV_8UC3 BGR (toBgr8), mono16 ones with one scale (mono16Scale);
+/// the error names the camera.
+bool toBgr8Pair(const sensor_msgs::Image& left, const sensor_msgs::Image& right, cv::Mat* left_bgr,
+                cv::Mat* right_bgr, std::string* error);
 
 /// CV_8UC3 BGR image -> Image message with the given encoding ("bgr8" or "rgb8").
 sensor_msgs::Image toImageMsg(const cv::Mat& bgr, const std_msgs::Header& header,
