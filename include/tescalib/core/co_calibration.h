@@ -16,7 +16,7 @@ namespace tescalib {
 /// The stereo clouds co-calibration matches: the keyframes' settings, but one exact disparity
 /// refinement round. The LiDAR-stereo default (a smoothed round, then an exact one) removes a
 /// disparity bias that co-calibration's stereo scale and yaw absorb anyway; here it measured
-/// worse and slower (README, "Benchmarks", session 15).
+/// worse and slower (doc/benchmarks.md, session 15).
 inline StereoSettings coStereoCloudSettings(StereoSettings s = {}) {
   s.refinement.iterations = 1;
   s.refinement.smoothed_gradient_rounds = 0;
@@ -58,7 +58,7 @@ struct CoCalibrationSettings {
   /// rectification as a nuisance (LidarStereoSettings::estimate_stereo_yaw): the photometric yaw
   /// of round 1, taken with the LiDAR still degrees off, is 0.1-0.5 deg wrong, and without it the
   /// LiDAR absorbed that disparity offset along the optical axis and often stayed in a wrong
-  /// basin with the baseline length (README, "Co-calibration").
+  /// basin with the baseline length (doc/co_calibration.md).
   bool lidar_estimates_stereo_yaw = true;
   /// When two successive LiDAR-stereo solves find the clouds' yaw more than this far from the
   /// photometric one (the nuisance above) and the gap did not shrink, the photometric yaw sits in
@@ -95,14 +95,14 @@ struct CoCalibrationSettings {
   /// right from round 1, but the yaw is not (only the LiDAR depth fixes it), and clouds rectified
   /// with a yaw 0.3 deg off can keep the warm LiDAR-stereo solves from moving. A round that
   /// settles with free depth is repeated with the LiDAR depth; the final rounds always use it.
-  /// Off by default (0): measured in the README ("Co-calibration"), faster on most generated
+  /// Off by default (0): measured in doc/co_calibration.md, faster on most generated
   /// starts, slower on some, and on KITTI one start in ten ran away.
   int free_depth_rounds = 0;
   double free_depth_prior_sigma = 0.05;
   /// Per-axis model error added to the final covariances (camera axes, 1 sigma): each solve's
   /// covariance is conditional on the other extrinsic being exact, and in the alternation the
   /// stereo baseline length and yaw follow the LiDAR depth. Calibrated like the solvers' own terms
-  /// (README, "Co-calibration"); the observability flags do not use it (they stay the solvers').
+  /// (doc/co_calibration.md); the observability flags do not use it (they stay the solvers').
   /// The stereo terms are what remains beyond the stereo scale's variance and the LiDAR
   /// covariance propagated through the key points' depth (session 10: the rotation needs none).
   std::array<double, 3> model_sigma_lidar_rot_deg = {0.0187, 0.0063, 0.0186};

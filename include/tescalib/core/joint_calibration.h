@@ -35,7 +35,7 @@ struct JointCalibrationSettings {
   /// co-calibration covariances evaluated at it: the joint estimate is less accurate than the
   /// alternation's (in the joint problem each residual set also pulls the other extrinsic, with
   /// the model errors of its own). Fitted by the method of moments on the 23 converged of the
-  /// co benchmark's 30 starts (README, "Co-calibration").
+  /// co benchmark's 30 starts (doc/co_calibration.md).
   std::array<double, 3> model_sigma_lidar_rot_deg = {0.0, 0.0176, 0.0100};
   std::array<double, 3> model_sigma_lidar_trans_m = {0.00107, 0.00334, 0.01091};
   std::array<double, 3> model_sigma_stereo_rot_deg = {0.0071, 0.0022, 0.0032};

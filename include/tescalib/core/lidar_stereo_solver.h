@@ -84,7 +84,7 @@ struct LidarStereoSettings {
   // point, one range offset for every LiDAR point), propagated through this window's geometry
   // (LidarStereoResult::bias_sensitivity), so a scene that constrains an axis weakly also lets
   // such a bias move it further; plus a 1-sigma floor per camera axis. Calibrated on independent
-  // generated urban, residential and highway windows (README, "Uncertainty"); real data may need
+  // generated urban, residential and highway windows (doc/uncertainty.md); real data may need
   // larger values.
   int cov_cells_x = 8;
   int cov_cells_y = 3;

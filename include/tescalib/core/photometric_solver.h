@@ -30,7 +30,7 @@ struct PhotometricSettings {
   /// moves the mesh in the image (1 deg is 12 px at KITTI's focal length); at a depth edge a key
   /// point then takes the depth of the wrong surface, on a smooth surface nearly the right one.
   /// The coarser pyramid levels keep every key point (edges widen the basin). 0 (default): off.
-  /// Measured (README, "Left-right"): 8 px helps with the LiDAR 1 deg / 10 cm off on generated
+  /// Measured (doc/stereo.md): 8 px helps with the LiDAR 1 deg / 10 cm off on generated
   /// 20-keyframe windows, but costs accuracy on real KITTI and inside co-calibration.
   int smooth_depth_radius_px = 0;
   double smooth_depth_tolerance = 0.1;
