@@ -37,6 +37,11 @@ if [ "$BENCH" != kitti ]; then
     run "sim_urban_${method}_3deg" --sequences "$URBAN" --mode lidar_stereo --method $method \
       --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
   done
+  # Sparser LiDARs from the same drive: every 2nd ring (32) and every 4th (16, about a VLP-16).
+  for keep in 2 4; do
+    run "sim_urban_tescalib_3deg_rings$((64 / keep))" --sequences "$URBAN" --mode lidar_stereo \
+      --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --keep-rings $keep
+  done
   run "sim_urban_tescalib_10deg" --sequences "$URBAN" --mode lidar_stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
   # Beyond it: 15 deg / 1.5 m and 20 deg / 2 m, with the wide-basin search (the default) and

@@ -210,3 +210,51 @@ TEST(LidarMesh, NormalsAreFittedForTheSampleTheSolversDrawFrom) {
   for (size_t f : coarse) EXPECT_TRUE(in_sample[f]);
   EXPECT_EQ(tescalib::sampleFaces(sampled, 10000).size(), 4000u);
 }
+
+// A 16-ring sensor (elevations -15..+15 deg, 2 deg apart, as a VLP-16) over a flat road with a
+// 15 cm kerb: left of y = -3 m the ground is a pavement 15 cm higher. Rings 2 deg apart put the
+// road's rings 0.5-2 m apart at 5-9 m, far more than the 6 % of the range a face's edge may
+// span between a 64-ring sensor's rings.
+TEST(LidarMesh, SparseRingsKeepTheRoadButNoFaceBridgesAKerb) {
+  LidarScan scan;
+  const int rings = 16, per_ring = 1800;
+  const float kerb = 0.15f;
+  for (int r = 0; r < rings; ++r) {
+    const double elev = (-15.0 + 2.0 * r) / kDegPerRad;
+    for (int k = 0; k < per_ring; ++k) {
+      const double az = 2 * M_PI * (k + 0.5) / per_ring - M_PI;
+      const Eigen::Vector3d d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az),
+                              std::sin(elev));
+      if (d.z() >= 0) continue;
+      double t = -kHeight / d.z();
+      if ((t * d).y() < -3.0) t = -(kHeight - kerb) / d.z();  // on the pavement
+      if ((t * d).y() > -3.0 && (t * d).y() < -3.0 + 1e-9) continue;
+      if (t > 80.0) continue;
+      tescalib::LidarPoint lp;
+      lp.x = float(t * d.x()), lp.y = float(t * d.y()), lp.z = float(t * d.z());
+      lp.ring = uint16_t(r);
+      scan.push_back(lp);
+    }
+  }
+  const LidarMesh mesh = tescalib::buildLidarMesh(scan, LidarMeshSettings{});
+  int road_5_to_9 = 0, bridges = 0;
+  for (const auto& f : mesh.faces) {
+    auto level = [&](const Eigen::Vector3f& v) {
+      return std::fabs(v.z() + kHeight) < 0.01f          ? 0
+             : std::fabs(v.z() + kHeight - kerb) < 0.01f ? 1
+                                                         : 2;
+    };
+    const int la = level(f.a), lb = level(f.b), lc = level(f.c);
+    const float range = f.centroid.norm();
+    if (la == 0 && lb == 0 && lc == 0 && range > 5.f && range < 9.f) ++road_5_to_9;
+    // A face with vertices on both levels and a ring-to-ring edge: it cuts through the kerb,
+    // its plane tilted, its centroid centimetres off either surface.
+    const float longest = std::max({(f.a - f.b).norm(), (f.b - f.c).norm(), (f.c - f.a).norm()});
+    if (std::min({la, lb, lc}) == 0 && std::max({la, lb, lc}) == 1 && longest > 0.06f * range)
+      ++bridges;
+  }
+  // Rings at -15..-11 deg reach the road 6.5-8.9 m away (incidence 75-79 deg): meshed, as the
+  // road closer in. A ring-to-ring edge there is 9-23 % of the range.
+  EXPECT_GT(road_5_to_9, 2000);
+  EXPECT_EQ(bridges, 0);
+}

@@ -66,15 +66,27 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   const Eigen::Vector3f axis = s.view_axis.normalized().cast<float>();
   auto vec = [&](int i) { return Eigen::Vector3f(scan[i].x, scan[i].y, scan[i].z); };
   std::vector<int> face_cell;  // ring * cols + col of each face
-  int cell = 0;
+  int cell = 0, beyond_lo = -1, beyond_hi = -1;
   auto tryFace = [&](int ia, int ib, int ic) {
     if (ia < 0 || ib < 0 || ic < 0) return;
     const Eigen::Vector3f a = vec(ia), b = vec(ib), c = vec(ic);
     const Eigen::Vector3f centroid = (a + b + c) / 3.f;
     const float range = centroid.norm();
     if (s.view_half_angle_deg > 0 && centroid.dot(axis) < cos_view * range) return;
-    const float max_edge = std::min<float>(s.max_edge_abs, s.max_edge_ratio * range);
-    if ((a - b).norm() > max_edge || (b - c).norm() > max_edge || (c - a).norm() > max_edge) return;
+    // An edge is at most max_edge_ratio * range, or, between rays further apart than that
+    // allows (sparse rings: 16 rings 2 deg apart put the road's rings 1-2 m apart at 10 m), as
+    // long as a plane seen at the grazing limit makes it: range * angle / cos(max incidence).
+    // Longer edges span a depth discontinuity.
+    const float ratio = static_cast<float>(s.max_edge_ratio);
+    const float per_rad = static_cast<float>(1.0 / std::max(cos_max_inc, 1e-3));
+    bool sparse = false;  // an edge longer than max_edge_ratio allows
+    auto edgeTooLong = [&](const Eigen::Vector3f& p, const Eigen::Vector3f& q) {
+      const float sin_angle = p.normalized().cross(q.normalized()).norm();
+      const float length = (p - q).norm();
+      sparse = sparse || length > ratio * range;
+      return length > std::min<float>(s.max_edge_abs, range * std::max(ratio, per_rad * sin_angle));
+    };
+    if (edgeTooLong(a, b) || edgeTooLong(b, c) || edgeTooLong(c, a)) return;
     Eigen::Vector3f n = (b - a).cross(c - a);
     const float len = n.norm();
     if (len < 1e-9f) return;
@@ -83,6 +95,19 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
     float cos_inc = n.dot(view);
     if (cos_inc > 0) n = -n, cos_inc = -cos_inc;  // orient towards the sensor
     if (-cos_inc < cos_max_inc) return;           // grazing
+    if (sparse) {
+      // So long a face may bridge two surfaces (the road and a kerb, a car's underside): keep it
+      // only when the rings on both sides of it continue its plane (within 3 cm + 0.3 % of the
+      // range); a face on the lowest or highest ring pair has no such check and is not kept.
+      const float tol = 0.03f + 0.003f * range;
+      int checked = 0;
+      for (int i : {beyond_lo, beyond_hi}) {
+        if (i < 0) continue;
+        if (std::fabs(n.dot(vec(i) - centroid)) > tol) return;
+        ++checked;
+      }
+      if (checked < 2) return;
+    }
     mesh.faces.push_back({a, b, c, centroid, n, range});
     face_cell.push_back(cell);
   };
@@ -93,6 +118,9 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       if (p01 < 0) p01 = at(r, col + 2);
       if (p11 < 0) p11 = at(r + 1, col + 2);
       cell = r * cols + col;
+      // The rings below and above the face's pair, at its columns (sparse faces' plane check).
+      beyond_lo = r > 0 ? at(r - 1, col) : -1;
+      beyond_hi = r + 2 < rings ? at(r + 2, col + 1) : -1;
       tryFace(p00, p01, p10);
       tryFace(p01, p11, p10);
     }

@@ -28,13 +28,15 @@ void usage() {
   std::cout
       << "usage: rosrun tescalib tescalib_error_budget [--scenario urban|residential|highway]\n"
          "         [--seed S] [--keyframes K] [--noise default|none|high] [--refine-iterations N]\n"
-         "         [--refine-smoothed-rounds N]\n"
+         "         [--refine-smoothed-rounds N] [--keep-rings N]\n"
          "  Generates the drive (keyframes 0.5 s apart; default urban, seed 1, 20 keyframes,\n"
          "  default noise) and prints, at the ground truth, how far the fine stage's residuals\n"
          "  pull T_cam_lidar: all of them, the stereo clouds' disparity error alone and the LiDAR\n"
          "  mesh's error alone (one Gauss-Newton step, camera axes), then both parts by\n"
          "  surface (road: normal within 37 deg of vertical; facing: within 14 deg of the optical\n"
-         "  axis; lateral: within 45 deg of camera x; other) and depth.\n";
+         "  axis; lateral: within 45 deg of camera x; other) and depth. --keep-rings N keeps "
+         "every\n"
+         "  Nth laser ring (a sparser LiDAR: N = 4 leaves 16 rings).\n";
 }
 
 struct Part {
@@ -57,6 +59,7 @@ void printPull(const char* name, const Matrix6d& H_inv, const Vector6d& g) {
 int main(int argc, char** argv) {
   SimOptions o;
   int keyframes = 20;
+  int keep_rings = 1;
   KeyframeSettings ks;
   try {
     for (int i = 1; i < argc; ++i) {
@@ -84,6 +87,9 @@ int main(int argc, char** argv) {
       } else if (a == "--keyframes") {
         keyframes = number(to_int);
         if (keyframes < 1) throw std::invalid_argument("--keyframes " + v);
+      } else if (a == "--keep-rings") {
+        keep_rings = number(to_int);
+        if (keep_rings < 1) throw std::invalid_argument("--keep-rings " + v);
       } else if (a == "--noise") {
         if (!parseNoiseLevel(v, &o.noise)) throw std::invalid_argument("--noise " + v);
       } else if (a == "--refine-smoothed-rounds") {
@@ -115,7 +121,14 @@ int main(int argc, char** argv) {
   std::vector<Part> by_class(kClasses * 3);
   int skipped_edges = 0;
   for (int i = 0; i < o.frames; i += 5) {
-    const Keyframe kf = makeKeyframe(sim.renderFrame(i), rig, T, rig.T_right_left, ks);
+    Frame frame = sim.renderFrame(i);
+    if (keep_rings > 1) {
+      auto dropped = [&](const LidarPoint& p) { return p.ring % keep_rings != 0; };
+      frame.scan.erase(std::remove_if(frame.scan.begin(), frame.scan.end(), dropped),
+                       frame.scan.end());
+      for (LidarPoint& p : frame.scan) p.ring = static_cast<uint16_t>(p.ring / keep_rings);
+    }
+    const Keyframe kf = makeKeyframe(frame, rig, T, rig.T_right_left, ks);
     const cv::Mat depth = sim::renderCameraDepth(sim.world(), rig.left,
                                                  sim.worldFromLidar(i) * T.inverse(), 250.f, 0);
     const StereoCloud& st = kf.stereo;

@@ -22,7 +22,8 @@ void usage() {
          "         [--coarse-nuisances 0|1] [--coarse-gates M,M,...] [--search-deg D]\n"
          "         [--lidar-sigma DEG,M]\n"
          "         [--refine-iterations N] [--refine-smoothed-rounds N]\n"
-         "         [--deskew 0|1] [--depth-prior SIGMA] [--free-depth-rounds N] [--rematch-deg X]\n"
+         "         [--deskew 0|1] [--keep-rings N] [--depth-prior SIGMA] [--free-depth-rounds N] "
+         "[--rematch-deg X]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
@@ -71,6 +72,8 @@ void usage() {
          "velocity registered against the sequence's next frame (default: on for KITTI raw\n"
          "recordings and tescalib_simulate --lidar-sweep 1 output; off for KITTI odometry\n"
          "sequences, which KITTI compensated, and the generator's default output).\n"
+         "--keep-rings N: keep every Nth laser ring of each scan (a sparser LiDAR from the same\n"
+         "drive: 64 rings with N = 2 are 32, with N = 4 16 rings about 1.7 deg apart).\n"
          "--check-halves 0|1: the split-window check of the LiDAR-stereo noise model after a\n"
          "converged solve (LidarStereoSettings::check_window_halves; on by default).\n"
          "--measure-offset 0|1: measure the disparity offset the LiDAR-stereo residuals show and\n"
@@ -148,7 +151,10 @@ bool parse(int argc, char** argv, Args* a) {
       a->stereo_scale = std::stoi(v);
     else if (k == "--deskew")
       a->deskew = std::stoi(v);
-    else if (k == "--check-halves")
+    else if (k == "--keep-rings") {
+      a->keep_rings = std::stoi(v);
+      if (a->keep_rings < 1) throw std::invalid_argument(v);
+    } else if (k == "--check-halves")
       a->check_halves = std::stoi(v);
     else if (k == "--measure-offset")
       a->measure_offset = std::stoi(v);

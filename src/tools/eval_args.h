@@ -42,6 +42,9 @@ struct Args {
   /// De-skew the scans with the motion registered against a neighbouring frame: 0/1; -1: when
   /// the sequence's scans are swept (sweptScans).
   int deskew = -1;
+  /// Keep every Nth laser ring of each scan (renumbered 0, 1, ...): a sparser LiDAR from the same
+  /// drive (a 64-ring scan with N = 4: 16 rings 1.7 deg apart, about a VLP-16's 2 deg).
+  int keep_rings = 1;
   double cov_model_scale = -1;    ///< scales the solver's model-error sigmas (0: none)
   std::string windows = "first";  ///< first: the first W keyframes; disjoint: every W in turn
 };

@@ -14,11 +14,13 @@
 namespace tescalib {
 
 struct LidarMeshSettings {
-  int azimuth_bins = 2000;          ///< max columns of the range image (HDL-64E: ~2000 per
-                                    ///< turn); fewer when the densest ring has fewer returns
-  double max_range = 80.0;          ///< m; farther returns are not meshed
-  double min_range = 2.0;           ///< m; closer returns (the vehicle itself) are ignored
-  double max_edge_ratio = 0.06;     ///< reject when any edge is longer than this times range
+  int azimuth_bins = 2000;  ///< max columns of the range image (HDL-64E: ~2000 per
+                            ///< turn); fewer when the densest ring has fewer returns
+  double max_range = 80.0;  ///< m; farther returns are not meshed
+  double min_range = 2.0;   ///< m; closer returns (the vehicle itself) are ignored
+  /// Reject when any edge is longer than this times range, unless its rays are so far apart
+  /// that a plane seen at max_incidence_deg makes it longer (sparse LiDARs' ring spacing).
+  double max_edge_ratio = 0.06;
   double max_edge_abs = 2.5;        ///< m; and never longer than this
   double max_incidence_deg = 80.0;  ///< reject faces seen at a more grazing angle
   /// Face normals are fitted (PCA) to the points within +-smooth_cols azimuth bins and rings
