@@ -57,6 +57,7 @@ TEST(Params, MisspelledKeysAreReported) {
   pnh.setParam("window/size", 12);
   pnh.setParam("stereo/refine/iterations", 1);
   pnh.setParam("stereo/equalize_exposure_ratio", 1.5);
+  pnh.setParam("compressed/mode", std::string("unchanged"));  // the transport plugin's own
   tescalib::NodeParams p;
   std::string error;
   std::vector<std::string> unknown;

@@ -98,7 +98,7 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
     if (sparse) {
       // So long a face may bridge two surfaces (the road and a kerb, a car's underside): keep it
       // only when the rings on both sides of it continue its plane (within 3 cm + 0.3 % of the
-      // range); a face on the lowest or highest ring pair has no such check and is not kept.
+      // range), or the one side that has a return there (the lowest ring pair, the sky above).
       const float tol = 0.03f + 0.003f * range;
       int checked = 0;
       for (int i : {beyond_lo, beyond_hi}) {
@@ -106,7 +106,7 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
         if (std::fabs(n.dot(vec(i) - centroid)) > tol) return;
         ++checked;
       }
-      if (checked < 2) return;
+      if (checked == 0) return;
     }
     mesh.faces.push_back({a, b, c, centroid, n, range});
     face_cell.push_back(cell);
@@ -120,7 +120,9 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       cell = r * cols + col;
       // The rings below and above the face's pair, at its columns (sparse faces' plane check).
       beyond_lo = r > 0 ? at(r - 1, col) : -1;
+      if (beyond_lo < 0 && r > 0) beyond_lo = at(r - 1, col + 1);
       beyond_hi = r + 2 < rings ? at(r + 2, col + 1) : -1;
+      if (beyond_hi < 0 && r + 2 < rings) beyond_hi = at(r + 2, col);
       tryFace(p00, p01, p10);
       tryFace(p01, p11, p10);
     }

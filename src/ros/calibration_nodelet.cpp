@@ -14,17 +14,6 @@
 #include "tescalib/ros/initial_rig.h"
 
 namespace tescalib {
-namespace {
-
-/// The ROS topic an image subscription listens on: the base topic, with the transport's suffix
-/// when it is not raw (/left/image_raw/compressed).
-std::string imageTopic(const image_transport::SubscriberFilter& sub) {
-  const std::string transport = sub.getTransport();
-  return transport.empty() || transport == "raw" ? sub.getTopic()
-                                                 : sub.getTopic() + "/" + transport;
-}
-
-}  // namespace
 
 CalibrationNodelet::~CalibrationNodelet() {
   // No new callbacks into members about to go: the timer and the inputs stop first.
@@ -77,30 +66,16 @@ void CalibrationNodelet::onInit() {
         "every parameter)",
         names.c_str());
   }
-  tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
-  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
-  tf_pub_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
-  lidar_pub_ = pnh.advertise<ExtrinsicEstimate>("lidar_to_left", 1, true);
-  stereo_pub_ = pnh.advertise<ExtrinsicEstimate>("left_to_right", 1, true);
-  candidate_lidar_pub_ = pnh.advertise<ExtrinsicEstimate>("candidate/lidar_to_left", 1, true);
-  candidate_stereo_pub_ = pnh.advertise<ExtrinsicEstimate>("candidate/left_to_right", 1, true);
-  lidar_pose_pub_ =
-      pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("lidar_to_left_pose", 1, true);
-  stereo_pose_pub_ =
-      pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("left_to_right_pose", 1, true);
-  keyframe_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("keyframe/stereo_cloud", 1, true);
-  keyframe_mesh_pub_ = pnh.advertise<visualization_msgs::Marker>("keyframe/lidar_mesh", 1, true);
-  reset_srv_ = pnh.advertiseService("reset", &CalibrationNodelet::onReset, this);
-  save_srv_ = pnh.advertiseService("save", &CalibrationNodelet::onSave, this);
-
   const uint32_t q = 5;
   // The images through image_transport (~image_transport: raw, or compressed where that plugin
-  // is installed); a transport that cannot be loaded leaves the node inert, saying why.
+  // is installed); a transport that cannot be loaded leaves the node inert, saying why, before
+  // anything is advertised. The base topics are resolved here: image_transport's Subscriber
+  // does not resolve them, so a remapping of left/image_raw would not reach .../compressed.
   image_transport_ = std::make_unique<image_transport::ImageTransport>(nh);
   const image_transport::TransportHints hints(params_.image_transport, ros::TransportHints(), pnh);
   try {
-    left_sub_.subscribe(*image_transport_, "left/image_raw", q, hints);
-    right_sub_.subscribe(*image_transport_, "right/image_raw", q, hints);
+    left_sub_.subscribe(*image_transport_, nh.resolveName("left/image_raw"), q, hints);
+    right_sub_.subscribe(*image_transport_, nh.resolveName("right/image_raw"), q, hints);
   } catch (const std::exception& ex) {
     std::string available;
     bool installed = false;
@@ -118,6 +93,22 @@ void CalibrationNodelet::onInit() {
                                "compressed_image_transport)"));
     return;
   }
+  tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
+  tf_pub_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
+  lidar_pub_ = pnh.advertise<ExtrinsicEstimate>("lidar_to_left", 1, true);
+  stereo_pub_ = pnh.advertise<ExtrinsicEstimate>("left_to_right", 1, true);
+  candidate_lidar_pub_ = pnh.advertise<ExtrinsicEstimate>("candidate/lidar_to_left", 1, true);
+  candidate_stereo_pub_ = pnh.advertise<ExtrinsicEstimate>("candidate/left_to_right", 1, true);
+  lidar_pose_pub_ =
+      pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("lidar_to_left_pose", 1, true);
+  stereo_pose_pub_ =
+      pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("left_to_right_pose", 1, true);
+  keyframe_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("keyframe/stereo_cloud", 1, true);
+  keyframe_mesh_pub_ = pnh.advertise<visualization_msgs::Marker>("keyframe/lidar_mesh", 1, true);
+  reset_srv_ = pnh.advertiseService("reset", &CalibrationNodelet::onReset, this);
+  save_srv_ = pnh.advertiseService("save", &CalibrationNodelet::onSave, this);
+
   cloud_sub_.subscribe(nh, "points", q);
   left_info_sub_.subscribe(nh, "left/camera_info", q);
   right_info_sub_.subscribe(nh, "right/camera_info", q);
@@ -151,8 +142,8 @@ void CalibrationNodelet::onInit() {
   NODELET_INFO(
       "tescalib: waiting for synchronized %s, %s + %s, %s + %s (window %d keyframes >= %.2f s "
       "apart, %s sync)",
-      cloud_sub_.getSubscriber().getTopic().c_str(), imageTopic(left_sub_).c_str(),
-      left_info_sub_.getSubscriber().getTopic().c_str(), imageTopic(right_sub_).c_str(),
+      cloud_sub_.getSubscriber().getTopic().c_str(), left_sub_.getTopic().c_str(),
+      left_info_sub_.getSubscriber().getTopic().c_str(), right_sub_.getTopic().c_str(),
       right_info_sub_.getSubscriber().getTopic().c_str(), params_.online.window_size,
       params_.online.keyframe_min_dt, params_.approximate_sync ? "approximate" : "exact");
 }
@@ -489,8 +480,8 @@ void CalibrationNodelet::publishTf(const OnlineEstimate& e, const ros::Time& sta
 }
 
 std::string CalibrationNodelet::silentTopics() const {
-  const std::string topics[5] = {cloud_sub_.getSubscriber().getTopic(), imageTopic(left_sub_),
-                                 left_info_sub_.getSubscriber().getTopic(), imageTopic(right_sub_),
+  const std::string topics[5] = {cloud_sub_.getSubscriber().getTopic(), left_sub_.getTopic(),
+                                 left_info_sub_.getSubscriber().getTopic(), right_sub_.getTopic(),
                                  right_info_sub_.getSubscriber().getTopic()};
   std::string silent;
   for (int i = 0; i < 5; ++i)

@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include <ros/names.h>
 #include <pluginlib/class_list_macros.hpp>
 
 #include "tescalib/core/geometry.h"
@@ -59,13 +60,19 @@ void OverlayNodelet::onInit() {
                                                       std::lock_guard<std::mutex> lock(mutex_);
                                                       stereo_est_ = *m;
                                                     });
-  const image_transport::TransportHints hints("raw", ros::TransportHints(), pnh);
-  try {
-    left_sub_.subscribe(*image_transport_, "left/image_raw", 2, hints);
-    right_sub_.subscribe(*image_transport_, "right/image_raw", 2, hints);
+  // ~image_transport, or else the calibration nodelet's (whose estimates it draws: the
+  // namespace lidar_to_left resolves into), so that a config's transport reaches both.
+  std::string transport;
+  if (!pnh.getParam("image_transport", transport))
+    nh.param(ros::names::parentNamespace(nh.resolveName("lidar_to_left")) + "/image_transport",
+             transport, std::string("raw"));
+  const image_transport::TransportHints hints(transport, ros::TransportHints(), pnh);
+  try {  // resolved here: image_transport's Subscriber does not resolve remapped base topics
+    left_sub_.subscribe(*image_transport_, nh.resolveName("left/image_raw"), 2, hints);
+    right_sub_.subscribe(*image_transport_, nh.resolveName("right/image_raw"), 2, hints);
   } catch (const std::exception& ex) {
-    NODELET_FATAL("tescalib overlay: image_transport \"%s\" cannot be used: %s",
-                  hints.getTransport().c_str(), ex.what());
+    NODELET_FATAL("tescalib overlay: image_transport \"%s\" cannot be used: %s", transport.c_str(),
+                  ex.what());
     return;
   }
   cloud_sub_.subscribe(nh, "points", 2);

@@ -173,6 +173,13 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
     for (const std::string& name : all) {
       if (name.compare(0, prefix.size(), prefix) != 0) continue;
       const std::string key = name.substr(prefix.size());
+      // image_transport's subscriber plugins keep their own parameters under
+      // ~<transport>/ (compressed/mode, theora/...): not ours, and not typos.
+      const std::string first = key.substr(0, key.find('/'));
+      if (key.find('/') != std::string::npos &&
+          (first == p->image_transport || first == "compressed" || first == "compressedDepth" ||
+           first == "theora"))
+        continue;
       if (!get.names.count(key)) unknown->push_back(key);
     }
     std::sort(unknown->begin(), unknown->end());

@@ -293,7 +293,12 @@ bool report(const Args& args, const EvalData& d, const LidarStereoSettings& solv
   std::printf(
       "  time per window: preprocess %.2f s (stereo %.2f s, %zu keyframes), solve median %.2f s\n",
       median(pre), d.stereo_seconds / d.n_windows, d.window_size, median(sol));
-  if (std::isfinite(mean_nees)) std::printf("  mean NEES (6 DoF, ideal 6): %.2f\n", mean_nees);
+  if (std::isfinite(mean_nees)) {
+    std::printf("  mean NEES (6 DoF, ideal 6): %.2f", mean_nees);
+    if (nees.size() < trials.size())  // the others have no covariance (covariance_known)
+      std::printf(" (over the %zu of %zu trials with a covariance)", nees.size(), trials.size());
+    std::printf("\n");
+  }
   if (std::isfinite(mean_nees_converged))
     std::printf("  mean NEES of the %zu converged trials: %.2f\n", nees_converged.size(),
                 mean_nees_converged);

@@ -227,7 +227,7 @@ Eigen::Isometry3d solveCo(const Args& args, const EvalData& d,
                       {"lidar_stereo", r.seconds_lidar}};
   // A placeholder covariance (singular information) is no claim: NaN, left out of the NEES.
   tr.lidar.cov = r.lidar.covariance_known ? r.lidar.covariance : Matrix6d::Constant(std::nan(""));
-  tr.lidar.cov_stat = r.lidar.covariance_statistical;
+  tr.lidar.cov_stat = r.lidar.covariance_known ? r.lidar.covariance_statistical : tr.lidar.cov;
   tr.lidar.bias = r.lidar.bias_sensitivity;
   tr.stereo.cov = r.stereo.covariance;
   tr.stereo.err = poseError(r.stereo.T_right_left, d.rig.T_right_left);
@@ -274,7 +274,7 @@ Eigen::Isometry3d solveLidar(const LidarStereoSettings& solver_settings,
   tr.converged = r.converged;
   tr.iterations = r.iterations;
   tr.lidar.cov = r.covariance_known ? r.covariance : Matrix6d::Constant(std::nan(""));
-  tr.lidar.cov_stat = r.covariance_statistical;
+  tr.lidar.cov_stat = r.covariance_known ? r.covariance_statistical : tr.lidar.cov;
   tr.lidar.bias = r.bias_sensitivity;
   if (r.covariance_known) tr.lidar_cov_model = r.covariance_model;
   tr.halves = r.halves;
