@@ -278,7 +278,7 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     else if (rings < 64)
       NODELET_INFO_ONCE(
           "tescalib: the LiDAR has %d rings: on generated drives 16 and 32 rings reached about "
-          "0.06 deg / 0.8 cm, against 0.02 deg / 0.5 cm with 64 (README, Known limits)",
+          "0.06 deg / 0.7 cm, against 0.02 deg / 0.5 cm with 64 (README, Known limits)",
           rings);
   }
   if (ring_recovered)
