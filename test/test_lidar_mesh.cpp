@@ -257,3 +257,20 @@ TEST(LidarMesh, SparseRingsKeepTheRoadButNoFaceBridgesAKerb) {
   EXPECT_GT(road_5_to_9, 4000);
   EXPECT_EQ(bridges, 0);
 }
+
+TEST(LidarMesh, KeepEveryNthRingRenumbersTheKeptRings) {
+  LidarScan scan;
+  for (int r = 0; r < 8; ++r) {
+    tescalib::LidarPoint p;
+    p.x = float(r), p.ring = uint16_t(r);
+    scan.push_back(p);
+  }
+  LidarScan same = scan;
+  tescalib::keepEveryNthRing(&same, 1);
+  EXPECT_EQ(same.size(), 8u);
+  tescalib::keepEveryNthRing(&scan, 4);
+  ASSERT_EQ(scan.size(), 2u);
+  EXPECT_EQ(scan[0].ring, 0);
+  EXPECT_EQ(scan[1].ring, 1);
+  EXPECT_EQ(scan[1].x, 4.f);  // ring 4 is the second kept
+}

@@ -25,6 +25,14 @@ std::vector<size_t> sampleFaces(const LidarMesh& mesh, int k) {
   return idx;
 }
 
+void keepEveryNthRing(LidarScan* scan, int n) {
+  if (n <= 1) return;
+  scan->erase(std::remove_if(scan->begin(), scan->end(),
+                             [n](const LidarPoint& p) { return p.ring % n != 0; }),
+              scan->end());
+  for (LidarPoint& p : *scan) p.ring = static_cast<uint16_t>(p.ring / n);
+}
+
 LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   if (s.azimuth_bins < 16 || s.azimuth_bins > kMaxAzimuthBins || s.smooth_cols < 0 ||
       s.smooth_cols > s.azimuth_bins / 4 || !(s.min_range >= 0) || !(s.max_range > s.min_range))

@@ -122,12 +122,7 @@ int main(int argc, char** argv) {
   int skipped_edges = 0;
   for (int i = 0; i < o.frames; i += 5) {
     Frame frame = sim.renderFrame(i);
-    if (keep_rings > 1) {
-      auto dropped = [&](const LidarPoint& p) { return p.ring % keep_rings != 0; };
-      frame.scan.erase(std::remove_if(frame.scan.begin(), frame.scan.end(), dropped),
-                       frame.scan.end());
-      for (LidarPoint& p : frame.scan) p.ring = static_cast<uint16_t>(p.ring / keep_rings);
-    }
+    keepEveryNthRing(&frame.scan, keep_rings);
     const Keyframe kf = makeKeyframe(frame, rig, T, rig.T_right_left, ks);
     const cv::Mat depth = sim::renderCameraDepth(sim.world(), rig.left,
                                                  sim.worldFromLidar(i) * T.inverse(), 250.f, 0);

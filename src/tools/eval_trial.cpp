@@ -1,6 +1,5 @@
 #include "eval_trial.h"
 
-#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -103,13 +102,7 @@ bool loadData(const Args& args, EvalData* d) {
           std::printf("  keyframe %zu: not de-skewed: %s\n", frames.size() - 1, m.message.c_str());
         deskewScan(&frames.back().scan, m);  // Velodyne: clockwise, 10 Hz, triggered forward
       }
-      if (args.keep_rings > 1) {
-        LidarScan& scan = frames.back().scan;
-        scan.erase(std::remove_if(scan.begin(), scan.end(),
-                                  [&](const LidarPoint& p) { return p.ring % args.keep_rings; }),
-                   scan.end());
-        for (LidarPoint& p : scan) p.ring = static_cast<uint16_t>(p.ring / args.keep_rings);
-      }
+      keepEveryNthRing(&frames.back().scan, args.keep_rings);
       Keyframe kf;
       kf.stamp = frames.back().stamp;
       kf.scan = frames.back().scan;

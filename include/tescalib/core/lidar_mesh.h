@@ -67,6 +67,10 @@ std::vector<size_t> evenlyStrided(size_t n, int k);
 /// At most k faces of `mesh.sample`, evenly strided: indices into `mesh.faces`.
 std::vector<size_t> sampleFaces(const LidarMesh& mesh, int k);
 
+/// Keeps every nth laser ring of `scan` (rings 0, n, 2n, ...), renumbered 0, 1, 2, ...: a sparser
+/// LiDAR from the same scan (64 rings with n = 4: 16). n <= 1 leaves the scan as it is.
+void keepEveryNthRing(LidarScan* scan, int n);
+
 /// Largest ring count and azimuth resolution buildLidarMesh accepts (its range image is
 /// rings x bins): today's LiDARs have at most 128 rings and a few thousand returns per turn.
 constexpr int kMaxRings = 512;
