@@ -258,6 +258,54 @@ TEST(LidarMesh, SparseRingsKeepTheRoadButNoFaceBridgesAKerb) {
   EXPECT_EQ(bridges, 0);
 }
 
+// The same 16-ring sensor facing the back of a car 13.8 m ahead (y = -1..1 m, 0.45..1.4 m above
+// the road): the ring at -7 deg passes under its body to the road at 14.09 m,
+// the rings at -5, -3 deg hit its back. A face joining the road under the car to its back has
+// edges of 0.6 m, within the 6 % of the range a dense scan allows, but is a fold between two
+// surfaces, 45 deg off both and tens of cm off either at its centroid.
+TEST(LidarMesh, NoFaceFoldsFromTheRoadUpACarsBack) {
+  LidarScan scan;
+  const int rings = 16, per_ring = 1800;
+  const double x0 = 13.8, y_half = 1.0, z_lo = -kHeight + 0.45, z_hi = -kHeight + 1.4;
+  for (int r = 0; r < rings; ++r) {
+    const double elev = (-15.0 + 2.0 * r) / kDegPerRad;
+    for (int k = 0; k < per_ring; ++k) {
+      const double az = 2 * M_PI * (k + 0.5) / per_ring - M_PI;
+      const Eigen::Vector3d d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az),
+                              std::sin(elev));
+      double t = d.z() < 0 ? -kHeight / d.z() : std::numeric_limits<double>::infinity();
+      if (d.x() > 0) {
+        const double tb = x0 / d.x();  // the car's back
+        const Eigen::Vector3d p = tb * d;
+        if (std::fabs(p.y()) <= y_half && p.z() >= z_lo && p.z() <= z_hi && tb < t) t = tb;
+      }
+      if (t > 80.0) continue;
+      tescalib::LidarPoint lp;
+      lp.x = float(t * d.x()), lp.y = float(t * d.y()), lp.z = float(t * d.z());
+      lp.ring = uint16_t(r);
+      scan.push_back(lp);
+    }
+  }
+  const LidarMesh mesh = tescalib::buildLidarMesh(scan, LidarMeshSettings{});
+  int folds = 0, back = 0, road_near_car = 0;
+  for (const auto& f : mesh.faces) {
+    auto on_road = [&](const Eigen::Vector3f& v) { return std::fabs(v.z() + kHeight) < 0.01f; };
+    auto on_back = [&](const Eigen::Vector3f& v) { return std::fabs(v.x() - x0) < 0.01f; };
+    const int road = on_road(f.a) + on_road(f.b) + on_road(f.c);
+    const int car = on_back(f.a) + on_back(f.b) + on_back(f.c);
+    if (road > 0 && car > 0) ++folds;
+    if (car == 3) ++back;
+    if (road == 3 && std::fabs(f.centroid.y()) < y_half && f.centroid.x() > 8.f &&
+        f.centroid.x() < x0)
+      ++road_near_car;
+  }
+  EXPECT_EQ(folds, 0);
+  // The car's back (one ring pair over 8.3 deg of azimuth: 41 bins, 82 faces) and the road up to
+  // it stay meshed.
+  EXPECT_GT(back, 75);
+  EXPECT_GT(road_near_car, 50);
+}
+
 TEST(LidarMesh, KeepEveryNthRingRenumbersTheKeptRings) {
   LidarScan scan;
   for (int r = 0; r < 8; ++r) {

@@ -103,19 +103,22 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
     float cos_inc = n.dot(view);
     if (cos_inc > 0) n = -n, cos_inc = -cos_inc;  // orient towards the sensor
     if (-cos_inc < cos_max_inc) return;           // grazing
-    if (sparse) {
-      // So long a face may bridge two surfaces (the road and a kerb, a car's underside): keep it
-      // only when the rings on both sides of it continue its plane (within 3 cm + 0.3 % of the
-      // range), or the one side that has a return there (the lowest ring pair, the sky above).
-      const float tol = 0.03f + 0.003f * range;
-      int checked = 0;
-      for (int i : {beyond_lo, beyond_hi}) {
-        if (i < 0) continue;
-        if (std::fabs(n.dot(vec(i) - centroid)) > tol) return;
-        ++checked;
-      }
-      if (checked == 0) return;
+    // Do the rings below and above the face's pair continue its plane (within 3 cm + 0.3 % of
+    // the range)?
+    const float tol = 0.03f + 0.003f * range;
+    int checked = 0, agree = 0;
+    for (int i : {beyond_lo, beyond_hi}) {
+      if (i < 0) continue;
+      ++checked;
+      if (std::fabs(n.dot(vec(i) - centroid)) <= tol) ++agree;
     }
+    // A face that neither continues is a fold: it spans the corner between two surfaces (the road
+    // and a car's side, a car's back and its roof), tens of cm off both at 16 rings.
+    if (checked == 2 && agree == 0) return;
+    // So long a face may bridge two surfaces (the road and a kerb, a car's underside): keep it
+    // only when the rings on both sides of it continue its plane, or the one side that has a
+    // return there (the lowest ring pair, the sky above).
+    if (sparse && (checked == 0 || agree < checked)) return;
     mesh.faces.push_back({a, b, c, centroid, n, range});
     face_cell.push_back(cell);
   };
