@@ -258,6 +258,48 @@ TEST(JointCalibration, RefusesMeshesWithOnlyTheSampleFitted) {
   EXPECT_LT(poseError(r.stereo.T_right_left, c.T_rl_init).norm(), 1e-12);
 }
 
+TEST(CoCalibration, ASecondOpinionCatchesAnEstimateFarFromTheGuessInAnotherMinimum) {
+  // Session 26: a co start 3 deg / 0.3 m off settled 2.1 m off along the optical axis and was
+  // declared converged. An estimate that far from the initial guess is solved again from the guess
+  // with the same clouds (CoCalibrationSettings::confirm_*); a converged solve 2 m away from it
+  // means two minima, and the estimate is not trusted.
+  SimOptions o;
+  o.frames = 26;
+  o.seed = 3;
+  const Simulator sim(o);
+  std::mt19937_64 rng(3);
+  const Eigen::Isometry3d truth = sim.rig().T_cam_lidar;
+  const Eigen::Isometry3d T_init = perturb(truth, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
+  std::vector<Keyframe> kfs;  // 6 keyframes with their stereo clouds
+  for (int i = 0; i < o.frames; i += 5)
+    kfs.push_back(makeKeyframe(sim.renderFrame(i), sim.rig(), T_init, sim.rig().T_right_left));
+  std::vector<const Keyframe*> window;
+  for (const Keyframe& kf : kfs) window.push_back(&kf);
+  const LidarStereoSettings ls;
+  const LidarStereoResult good = solveLidarStereo(window, T_init, ls);
+  ASSERT_TRUE(good.converged) << good.message;
+  ASSERT_LT(poseError(good.T_cam_lidar, truth).tail<3>().norm(), 0.02);
+  const CoCalibrationSettings s;
+  double seconds = -1;
+  // 3 deg / 0.3 m from the guess: within confirm_beyond_* (5 deg / 0.5 m), not asked.
+  EXPECT_EQ(secondOpinion(window, T_init, good, ls, s, &seconds), "");
+  EXPECT_EQ(seconds, 0.0);
+  // Asked (limits lowered), the solve from the guess agrees.
+  CoCalibrationSettings ask = s;
+  ask.confirm_beyond_deg = 0.5, ask.confirm_beyond_m = 0.05;
+  EXPECT_EQ(secondOpinion(window, T_init, good, ls, ask, &seconds), "");
+  EXPECT_GT(seconds, 0.0);
+  // The same estimate moved 2 m along the optical axis, as that start's was.
+  LidarStereoResult far = good;
+  far.T_cam_lidar.pretranslate(Eigen::Vector3d(0, 0, 2.0));
+  const std::string doubt = secondOpinion(window, T_init, far, ls, s, &seconds);
+  EXPECT_NE(doubt.find("two minima"), std::string::npos) << doubt;
+  std::cout << "[ co       ] " << doubt << "\n";
+  // An estimate not converged is not second-guessed.
+  far.converged = false;
+  EXPECT_EQ(secondOpinion(window, T_init, far, ls, s), "");
+}
+
 TEST(CoCalibration, RunawayLidarEstimatesAreNotTaken) {
   // The runaway rule, made to fire: with divergence bounds of 1 deg / 5 cm, every LiDAR-stereo
   // solve from a start 3 deg / 0.3 m off ends beyond them. No such estimate may be taken, and the

@@ -188,6 +188,35 @@ bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSetti
   return all;
 }
 
+std::string secondOpinion(const std::vector<const Keyframe*>& window,
+                          const Eigen::Isometry3d& T_cam_lidar_init, const LidarStereoResult& lidar,
+                          const LidarStereoSettings& settings, const CoCalibrationSettings& s,
+                          double* seconds) {
+  if (seconds) *seconds = 0;
+  if (!lidar.converged || (s.confirm_beyond_deg < 0 && s.confirm_beyond_m < 0)) return "";
+  const Vector6d moved = poseError(lidar.T_cam_lidar, T_cam_lidar_init);
+  const double moved_deg = moved.head<3>().norm() * kDegPerRad, moved_m = moved.tail<3>().norm();
+  if (!((s.confirm_beyond_deg >= 0 && moved_deg >= s.confirm_beyond_deg) ||
+        (s.confirm_beyond_m >= 0 && moved_m >= s.confirm_beyond_m)))
+    return "";
+  const auto t0 = Clock::now();
+  LidarStereoSettings ls = settings;
+  ls.run_coarse = true;
+  const LidarStereoResult again = solveLidarStereo(window, T_cam_lidar_init, ls);
+  if (seconds) *seconds = secondsSince(t0);
+  if (!again.converged) return "";
+  const Vector6d gap = poseError(again.T_cam_lidar, lidar.T_cam_lidar);
+  const double gap_deg = gap.head<3>().norm() * kDegPerRad, gap_m = gap.tail<3>().norm();
+  if (gap_deg <= s.confirm_disagree_deg && gap_m <= s.confirm_disagree_m) return "";
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "two minima: the estimate moved %.2f deg / %.2f m from the initial guess, and a "
+                "solve from the initial guess with the final clouds converged %.2f deg / %.2f m "
+                "away from it",
+                moved_deg, moved_m, gap_deg, gap_m);
+  return buf;
+}
+
 CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const StereoRig& rig,
                                 const Eigen::Isometry3d& T_cam_lidar_init,
                                 const Eigen::Isometry3d& T_right_left_init,
@@ -421,6 +450,17 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     const auto t_h = Clock::now();
     checkWindowHalves(cwin, ls_last, &res.lidar);
     res.seconds_lidar += secondsSince(t_h);
+  }
+  // A converged estimate far from the initial guess gets a second opinion from there.
+  if (res.stable && res.lidar.converged) {
+    double seconds = 0;
+    const std::string doubt =
+        secondOpinion(cwin, T_cam_lidar_init, res.lidar, ls_last, s, &seconds);
+    res.seconds_lidar += seconds;
+    if (debug && seconds > 0)
+      std::fprintf(stderr, "co second opinion (%.2f s): %s\n", seconds,
+                   doubt.empty() ? "agrees or did not converge" : doubt.c_str());
+    if (!doubt.empty()) res.lidar.converged = false, res.lidar.message = doubt;
   }
   addAxisVariances(&res.lidar.covariance, s.model_sigma_lidar_rot_deg, s.model_sigma_lidar_trans_m);
   coStereoCovariance(res.lidar, s, &res.stereo);
