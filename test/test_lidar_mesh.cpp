@@ -259,11 +259,9 @@ TEST(LidarMesh, SparseRingsKeepTheRoadButNoFaceBridgesAKerb) {
 }
 
 // The same 16-ring sensor facing the back of a car 13.8 m ahead (y = -1..1 m, 0.45..1.4 m above
-// the road): the ring at -7 deg passes under its body to the road at 14.09 m,
-// the rings at -5, -3 deg hit its back. A face joining the road under the car to its back has
-// edges of 0.6 m, within the 6 % of the range a dense scan allows, but is a fold between two
-// surfaces, 45 deg off both and tens of cm off either at its centroid.
-TEST(LidarMesh, NoFaceFoldsFromTheRoadUpACarsBack) {
+// the road), optionally with a wall 30 m ahead behind it: the ring at -7 deg passes under the
+// car's body to the road at 14.09 m, the rings at -5 and -3 deg hit its back (0.52 and 1.01 m up).
+LidarScan carScene(bool wall_behind) {
   LidarScan scan;
   const int rings = 16, per_ring = 1800;
   const double x0 = 13.8, y_half = 1.0, z_lo = -kHeight + 0.45, z_hi = -kHeight + 1.4;
@@ -278,6 +276,7 @@ TEST(LidarMesh, NoFaceFoldsFromTheRoadUpACarsBack) {
         const double tb = x0 / d.x();  // the car's back
         const Eigen::Vector3d p = tb * d;
         if (std::fabs(p.y()) <= y_half && p.z() >= z_lo && p.z() <= z_hi && tb < t) t = tb;
+        if (wall_behind) t = std::min(t, 30.0 / d.x());
       }
       if (t > 80.0) continue;
       tescalib::LidarPoint lp;
@@ -286,24 +285,45 @@ TEST(LidarMesh, NoFaceFoldsFromTheRoadUpACarsBack) {
       scan.push_back(lp);
     }
   }
-  const LidarMesh mesh = tescalib::buildLidarMesh(scan, LidarMeshSettings{});
-  int folds = 0, back = 0, road_near_car = 0;
-  for (const auto& f : mesh.faces) {
-    auto on_road = [&](const Eigen::Vector3f& v) { return std::fabs(v.z() + kHeight) < 0.01f; };
-    auto on_back = [&](const Eigen::Vector3f& v) { return std::fabs(v.x() - x0) < 0.01f; };
-    const int road = on_road(f.a) + on_road(f.b) + on_road(f.c);
-    const int car = on_back(f.a) + on_back(f.b) + on_back(f.c);
-    if (road > 0 && car > 0) ++folds;
-    if (car == 3) ++back;
-    if (road == 3 && std::fabs(f.centroid.y()) < y_half && f.centroid.x() > 8.f &&
-        f.centroid.x() < x0)
-      ++road_near_car;
+  return scan;
+}
+
+// A face joining the road under the car to its back has edges of 0.6 m, within the 6 % of the
+// range a dense scan allows, but is a fold between two surfaces, 29 deg off the back and 61 deg
+// off the road, its centroid 10-35 cm off either. The back itself is seen by one ring pair only:
+// it stays, also with a wall behind it (then both rings beyond its pair leave its plane).
+TEST(LidarMesh, NoFaceFoldsFromTheRoadUpACarsBack) {
+  for (bool wall_behind : {false, true}) {
+    SCOPED_TRACE(wall_behind ? "wall behind the car" : "open road behind the car");
+    const LidarMesh mesh = tescalib::buildLidarMesh(carScene(wall_behind), LidarMeshSettings{});
+    int folds = 0, back = 0, road_before_car = 0;
+    for (const auto& f : mesh.faces) {
+      auto on_road = [&](const Eigen::Vector3f& v) { return std::fabs(v.z() + kHeight) < 0.01f; };
+      auto on_back = [&](const Eigen::Vector3f& v) { return std::fabs(v.x() - 13.8f) < 0.01f; };
+      const int road = on_road(f.a) + on_road(f.b) + on_road(f.c);
+      const int car = on_back(f.a) + on_back(f.b) + on_back(f.c);
+      if (road > 0 && car > 0) ++folds;
+      if (car == 3) ++back;
+      if (road == 3 && std::fabs(f.centroid.y()) < 1.f && f.centroid.x() > 8.f) ++road_before_car;
+    }
+    EXPECT_EQ(folds, 0);
+    // The car's back (one ring pair over 8.3 deg of azimuth: 41 bins, 82 faces) stays, and so does
+    // the road before it (8-10 m: beyond 10 m a 16-ring sensor sees the road beyond 80 deg of
+    // incidence, too grazing to mesh).
+    EXPECT_GT(back, 75);
+    EXPECT_GT(road_before_car, 50);
   }
-  EXPECT_EQ(folds, 0);
-  // The car's back (one ring pair over 8.3 deg of azimuth: 41 bins, 82 faces) and the road up to
-  // it stay meshed.
-  EXPECT_GT(back, 75);
-  EXPECT_GT(road_near_car, 50);
+  // Between rings closer than fold_min_ring_gap_deg (a 64-ring scan's 0.4 deg) folds are kept.
+  LidarMeshSettings dense_only;
+  dense_only.fold_min_ring_gap_deg = 2.5;
+  int kept_folds = 0;
+  for (const auto& f : tescalib::buildLidarMesh(carScene(false), dense_only).faces) {
+    int road = 0, car = 0;
+    for (const Eigen::Vector3f* v : {&f.a, &f.b, &f.c})
+      road += std::fabs(v->z() + kHeight) < 0.01f, car += std::fabs(v->x() - 13.8f) < 0.01f;
+    kept_folds += road > 0 && car > 0;
+  }
+  EXPECT_EQ(kept_folds, 83);
 }
 
 TEST(LidarMesh, KeepEveryNthRingRenumbersTheKeptRings) {

@@ -75,6 +75,17 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   auto vec = [&](int i) { return Eigen::Vector3f(scan[i].x, scan[i].y, scan[i].z); };
   std::vector<int> face_cell;  // ring * cols + col of each face
   int cell = 0, beyond_lo = -1, beyond_hi = -1;
+  bool continues_lo = false, continues_hi = false, fold_check = false;
+  const double sin_fold_gap =
+      s.fold_min_ring_gap_deg < 0 ? 2.0 : std::sin(s.fold_min_ring_gap_deg * M_PI / 180.0);
+  // Is point k within 3 cm + 0.3 % of its range of the line through points i and j?
+  auto onLine = [&](int i, int j, int k) {
+    if (i < 0 || j < 0 || k < 0) return false;
+    const Eigen::Vector3f p = vec(i), d = vec(j) - p, q = vec(k);
+    const float len = d.norm();
+    if (len < 1e-6f) return false;
+    return d.cross(q - p).norm() / len <= 0.03f + 0.003f * q.norm();
+  };
   auto tryFace = [&](int ia, int ib, int ic) {
     if (ia < 0 || ib < 0 || ic < 0) return;
     const Eigen::Vector3f a = vec(ia), b = vec(ib), c = vec(ic);
@@ -112,9 +123,11 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       ++checked;
       if (std::fabs(n.dot(vec(i) - centroid)) <= tol) ++agree;
     }
-    // A face that neither continues is a fold: it spans the corner between two surfaces (the road
-    // and a car's side, a car's back and its roof), tens of cm off both at 16 rings.
-    if (checked == 2 && agree == 0) return;
+    // A face that neither continues is a fold when one of its rings belongs to the surface beyond
+    // it: it spans the corner between two surfaces (the road under a car and the car's back, a
+    // car's back and its roof), 10-35 cm off both at 16 rings. A surface that only this ring pair
+    // sees (a car's back between the road and a wall) has neither and stays.
+    if (fold_check && checked == 2 && agree == 0 && (continues_lo || continues_hi)) return;
     // So long a face may bridge two surfaces (the road and a kerb, a car's underside): keep it
     // only when the rings on both sides of it continue its plane, or the one side that has a
     // return there (the lowest ring pair, the sky above).
@@ -129,11 +142,18 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       if (p01 < 0) p01 = at(r, col + 2);
       if (p11 < 0) p11 = at(r + 1, col + 2);
       cell = r * cols + col;
-      // The rings below and above the face's pair, at its columns (sparse faces' plane check).
+      // The rings below and above the face's pair, at its columns (the faces' plane check).
       beyond_lo = r > 0 ? at(r - 1, col) : -1;
       if (beyond_lo < 0 && r > 0) beyond_lo = at(r - 1, col + 1);
       beyond_hi = r + 2 < rings ? at(r + 2, col + 1) : -1;
       if (beyond_hi < 0 && r + 2 < rings) beyond_hi = at(r + 2, col);
+      // Does ring r continue the line of rings r-2, r-1 in this column (ring r+1 that of rings
+      // r+3, r+2)? Points of one plane at one azimuth lie on a line.
+      continues_lo = r > 1 && onLine(at(r - 2, col), at(r - 1, col), p00);
+      continues_hi = r + 3 < rings && onLine(at(r + 3, col), at(r + 2, col), p10);
+      // Folds only between rings far enough apart (LidarMeshSettings::fold_min_ring_gap_deg).
+      fold_check = p00 >= 0 && p10 >= 0 &&
+                   vec(p00).normalized().cross(vec(p10).normalized()).norm() > sin_fold_gap;
       tryFace(p00, p01, p10);
       tryFace(p01, p11, p10);
     }

@@ -277,8 +277,9 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
           rings);
     else if (rings < 64)
       NODELET_INFO_ONCE(
-          "tescalib: the LiDAR has %d rings: on generated drives 16 and 32 rings reached about "
-          "0.06 deg / 0.7 cm, against 0.02 deg / 0.5 cm with 64 (README, Known limits)",
+          "tescalib: the LiDAR has %d rings: on a generated drive 16 and 32 rings reached "
+          "0.035 and 0.023 deg / 0.6 and 0.5 cm, 64 rings 0.026 deg / 0.5 cm (README, Known "
+          "limits)",
           rings);
   }
   if (ring_recovered)

@@ -23,6 +23,12 @@ struct LidarMeshSettings {
   double max_edge_ratio = 0.06;
   double max_edge_abs = 2.5;        ///< m; and never longer than this
   double max_incidence_deg = 80.0;  ///< reject faces seen at a more grazing angle
+  /// Folds (a face spanning the corner between two surfaces, e.g. from the road under a car up
+  /// its back) are dropped between rings further apart than this (deg; < 0: never): at 16 and 32
+  /// rings (1.7 and 0.85 deg) they sit 10-35 cm off both surfaces and pulled the estimate by
+  /// 0.05 deg, at 64 (0.4 deg) they are four times smaller and the covariances' model error was
+  /// calibrated with them (doc/lidar_stereo.md, "Folds").
+  double fold_min_ring_gap_deg = 0.6;
   /// Face normals are fitted (PCA) to the points within +-smooth_cols azimuth bins and rings
   /// -1..+2 that lie near the face's plane, and kept when within `smooth_max_angle_deg` of the
   /// face's own: a single face's normal (a 3-10 cm edge along the ring, 2 cm range noise) is off
