@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <random>
 #include <vector>
@@ -211,30 +212,40 @@ TEST(LidarMesh, NormalsAreFittedForTheSampleTheSolversDrawFrom) {
   EXPECT_EQ(tescalib::sampleFaces(sampled, 10000).size(), 4000u);
 }
 
-// A 16-ring sensor (elevations -15..+15 deg, 2 deg apart, as a VLP-16) over a flat road with a
-// 15 cm kerb: left of y = -3 m the ground is a pavement 15 cm higher. Rings 2 deg apart put the
-// road's rings 0.5-2 m apart at 5-9 m, far more than the 6 % of the range a face's edge may
-// span between a 64-ring sensor's rings.
-TEST(LidarMesh, SparseRingsKeepTheRoadButNoFaceBridgesAKerb) {
+// One revolution of a 16-ring sensor (elevations -15..+15 deg, 2 deg apart, as a VLP-16; 1800
+// returns per ring): `range(d)` is the distance along the unit ray d to the scene (rays beyond
+// 80 m or with an infinite range return nothing).
+LidarScan sixteenRingScan(const std::function<double(const Eigen::Vector3d&)>& range) {
   LidarScan scan;
   const int rings = 16, per_ring = 1800;
-  const float kerb = 0.15f;
   for (int r = 0; r < rings; ++r) {
     const double elev = (-15.0 + 2.0 * r) / kDegPerRad;
     for (int k = 0; k < per_ring; ++k) {
       const double az = 2 * M_PI * (k + 0.5) / per_ring - M_PI;
       const Eigen::Vector3d d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az),
                               std::sin(elev));
-      if (d.z() >= 0) continue;
-      double t = -kHeight / d.z();
-      if ((t * d).y() < -3.0) t = -(kHeight - kerb) / d.z();  // on the pavement
-      if (t > 80.0) continue;
+      const double t = range(d);
+      if (!(t <= 80.0)) continue;
       tescalib::LidarPoint lp;
       lp.x = float(t * d.x()), lp.y = float(t * d.y()), lp.z = float(t * d.z());
       lp.ring = uint16_t(r);
       scan.push_back(lp);
     }
   }
+  return scan;
+}
+
+// A 16-ring sensor (elevations -15..+15 deg, 2 deg apart, as a VLP-16) over a flat road with a
+// 15 cm kerb: left of y = -3 m the ground is a pavement 15 cm higher. Rings 2 deg apart put the
+// road's rings 0.5-2 m apart at 5-9 m, far more than the 6 % of the range a face's edge may
+// span between a 64-ring sensor's rings.
+TEST(LidarMesh, SparseRingsKeepTheRoadButNoFaceBridgesAKerb) {
+  const float kerb = 0.15f;
+  const LidarScan scan = sixteenRingScan([&](const Eigen::Vector3d& d) {
+    if (d.z() >= 0) return std::numeric_limits<double>::infinity();
+    const double t = -kHeight / d.z();
+    return (t * d).y() < -3.0 ? -(kHeight - kerb) / d.z() : t;  // left of y = -3: the pavement
+  });
   const LidarMesh mesh = tescalib::buildLidarMesh(scan, LidarMeshSettings{});
   int road_5_to_9 = 0, bridges = 0;
   for (const auto& f : mesh.faces) {
@@ -262,30 +273,17 @@ TEST(LidarMesh, SparseRingsKeepTheRoadButNoFaceBridgesAKerb) {
 // the road), optionally with a wall 30 m ahead behind it: the ring at -7 deg passes under the
 // car's body to the road at 14.09 m, the rings at -5 and -3 deg hit its back (0.52 and 1.01 m up).
 LidarScan carScene(bool wall_behind) {
-  LidarScan scan;
-  const int rings = 16, per_ring = 1800;
   const double x0 = 13.8, y_half = 1.0, z_lo = -kHeight + 0.45, z_hi = -kHeight + 1.4;
-  for (int r = 0; r < rings; ++r) {
-    const double elev = (-15.0 + 2.0 * r) / kDegPerRad;
-    for (int k = 0; k < per_ring; ++k) {
-      const double az = 2 * M_PI * (k + 0.5) / per_ring - M_PI;
-      const Eigen::Vector3d d(std::cos(elev) * std::cos(az), std::cos(elev) * std::sin(az),
-                              std::sin(elev));
-      double t = d.z() < 0 ? -kHeight / d.z() : std::numeric_limits<double>::infinity();
-      if (d.x() > 0) {
-        const double tb = x0 / d.x();  // the car's back
-        const Eigen::Vector3d p = tb * d;
-        if (std::fabs(p.y()) <= y_half && p.z() >= z_lo && p.z() <= z_hi && tb < t) t = tb;
-        if (wall_behind) t = std::min(t, 30.0 / d.x());
-      }
-      if (t > 80.0) continue;
-      tescalib::LidarPoint lp;
-      lp.x = float(t * d.x()), lp.y = float(t * d.y()), lp.z = float(t * d.z());
-      lp.ring = uint16_t(r);
-      scan.push_back(lp);
+  return sixteenRingScan([&](const Eigen::Vector3d& d) {
+    double t = d.z() < 0 ? -kHeight / d.z() : std::numeric_limits<double>::infinity();
+    if (d.x() > 0) {
+      const double tb = x0 / d.x();  // the car's back
+      const Eigen::Vector3d p = tb * d;
+      if (std::fabs(p.y()) <= y_half && p.z() >= z_lo && p.z() <= z_hi && tb < t) t = tb;
+      if (wall_behind) t = std::min(t, 30.0 / d.x());
     }
-  }
-  return scan;
+    return t;
+  });
 }
 
 // A face joining the road under the car to its back has edges of 0.6 m, within the 6 % of the
