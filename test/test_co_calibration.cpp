@@ -300,6 +300,27 @@ TEST(CoCalibration, ASecondOpinionCatchesAnEstimateFarFromTheGuessInAnotherMinim
   EXPECT_EQ(secondOpinion(window, T_init, far, ls, s), "");
 }
 
+TEST(CoCalibration, AskedForASecondOpinionThatDisagreesTheResultIsNotConverged) {
+  // The wiring of secondOpinion into coCalibrate: with the limits set so that it is always asked
+  // and always disagrees (a negative tolerance), a window that converges otherwise (the test
+  // above) is reported not converged, with the second opinion's reason; its estimate is kept.
+  std::mt19937_64 rng(3);
+  const auto [truth, T_cl_init] = lidarStart(rng);
+  Vector6d stereo_delta = randomPerturbation(1.0 / kDegPerRad, 0.1, rng);
+  stereo_delta.tail<3>() = Eigen::Vector3d(0.1, 0, 0);
+  const Eigen::Isometry3d T_rl_init = perturb(truth.T_right_left, stereo_delta);
+  GeneratedWindow w = generatedWindow(8, 1, &T_cl_init);
+  CoCalibrationSettings s;
+  s.confirm_beyond_deg = 0, s.confirm_beyond_m = 0;
+  s.confirm_disagree_deg = -1, s.confirm_disagree_m = -1;
+  const CoCalibrationResult r = coCalibrate(w.window(), w.rig, T_cl_init, T_rl_init, s);
+  EXPECT_TRUE(r.stable);
+  EXPECT_FALSE(r.converged);
+  EXPECT_FALSE(r.lidar.converged);
+  EXPECT_NE(r.message.find("two minima"), std::string::npos) << r.message;
+  EXPECT_LT(poseError(r.lidar.T_cam_lidar, truth.T_cam_lidar).tail<3>().norm(), 0.03);
+}
+
 TEST(CoCalibration, RunawayLidarEstimatesAreNotTaken) {
   // The runaway rule, made to fire: with divergence bounds of 1 deg / 5 cm, every LiDAR-stereo
   // solve from a start 3 deg / 0.3 m off ends beyond them. No such estimate may be taken, and the

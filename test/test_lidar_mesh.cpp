@@ -311,9 +311,21 @@ TEST(LidarMesh, NoFaceFoldsFromTheRoadUpACarsBack) {
     EXPECT_GT(back, 75);
     EXPECT_GT(road_before_car, 50);
   }
-  // Between rings closer than fold_min_ring_gap_deg (a 64-ring scan's 0.4 deg) folds are kept.
+  // The scene upside down (a ceiling 1.73 m above, the car hanging from it; rings renumbered from
+  // the lowest): the folds are then found from the rings above them.
+  LidarScan mirrored = carScene(false);
+  for (auto& p : mirrored) p.z = -p.z, p.ring = uint16_t(15 - p.ring);
+  int mirrored_folds = 0;
+  for (const auto& f : tescalib::buildLidarMesh(mirrored, LidarMeshSettings{}).faces) {
+    int ceiling = 0, car = 0;
+    for (const Eigen::Vector3f* v : {&f.a, &f.b, &f.c})
+      ceiling += std::fabs(v->z() - kHeight) < 0.01f, car += std::fabs(v->x() - 13.8f) < 0.01f;
+    mirrored_folds += ceiling > 0 && car > 0;
+  }
+  EXPECT_EQ(mirrored_folds, 0);
+  // In scans of fold_below_rings rings or more (48 by default; 0: every scan) folds stay.
   LidarMeshSettings dense_only;
-  dense_only.fold_min_ring_gap_deg = 2.5;
+  dense_only.fold_below_rings = 0;
   int kept_folds = 0;
   for (const auto& f : tescalib::buildLidarMesh(carScene(false), dense_only).faces) {
     int road = 0, car = 0;

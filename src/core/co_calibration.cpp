@@ -204,7 +204,7 @@ std::string secondOpinion(const std::vector<const Keyframe*>& window,
   ls.run_coarse = true;
   const LidarStereoResult again = solveLidarStereo(window, T_cam_lidar_init, ls);
   if (seconds) *seconds = secondsSince(t0);
-  if (!again.converged) return "";
+  if (!again.converged) return ls.cancelled() ? "cancelled during the second opinion" : "";
   const Vector6d gap = poseError(again.T_cam_lidar, lidar.T_cam_lidar);
   const double gap_deg = gap.head<3>().norm() * kDegPerRad, gap_m = gap.tail<3>().norm();
   if (gap_deg <= s.confirm_disagree_deg && gap_m <= s.confirm_disagree_m) return "";

@@ -76,8 +76,8 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   std::vector<int> face_cell;  // ring * cols + col of each face
   int cell = 0, beyond_lo = -1, beyond_hi = -1;
   bool continues_lo = false, continues_hi = false, fold_check = false;
-  const double sin_fold_gap =
-      s.fold_min_ring_gap_deg < 0 ? 2.0 : std::sin(s.fold_min_ring_gap_deg * M_PI / 180.0);
+  // Folds only in scans of fewer rings than fold_below_rings.
+  const bool folds = rings < s.fold_below_rings;
   // Is point k within 3 cm + 0.3 % of its range of the line through points i and j?
   auto onLine = [&](int i, int j, int k) {
     if (i < 0 || j < 0 || k < 0) return false;
@@ -147,13 +147,13 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       if (beyond_lo < 0 && r > 0) beyond_lo = at(r - 1, col + 1);
       beyond_hi = r + 2 < rings ? at(r + 2, col + 1) : -1;
       if (beyond_hi < 0 && r + 2 < rings) beyond_hi = at(r + 2, col);
-      // Does ring r continue the line of rings r-2, r-1 in this column (ring r+1 that of rings
-      // r+3, r+2)? Points of one plane at one azimuth lie on a line.
-      continues_lo = r > 1 && onLine(at(r - 2, col), at(r - 1, col), p00);
-      continues_hi = r + 3 < rings && onLine(at(r + 3, col), at(r + 2, col), p10);
-      // Folds only between rings far enough apart (LidarMeshSettings::fold_min_ring_gap_deg).
-      fold_check = p00 >= 0 && p10 >= 0 &&
-                   vec(p00).normalized().cross(vec(p10).normalized()).norm() > sin_fold_gap;
+      // Where folds are looked for: does the ring-r point of this column (the next
+      // column's where it has none: the second triangle's) continue the line of rings r-2, r-1
+      // (ring r+1's that of rings r+3, r+2)? Points of one plane at one azimuth lie on a line.
+      const int lo = p00 >= 0 ? p00 : p01;
+      fold_check = folds && lo >= 0 && p10 >= 0;
+      continues_lo = fold_check && r > 1 && onLine(at(r - 2, col), at(r - 1, col), lo);
+      continues_hi = fold_check && r + 3 < rings && onLine(at(r + 3, col), at(r + 2, col), p10);
       tryFace(p00, p01, p10);
       tryFace(p01, p11, p10);
     }

@@ -110,12 +110,13 @@ struct CoCalibrationSettings {
   std::array<double, 3> model_sigma_stereo_rot_deg = {0.0, 0.0, 0.0};
   std::array<double, 3> model_sigma_stereo_trans_m = {0.0007, 0.00027, 0.00019};
   /// Second opinion (secondOpinion) on a converged LiDAR estimate at least `confirm_beyond_deg`
-  /// or `confirm_beyond_m` from the initial guess (< 0: never asked): LiDAR-stereo is solved once
-  /// more, coarse and fine, from the initial guess with the final clouds; when that converges
-  /// further than `confirm_disagree_deg` / `confirm_disagree_m` from the estimate, the window has
-  /// two minima and the result is not converged. Session 26: a start 3 deg / 0.3 m off whose
-  /// first rounds rectified with the baseline direction 11 deg off settled 2.1 m off along the
-  /// optical axis, declared converged (doc/known_limits.md).
+  /// or `confirm_beyond_m` from the initial guess (a negative limit is not used; both negative:
+  /// never asked; the yaw of the clouds starts where the last solve left it): LiDAR-stereo is
+  /// solved once more, coarse and fine, from the initial guess with the final clouds; when that
+  /// converges further than `confirm_disagree_deg` / `confirm_disagree_m` from the estimate, the
+  /// window has two minima and the result is not converged. Session 26: a start 3 deg / 0.3 m off
+  /// whose first rounds rectified with the baseline direction 11 deg off settled 2.1 m off along
+  /// the optical axis, declared converged (doc/known_limits.md).
   double confirm_beyond_deg = 5.0;
   double confirm_beyond_m = 0.5;
   double confirm_disagree_deg = 0.5;
@@ -143,9 +144,10 @@ struct CoCalibrationResult {
 };
 
 /// CoCalibrationSettings::confirm_*: empty when the converged LiDAR-stereo estimate `lidar` (of
-/// `window`'s current clouds, solved with `settings`) is within the confirm_beyond_* limits of
+/// `window`'s current clouds, solved with `settings`) is within both confirm_beyond_* limits of
 /// `T_cam_lidar_init` or a solve from `T_cam_lidar_init` with the same clouds either does not
-/// converge or lands within the confirm_disagree_* limits of it; otherwise why it is not trusted.
+/// converge or lands within the confirm_disagree_* limits of it; otherwise why it is not trusted
+/// (also when `settings.cancel` stopped that solve).
 /// `seconds` (optional) receives the time of that solve.
 std::string secondOpinion(const std::vector<const Keyframe*>& window,
                           const Eigen::Isometry3d& T_cam_lidar_init, const LidarStereoResult& lidar,

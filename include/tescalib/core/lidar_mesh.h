@@ -24,11 +24,13 @@ struct LidarMeshSettings {
   double max_edge_abs = 2.5;        ///< m; and never longer than this
   double max_incidence_deg = 80.0;  ///< reject faces seen at a more grazing angle
   /// Folds (a face spanning the corner between two surfaces, e.g. from the road under a car up
-  /// its back) are dropped between rings further apart than this (deg; < 0: never): at 16 and 32
-  /// rings (1.7 and 0.85 deg) they sit 10-35 cm off both surfaces and pulled the estimate by
-  /// 0.05 deg, at 64 (0.4 deg) they are four times smaller and the covariances' model error was
-  /// calibrated with them (doc/lidar_stereo.md, "Folds").
-  double fold_min_ring_gap_deg = 0.6;
+  /// its back) are dropped in scans of fewer rings than this (0: never; counted up to the
+  /// highest ring with a return: a 64-ring scan under open sky shows 63). At 16 and 32 rings they
+  /// sit 10-35 cm off both surfaces and pulled the estimate by 0.05 deg; at 64 they are four times
+  /// smaller, and the covariances' model error was calibrated with them, so they stay. (Not by ring
+  /// gap: KITTI's HDL-64E has gaps of 0.66 deg, every 2nd ring of the generated one 0.67 deg.)
+  /// doc/lidar_stereo.md, "Folds".
+  int fold_below_rings = 48;
   /// Face normals are fitted (PCA) to the points within +-smooth_cols azimuth bins and rings
   /// -1..+2 that lie near the face's plane, and kept when within `smooth_max_angle_deg` of the
   /// face's own: a single face's normal (a 3-10 cm edge along the ring, 2 cm range noise) is off
