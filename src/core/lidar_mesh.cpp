@@ -75,16 +75,18 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   auto vec = [&](int i) { return Eigen::Vector3f(scan[i].x, scan[i].y, scan[i].z); };
   std::vector<int> face_cell;  // ring * cols + col of each face
   int cell = 0, beyond_lo = -1, beyond_hi = -1;
-  bool continues_lo = false, continues_hi = false, fold_check = false;
+  bool continues_lo = false, continues_hi = false;  // this cell's fold evidence
   // Folds only in scans of fewer rings than fold_below_rings.
   const bool folds = rings < s.fold_below_rings;
-  // Is point k within 3 cm + 0.3 % of its range of the line through points i and j?
+  // How far a point at `range` may be from a surface that it continues: 3 cm + 0.3 %.
+  auto continueTol = [](float range) { return 0.03f + 0.003f * range; };
+  // Is point k within continueTol of the line through points i and j?
   auto onLine = [&](int i, int j, int k) {
     if (i < 0 || j < 0 || k < 0) return false;
     const Eigen::Vector3f p = vec(i), d = vec(j) - p, q = vec(k);
     const float len = d.norm();
     if (len < 1e-6f) return false;
-    return d.cross(q - p).norm() / len <= 0.03f + 0.003f * q.norm();
+    return d.cross(q - p).norm() / len <= continueTol(q.norm());
   };
   auto tryFace = [&](int ia, int ib, int ic) {
     if (ia < 0 || ib < 0 || ic < 0) return;
@@ -114,24 +116,26 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
     float cos_inc = n.dot(view);
     if (cos_inc > 0) n = -n, cos_inc = -cos_inc;  // orient towards the sensor
     if (-cos_inc < cos_max_inc) return;           // grazing
-    // Do the rings below and above the face's pair continue its plane (within 3 cm + 0.3 % of
-    // the range)?
-    const float tol = 0.03f + 0.003f * range;
-    int checked = 0, agree = 0;
-    for (int i : {beyond_lo, beyond_hi}) {
-      if (i < 0) continue;
-      ++checked;
-      if (std::fabs(n.dot(vec(i) - centroid)) <= tol) ++agree;
+    const bool fold_candidate = continues_lo || continues_hi;
+    if (sparse || fold_candidate) {
+      // Do the rings below and above the face's pair continue its plane (within continueTol)?
+      const float tol = continueTol(range);
+      int checked = 0, agree = 0;
+      for (int i : {beyond_lo, beyond_hi}) {
+        if (i < 0) continue;
+        ++checked;
+        if (std::fabs(n.dot(vec(i) - centroid)) <= tol) ++agree;
+      }
+      // A face that neither continues is a fold when one of its rings belongs to the surface
+      // beyond it: it spans the corner between two surfaces (the road under a car and the car's
+      // back, a car's back and its roof), 10-35 cm off both at 16 rings. A surface that only this
+      // ring pair sees (a car's back between the road and a wall) has neither and stays.
+      if (fold_candidate && checked == 2 && agree == 0) return;
+      // So long a face may bridge two surfaces (the road and a kerb, a car's underside): keep it
+      // only when the rings on both sides of it continue its plane, or the one side that has a
+      // return there (the lowest ring pair, the sky above).
+      if (sparse && (checked == 0 || agree < checked)) return;
     }
-    // A face that neither continues is a fold when one of its rings belongs to the surface beyond
-    // it: it spans the corner between two surfaces (the road under a car and the car's back, a
-    // car's back and its roof), 10-35 cm off both at 16 rings. A surface that only this ring pair
-    // sees (a car's back between the road and a wall) has neither and stays.
-    if (fold_check && checked == 2 && agree == 0 && (continues_lo || continues_hi)) return;
-    // So long a face may bridge two surfaces (the road and a kerb, a car's underside): keep it
-    // only when the rings on both sides of it continue its plane, or the one side that has a
-    // return there (the lowest ring pair, the sky above).
-    if (sparse && (checked == 0 || agree < checked)) return;
     mesh.faces.push_back({a, b, c, centroid, n, range});
     face_cell.push_back(cell);
   };
@@ -151,9 +155,8 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       // column's where it has none: the second triangle's) continue the line of rings r-2, r-1
       // (ring r+1's that of rings r+3, r+2)? Points of one plane at one azimuth lie on a line.
       const int lo = p00 >= 0 ? p00 : p01;
-      fold_check = folds && lo >= 0 && p10 >= 0;
-      continues_lo = fold_check && r > 1 && onLine(at(r - 2, col), at(r - 1, col), lo);
-      continues_hi = fold_check && r + 3 < rings && onLine(at(r + 3, col), at(r + 2, col), p10);
+      continues_lo = folds && r > 1 && onLine(at(r - 2, col), at(r - 1, col), lo);
+      continues_hi = folds && r + 3 < rings && onLine(at(r + 3, col), at(r + 2, col), p10);
       tryFace(p00, p01, p10);
       tryFace(p01, p11, p10);
     }
