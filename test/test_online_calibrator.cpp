@@ -752,7 +752,9 @@ TEST(OnlineCalibratorGenerated, RejectsDarkBlindedAndBlurredImagesWithTheReason)
     std::cout << "[ quality  ] " << c.what << ": contrast " << left.contrast << " / "
               << right.contrast << ", clipped " << left.clipped_fraction << " / "
               << right.clipped_fraction << ", sharpness ratio " << ratio << "\n";
-    if (std::string(c.what) == "as rendered") EXPECT_NEAR(ratio, 1.0, 0.05);
+    if (std::string(c.what) == "as rendered") {
+      EXPECT_NEAR(ratio, 1.0, 0.05);
+    }
     std::shared_ptr<const Keyframe> built;
     const FrameResult r = cal.addFrame(f, f.stamp, &msg, &built);
     if (c.reason) {

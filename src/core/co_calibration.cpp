@@ -265,6 +265,21 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     history.clear();
   };
   LidarStereoSettings ls_last = s.lidar;  // the settings of the last LiDAR-stereo solve
+  // LiDAR first (lidar_first_fallback): LiDAR-stereo from the initial guess with the wide-basin
+  // search, on the clouds as they are now.
+  auto lidarFirst = [&](LidarStereoSettings ls) {
+    ls.run_coarse = true;
+    ls.initial_stereo_yaw_rad = 0;
+    res.lidar_first = true;
+    return solveLidarStereoSearch(cwin, T_cam_lidar_init, ls);
+  };
+  auto ranAway = [&](const LidarStereoResult& r, const LidarStereoSettings& ls, Vector6d* from) {
+    *from = poseError(r.T_cam_lidar, T_cam_lidar_init);
+    return from->head<3>().norm() * kDegPerRad > ls.max_correction_rot_deg ||
+           from->tail<3>().norm() > ls.max_correction_trans_m;
+  };
+  bool rejected_last = false;  // the last round's LiDAR-stereo estimate was not taken
+  bool stuck = false;  // ... and this one's, from the same estimates and clouds: nothing changes
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
     if (s.lidar.cancelled()) {  // LidarStereoSettings::cancel: before each round too
       res.converged = false;
@@ -273,6 +288,8 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     }
     const bool warm = s.warm_start && (res.rounds > 1 || s.warm_first_round);
     Eigen::Isometry3d T_rl_new = T_rl;
+    bool lidar_first_now = false;         // this round tries LiDAR first
+    Eigen::Isometry3d T_rl_first = T_rl;  // ... on clouds rectified with this
     // 1. Left-right from the LiDAR depth.
     {
       PhotometricSettings ps =
@@ -293,28 +310,74 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
                      res.stereo.converged ? "converged" : res.stereo.message.c_str());
       if (res.rounds > 1)
         T_rl_new.translation() = T_rl_new.translation().normalized() * T_rl.translation().norm();
+      // A pose that matched nothing but texture, or a jump beyond the solver's bounds: the key
+      // points' LiDAR depth is too far off for the left-right solve: try LiDAR first, from the
+      // initial guess, on clouds rectified with its rotation (image motion under rotation does
+      // not depend on depth: generated starts 1 deg off went to 0.2-0.3 deg; not when it
+      // diverged) and the baseline from before (its direction does depend on depth: 22 deg off on
+      // one).
+      const Vector6d ph_step = poseError(res.stereo.T_right_left, T_rl);
+      const bool diverged = ph_step.head<3>().norm() * kDegPerRad > ps.max_correction_rot_deg ||
+                            ph_step.tail<3>().norm() > ps.max_correction_trans_m;
+      lidar_first_now = s.lidar_first_fallback && !lidar_converged && !res.lidar_first &&
+                        (diverged || !(res.stereo.consistency_ratio <= ps.max_consistency_ratio));
+      if (lidar_first_now) {
+        T_rl_first.linear() = diverged ? T_rl.linear() : T_rl_new.linear();
+        T_rl_first.translation() = T_rl.translation();
+      }
     }
-    if (debug) {
-      const RectificationChange c =
-          rectificationChange(window.front()->T_right_left_used, T_rl_new);
-      const Eigen::Vector3d phi = c.phi * kDegPerRad, dir = c.direction * kDegPerRad;
-      std::fprintf(stderr,
-                   "co round %d: vs clouds: rot [%.4f %.4f %.4f] deg, direction dy %.4f dz %.4f "
-                   "deg\n",
-                   res.rounds, phi.x(), phi.y(), phi.z(), dir.y(), dir.z());
+    // The inner LiDAR-stereo solves only need to settle well below the outer tolerance (its
+    // defaults, 2e-4 deg and 0.02 mm, are below what re-association noise allows with the scale
+    // free); the split-window check runs once, on the final estimate.
+    LidarStereoSettings ls = coLidarStereoSettings(s);
+    ls.check_window_halves = false;
+    ls.converge_rot_deg = std::max(ls.converge_rot_deg, s.inner_settle_fraction * s.stable_rot_deg);
+    ls.converge_trans_m = std::max(ls.converge_trans_m, s.inner_settle_fraction * s.stable_trans_m);
+    const LidarStereoSettings ls_first = ls;
+    int rectified = 0;  // keyframes whose clouds this round recomputed
+    auto rectify = [&](const Eigen::Isometry3d& T) {
+      if (debug) {
+        const RectificationChange c = rectificationChange(window.front()->T_right_left_used, T);
+        const Eigen::Vector3d phi = c.phi * kDegPerRad, dir = c.direction * kDegPerRad;
+        std::fprintf(stderr,
+                     "co round %d: vs clouds: rot [%.4f %.4f %.4f] deg, direction dy %.4f dz "
+                     "%.4f deg\n",
+                     res.rounds, phi.x(), phi.y(), phi.z(), dir.y(), dir.z());
+      }
+      const int n = rectifyWindow(window, rig, T, s.stereo_cloud, rectifyTolerances(s),
+                                  &res.seconds_stereo_cloud, &res.rematches);
+      res.rectifications += n > 0;
+      rectified += n;
+    };
+    // A LiDAR-first solve is taken when it converged within the divergence bounds; otherwise the
+    // round goes on as it would have without it.
+    auto tryLidarFirst = [&](const char* why) {
+      const auto t_l = Clock::now();
+      const LidarStereoResult r = lidarFirst(ls_first);
+      res.seconds_lidar += secondsSince(t_l);
+      Vector6d from;
+      const bool take = r.converged && !ranAway(r, ls_first, &from);
+      if (debug)
+        std::fprintf(stderr, "co round %d: %s: LiDAR first, from the initial guess: %s\n",
+                     res.rounds, why,
+                     take ? "converged, taken" : ("not taken: " + r.message).c_str());
+      if (take) res.lidar = r, ls_last = ls_first;
+      return take;
+    };
+    if (lidar_first_now) {
+      rectify(T_rl_first);
+      if (tryLidarFirst("the photometric solve failed with this LiDAR depth")) {
+        T_rl_new = T_rl_first;
+        photometric_done = false;  // the next photometric solve starts cold again
+      } else {
+        lidar_first_now = false;
+      }
     }
     // 2. Stereo clouds, only where the rectification changed enough to matter.
-    res.rectifications += rectifyWindow(window, rig, T_rl_new, s.stereo_cloud, rectifyTolerances(s),
-                                        &res.seconds_stereo_cloud, &res.rematches) > 0;
+    if (!lidar_first_now) rectify(T_rl_new);
     const double b_used = window.front()->T_right_left_used.translation().norm();
     // 3. LiDAR-stereo with the stereo scale: the LiDAR is metric, so the scale corrects the
     // baseline length (rectification does not depend on it, the clouds simply scale).
-    LidarStereoSettings ls = coLidarStereoSettings(s);
-    ls.check_window_halves = false;  // once, on the final estimate
-    // The inner solve only needs to settle well below the outer tolerance (its defaults, 2e-4 deg
-    // and 0.02 mm, are below what re-association noise allows with the scale free).
-    ls.converge_rot_deg = std::max(ls.converge_rot_deg, s.inner_settle_fraction * s.stable_rot_deg);
-    ls.converge_trans_m = std::max(ls.converge_trans_m, s.inner_settle_fraction * s.stable_trans_m);
     if (warm && lidar_accepted) {
       // Fine stage only after a solve that converged: from an estimate a degenerate or unsettled
       // solve left far off, the fine stage alone creeps back by ~0.1 m per round.
@@ -326,26 +389,37 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
             lidar_yaw -
             rectificationChange(lidar_yaw_clouds, window.front()->T_right_left_used).phi.y();
     }
-    const auto t_l = Clock::now();
-    ls_last = ls;
-    res.lidar = solveLidarStereo(cwin, T_cl, ls);
-    res.seconds_lidar += secondsSince(t_l);
     // A LiDAR estimate implausibly far from the initial guess (the solver's own divergence
     // bounds, counted from the start of the alternation) is not taken: the round is repeated from
     // the previous estimates with the LiDAR depth (a free-depth round can hand it clouds rectified
-    // with a yaw far off, from which a start 3 deg off can run away on real data).
-    const Vector6d from_init = poseError(res.lidar.T_cam_lidar, T_cam_lidar_init);
-    if (from_init.head<3>().norm() * kDegPerRad > ls.max_correction_rot_deg ||
-        from_init.tail<3>().norm() > ls.max_correction_trans_m) {
+    // with a yaw far off, from which a start 3 deg off can run away on real data). Before any
+    // LiDAR-stereo solve has converged, LiDAR first is tried on these clouds first.
+    Vector6d from_init;
+    if (!lidar_first_now) {
+      ls_last = ls;
+      const auto t_l = Clock::now();
+      res.lidar = solveLidarStereo(cwin, T_cl, ls);
+      res.seconds_lidar += secondsSince(t_l);
+      if (ranAway(res.lidar, ls, &from_init) && s.lidar_first_fallback && !lidar_converged &&
+          !res.lidar_first)
+        tryLidarFirst("LiDAR-stereo ran away");
+    }
+    if (ranAway(res.lidar, ls, &from_init)) {
       ++res.rejected;
       if (debug)
         std::fprintf(stderr, "co round %d: LiDAR-stereo ran away (%.2f deg, %.2f m): rejected\n",
                      res.rounds, from_init.head<3>().norm() * kDegPerRad,
                      from_init.tail<3>().norm());
       free_depth_done = true;
+      // The same clouds and the same start as the last rejected round: the next rounds would
+      // repeat it (a session-27 start 10 deg / 1 m off did, 14 times in 35 s).
+      stuck = rejected_last && rectified == 0;
+      rejected_last = true;
       continueFrom(T_cl, T_rl);
+      if (stuck) break;
       continue;
     }
+    rejected_last = false;
     const double yaw_gap = std::fabs(res.lidar.stereo_yaw_rad) * kDegPerRad;
     if (ls.estimate_stereo_yaw && s.yaw_handover_deg >= 0 && yaw_gap > s.yaw_handover_deg &&
         yaw_gap >= last_yaw_gap && res.yaw_handovers < s.max_yaw_handovers) {
@@ -465,7 +539,12 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   addAxisVariances(&res.lidar.covariance, s.model_sigma_lidar_rot_deg, s.model_sigma_lidar_trans_m);
   coStereoCovariance(res.lidar, s, &res.stereo);
   res.converged = res.stable && res.lidar.converged && res.stereo.converged;
-  if (!res.stable)
+  if (stuck)
+    res.message = "LiDAR-stereo ran away from the initial guess in " +
+                  std::to_string(res.rejected) +
+                  " rounds, the last two started from the same estimates and clouds (a start "
+                  "beyond the basin?)";
+  else if (!res.stable)
     res.message = "estimates still moving after " + std::to_string(s.max_rounds) + " rounds" +
                   (res.rejected ? " (" + std::to_string(res.rejected) +
                                       " LiDAR-stereo estimates ran away from the initial guess "

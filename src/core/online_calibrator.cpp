@@ -271,6 +271,10 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
   if (co) {
     CoCalibrationSettings cs = settings_.co;
     cs.lidar.cancel = &cancel_;
+    // Its LiDAR-first fallback searches as the LiDAR-stereo solves below do.
+    if (current || static_cast<int>(win.size()) <
+                       std::min(settings_.window_size, settings_.search_min_keyframes))
+      cs.lidar.search_step_deg = 0;
     // Warm only from a co-calibration: a LiDAR-first estimate has the stereo pair at its start.
     const bool warm = current && current->stereo_estimated && settings_.warm_start_fine_only;
     if (warm) {

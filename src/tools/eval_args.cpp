@@ -23,7 +23,7 @@ void usage() {
          "         [--lidar-sigma DEG,M]\n"
          "         [--refine-iterations N] [--refine-smoothed-rounds N]\n"
          "         [--deskew 0|1] [--keep-rings N] [--depth-prior SIGMA] [--free-depth-rounds N] "
-         "[--rematch-deg X]\n"
+         "[--rematch-deg X] [--lidar-first 0|1]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
@@ -55,6 +55,8 @@ void usage() {
          "(co: the prior of the rounds with free depth, "
          "CoCalibrationSettings::free_depth_prior_sigma)\n"
          "--free-depth-rounds N: co: photometric solves of rounds 1..N with free key point depth.\n"
+         "--lidar-first 0|1: co: the LiDAR-first fallback (CoCalibrationSettings::\n"
+         "lidar_first_fallback; default 0); its LiDAR-stereo search follows --search-deg.\n"
          "--rematch-deg X: co: SGBM matches again beyond X deg about x/z (and 5 X of baseline\n"
          "direction) from its last matches, re-triangulates below (< 0: always matches again).\n"
          "--stereo-yaw 0|1: the LiDAR-stereo solve also estimates the right camera's yaw relative\n"
@@ -85,7 +87,8 @@ void usage() {
          "coarse_estimates_stereo_nuisances; off by default: only the fine stage does).\n"
          "--coarse-gates M,M,...: the coarse stage's 6-D association gates, one stage each\n"
          "(LidarStereoSettings::coarse_gates; default 2,1,0.5).\n"
-         "--search-deg D: lidar_stereo mode: a solve that does not converge is tried again from\n"
+         "--search-deg D: lidar_stereo mode (co: the LiDAR-first fallback's solve): a solve\n"
+         "that does not converge is tried again from\n"
          "the start turned by +-D deg about the camera's x and y axes, 8 more starts\n"
          "(LidarStereoSettings::search_step_deg; default 10; 0: off).\n"
          "--lidar-sigma DEG,M: stereo mode: the given LiDAR extrinsic's 1-sigma per axis; the\n"
@@ -141,6 +144,8 @@ bool parse(int argc, char** argv, Args* a) {
       a->depth_prior = std::stod(v);
     else if (k == "--free-depth-rounds")
       a->free_depth_rounds = std::stoi(v);
+    else if (k == "--lidar-first")
+      a->lidar_first = std::stoi(v);
     else if (k == "--rematch-deg")
       a->rematch_deg = std::stod(v);
     else if (k == "--co-model-scale")

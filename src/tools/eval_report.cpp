@@ -231,6 +231,7 @@ std::string trialJson(const Args& args, const Estimated& estimated, const Trial&
      << ", \"iterations\": " << tr.iterations;
   if (tr.rematches >= 0) js << ", \"rematches\": " << tr.rematches;
   if (tr.yaw_handovers >= 0) js << ", \"yaw_handovers\": " << tr.yaw_handovers;
+  if (tr.lidar_first >= 0) js << ", \"lidar_first\": " << (tr.lidar_first ? "true" : "false");
   if (std::isfinite(tr.stereo_scale))
     js << ", \"stereo_scale\": " << tr.stereo_scale
        << ", \"stereo_scale_sigma\": " << tr.stereo_scale_sigma;

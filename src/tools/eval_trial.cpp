@@ -180,6 +180,8 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
   if (args.smooth_keypoints_px >= 0) cs.stereo.smooth_depth_radius_px = args.smooth_keypoints_px;
   if (args.depth_prior >= 0) cs.free_depth_prior_sigma = args.depth_prior;
   if (args.free_depth_rounds >= 0) cs.free_depth_rounds = args.free_depth_rounds;
+  if (args.lidar_first >= 0) cs.lidar_first_fallback = args.lidar_first > 0;
+  cs.lidar.search_step_deg = solver_settings.search_step_deg;
   if (args.rematch_deg != 0) {
     cs.rematch_deg = args.rematch_deg;
     cs.rematch_direction_deg = 5 * args.rematch_deg;
@@ -212,6 +214,7 @@ Eigen::Isometry3d solveCo(const Args& args, const EvalData& d,
   tr.iterations = r.rounds;
   tr.rematches = r.rematches;
   tr.yaw_handovers = r.yaw_handovers;
+  tr.lidar_first = r.lidar_first ? 1 : 0;
   tr.stereo_scale = r.lidar.stereo_scale;
   tr.stereo_scale_sigma = std::sqrt(r.lidar.stereo_scale_variance);
   tr.halves = r.lidar.halves;
