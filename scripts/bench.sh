@@ -79,6 +79,10 @@ if [ "$BENCH" != kitti ]; then
   # Issue 5: left-right from 1 deg / 0.1 m, with the LiDAR at the truth and 1 deg / 0.1 m off.
   run "sim_urban_stereo_1deg" --sequences "$URBAN" --mode stereo --trials "$SIM_TRIALS" \
     --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
+  # The baseline a user would pick: an essential matrix from left-right feature matches (rotation
+  # and baseline direction; the length stays the start's).
+  run "sim_urban_stereo_1deg_features" --sequences "$URBAN" --mode stereo --method features \
+    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
   run "sim_urban_stereo_1deg_lidar_off" --sequences "$URBAN" --mode stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
     --lidar-trans-m 0.1 --seed 5 --window 20
@@ -107,6 +111,11 @@ if [ "$BENCH" != kitti ]; then
   CO_SEQS=$URBAN,$(simulate urban 11 100),$(simulate urban 12 100)
   run "sim_urban_co_3deg" --sequences "$CO_SEQS" --mode co --trials "$SIM_TRIALS" \
     --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
+    --seed 1 --window 10 --windows disjoint
+  # From the LiDAR 10 deg / 1 m off: round 1's stereo pair from feature matches, LiDAR first
+  # (CoCalibrationSettings::stereo_from_features; 30 % of these starts without it, session 27).
+  run "sim_urban_co_10deg" --sequences "$CO_SEQS" --mode co --trials "$SIM_TRIALS" \
+    --init-rot-deg 10 --init-trans-m 1 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
     --seed 1 --window 10 --windows disjoint
   CO_HELD_OUT=$(simulate urban 31 100)
   for s in 32 33 34 51 52 53 54 55; do CO_HELD_OUT=$CO_HELD_OUT,$(simulate urban $s 100); done
@@ -164,6 +173,10 @@ run "kitti_0930_stereo_1deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo
   --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
 run "kitti_1003_stereo_1deg" --sequences "$K/00,$K/02" --mode stereo \
   --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
+run "kitti_0930_stereo_1deg_features" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo \
+  --method features --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
+run "kitti_1003_stereo_1deg_features" --sequences "$K/00,$K/02" --mode stereo \
+  --method features --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
 # The same with KITTI's stated LiDAR calibration accuracy propagated into the stereo covariance.
 run "kitti_0930_stereo_1deg_lidar_sigma" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo \
   --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20 --lidar-sigma 0.1,0.02

@@ -17,6 +17,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_EQ(p.initial_tf_camera_frame, "");  // the left camera_info's frame_id
   EXPECT_EQ(p.left_frame, "tescalib_left");
   EXPECT_DOUBLE_EQ(p.online.co.yaw_handover_deg, 0.2);
+  EXPECT_TRUE(p.online.co.stereo_from_features);
   EXPECT_TRUE(p.online.co.lidar.check_window_halves);
   EXPECT_DOUBLE_EQ(p.online.co.lidar.halves_chi2_limit, 22.46);
   EXPECT_TRUE(p.online.co.lidar.measure_disparity_offset);

@@ -278,6 +278,24 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     return from->head<3>().norm() * kDegPerRad > ls.max_correction_rot_deg ||
            from->tail<3>().norm() > ls.max_correction_trans_m;
   };
+  // Stereo from features: round 1 starts from the matches' pair and solves LiDAR-stereo first.
+  bool features_first = false;
+  if (s.stereo_from_features) {
+    res.features = estimateStereoFromFeatures(cwin, rig, T_rl, s.features);
+    features_first = res.features.ok;
+    if (features_first) T_rl = res.stereo.T_right_left = res.features.T_right_left;
+    if (debug) {
+      const Vector6d moved = poseError(res.features.T_right_left, T_right_left_init);
+      std::fprintf(stderr,
+                   "co features: %d matches, %d inliers, rms %.3f px, sigma %.4f deg / %.3f deg "
+                   "(direction), %.2f s; moved the pair %.3f deg / %.2f cm%s%s\n",
+                   res.features.matches, res.features.inliers, res.features.rms_px,
+                   res.features.sigma_rot_deg, res.features.sigma_direction_deg,
+                   res.features.seconds, moved.head<3>().norm() * kDegPerRad,
+                   moved.tail<3>().norm() * 100, features_first ? "" : ": not used, ",
+                   res.features.message.c_str());
+    }
+  }
   bool rejected_last = false;  // the last round's LiDAR-stereo estimate was not taken
   bool stuck = false;  // ... and this one's, from the same estimates and clouds: nothing changes
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
@@ -290,8 +308,9 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     Eigen::Isometry3d T_rl_new = T_rl;
     bool lidar_first_now = false;         // this round tries LiDAR first
     Eigen::Isometry3d T_rl_first = T_rl;  // ... on clouds rectified with this
-    // 1. Left-right from the LiDAR depth.
-    {
+    // 1. Left-right from the LiDAR depth (not in the round that starts from the features' pair).
+    const bool features_round = features_first && res.rounds == 1;
+    if (!features_round) {
       PhotometricSettings ps =
           coPhotometricSettings(s, warm && (photometric_done || s.warm_first_round));
       free_depth = res.rounds <= s.free_depth_rounds && !lidar_converged && !free_depth_done;
@@ -398,7 +417,8 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     if (!lidar_first_now) {
       ls_last = ls;
       const auto t_l = Clock::now();
-      res.lidar = solveLidarStereo(cwin, T_cl, ls);
+      res.lidar = features_round ? solveLidarStereoSearch(cwin, T_cl, ls)
+                                 : solveLidarStereo(cwin, T_cl, ls);
       res.seconds_lidar += secondsSince(t_l);
       if (ranAway(res.lidar, ls, &from_init) && s.lidar_first_fallback && !lidar_converged &&
           !res.lidar_first)

@@ -130,6 +130,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("co_calibration/free_depth_rounds", &p->online.co.free_depth_rounds);
   get("co_calibration/rematch_deg", &p->online.co.rematch_deg);
   get("co_calibration/yaw_handover_deg", &p->online.co.yaw_handover_deg);
+  get("co_calibration/stereo_from_features", &p->online.co.stereo_from_features);
   get("stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
   get("stereo/block_size", &p->online.keyframe.stereo.block_size);
   get("stereo/max_depth", &p->online.keyframe.stereo.max_depth);

@@ -11,7 +11,8 @@ void usage() {
   std::cout
       << "usage: rosrun tescalib tescalib_eval --sequences DIR[,DIR...]\n"
          "         [--mode lidar_stereo|stereo|co|joint]\n"
-         "         [--method tescalib|pcl_gicp] [--trials N] [--init-rot-deg R] [--init-trans-m "
+         "         [--method tescalib|pcl_gicp|features] [--trials N] [--init-rot-deg R] "
+         "[--init-trans-m "
          "T]\n"
          "         [--init-stereo-rot-deg R] [--init-stereo-trans-m T] [--seed S] [--window W]\n"
          "         [--json FILE] [--stages coarse,fine] [--lidar-rot-deg R --lidar-trans-m T]\n"
@@ -23,7 +24,7 @@ void usage() {
          "         [--lidar-sigma DEG,M]\n"
          "         [--refine-iterations N] [--refine-smoothed-rounds N]\n"
          "         [--deskew 0|1] [--keep-rings N] [--depth-prior SIGMA] [--free-depth-rounds N] "
-         "[--rematch-deg X] [--lidar-first 0|1]\n"
+         "[--rematch-deg X] [--lidar-first 0|1] [--features 0|1]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
@@ -57,6 +58,8 @@ void usage() {
          "--free-depth-rounds N: co: photometric solves of rounds 1..N with free key point depth.\n"
          "--lidar-first 0|1: co: the LiDAR-first fallback (CoCalibrationSettings::\n"
          "lidar_first_fallback; default 0); its LiDAR-stereo search follows --search-deg.\n"
+         "--features 0|1: co: round 1 from the stereo pair of left-right feature matches, LiDAR\n"
+         "first (CoCalibrationSettings::stereo_from_features); its search follows --search-deg.\n"
          "--rematch-deg X: co: SGBM matches again beyond X deg about x/z (and 5 X of baseline\n"
          "direction) from its last matches, re-triangulates below (< 0: always matches again).\n"
          "--stereo-yaw 0|1: the LiDAR-stereo solve also estimates the right camera's yaw relative\n"
@@ -146,6 +149,8 @@ bool parse(int argc, char** argv, Args* a) {
       a->free_depth_rounds = std::stoi(v);
     else if (k == "--lidar-first")
       a->lidar_first = std::stoi(v);
+    else if (k == "--features")
+      a->features = std::stoi(v);
     else if (k == "--rematch-deg")
       a->rematch_deg = std::stod(v);
     else if (k == "--co-model-scale")
@@ -212,13 +217,20 @@ bool parse(int argc, char** argv, Args* a) {
               << "' is not available in this build (available: lidar_stereo, stereo, co, joint)\n";
     return false;
   }
-  if (a->method != "tescalib" && a->method != "pcl_gicp") {
-    std::cerr << "tescalib_eval: unknown method '" << a->method << "' (tescalib, pcl_gicp)\n";
+  if (a->method != "tescalib" && a->method != "pcl_gicp" && a->method != "features") {
+    std::cerr << "tescalib_eval: unknown method '" << a->method
+              << "' (tescalib, pcl_gicp, features)\n";
     return false;
   }
   if (a->method == "pcl_gicp" && a->mode != "lidar_stereo") {
     std::cerr << "tescalib_eval: --method pcl_gicp registers LiDAR scans to stereo clouds: it is "
                  "a baseline of --mode lidar_stereo only (not of "
+              << a->mode << ")\n";
+    return false;
+  }
+  if (a->method == "features" && a->mode != "stereo") {
+    std::cerr << "tescalib_eval: --method features estimates the stereo pair from left-right "
+                 "feature matches: it is a baseline of --mode stereo only (not of "
               << a->mode << ")\n";
     return false;
   }

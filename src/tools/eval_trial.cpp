@@ -18,6 +18,7 @@
 #include "tescalib/core/parallel.h"
 #include "tescalib/core/photometric_solver.h"
 #include "tescalib/core/scan_motion.h"
+#include "tescalib/core/stereo_features.h"
 
 namespace tescalib::eval {
 
@@ -181,6 +182,7 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
   if (args.depth_prior >= 0) cs.free_depth_prior_sigma = args.depth_prior;
   if (args.free_depth_rounds >= 0) cs.free_depth_rounds = args.free_depth_rounds;
   if (args.lidar_first >= 0) cs.lidar_first_fallback = args.lidar_first > 0;
+  if (args.features >= 0) cs.stereo_from_features = args.features > 0;
   cs.lidar.search_step_deg = solver_settings.search_step_deg;
   if (args.rematch_deg != 0) {
     cs.rematch_deg = args.rematch_deg;
@@ -260,6 +262,26 @@ void solveStereo(const Args& args, const EvalData& d, const std::vector<const Ke
   tr.message = r.message;
   tr.brightness = r.brightness;
   if (!r.lidar_error.isZero()) tr.lidar_error_found = r.lidar_error;
+}
+
+/// stereo with the features method: R and the baseline direction from left-right feature matches,
+/// the length kept at the (perturbed) guess'; no covariance over all six axes (the length has
+/// none), so no NEES.
+void solveStereoFeatures(const EvalData& d, const std::vector<const Keyframe*>& window, Trial& tr) {
+  const FeatureStereoResult r =
+      estimateStereoFromFeatures(window, d.rig, perturb(d.rig.T_right_left, tr.stereo.init));
+  tr.converged = r.ok;
+  tr.stereo.cov = Matrix6d::Constant(std::nan(""));
+  tr.stereo.err = poseError(r.T_right_left, d.rig.T_right_left);
+  const Eigen::Vector3d dir = r.T_right_left.translation().normalized(),
+                        dir_gt = d.rig.T_right_left.translation().normalized();
+  std::fprintf(stderr,
+               "features: %d matches, %d inliers, rms %.3f px, sigma %.4f deg / direction %.3f "
+               "deg; direction error %.3f deg; %.2f s %s\n",
+               r.matches, r.inliers, r.rms_px, r.sigma_rot_deg, r.sigma_direction_deg,
+               std::acos(std::min(1.0, dir.dot(dir_gt))) * kDegPerRad, r.seconds,
+               r.message.c_str());
+  tr.message = r.message;
 }
 
 /// lidar_stereo with the tescalib method; returns the estimate.
@@ -343,7 +365,10 @@ Trial runTrial(const Args& args, int t, const LidarStereoSettings& solver_settin
   if (co_mode) {
     T_est = solveCo(args, d, solver_settings, mwin, T_init, tr);
   } else if (stereo_mode) {
-    solveStereo(args, d, window, T_init, tr);
+    if (args.method == "features")
+      solveStereoFeatures(d, window, tr);
+    else
+      solveStereo(args, d, window, T_init, tr);
   } else if (args.method == "tescalib") {
     T_est = solveLidar(solver_settings, window, T_init, tr);
   } else {
