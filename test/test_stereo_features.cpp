@@ -56,6 +56,28 @@ double directionErrorDeg(const Eigen::Isometry3d& T, const Eigen::Isometry3d& tr
   return std::acos(std::min(1.0, c)) * kDegPerRad;
 }
 
+/// The features' estimate of `w` from a guess 5 deg / 0.3 m off the truth (drawn from `rng`), its
+/// error, printed.
+struct FeatureRun {
+  Eigen::Isometry3d guess;
+  FeatureStereoResult r;
+  Vector6d e;
+};
+FeatureRun runFrom5Deg(const GreyWindow& w, std::mt19937_64& rng) {
+  FeatureRun run;
+  run.guess = perturb(w.rig.T_right_left, randomPerturbation(5.0 / kDegPerRad, 0.3, rng));
+  run.r = estimateStereoFromFeatures(w.window(), w.rig, run.guess);
+  run.e = poseError(run.r.T_right_left, w.rig.T_right_left);
+  const Vector6d& e = run.e;
+  std::cout << "[ features ] " << run.r.matches << " matches, " << run.r.inliers << " inliers, rms "
+            << run.r.rms_px << " px; error rot [" << e[0] * kDegPerRad << " " << e[1] * kDegPerRad
+            << " " << e[2] * kDegPerRad << "] deg, direction "
+            << directionErrorDeg(run.r.T_right_left, w.rig.T_right_left) << " deg; sigma "
+            << run.r.sigma_rot_deg << " deg / " << run.r.sigma_direction_deg << " deg; "
+            << run.r.seconds << " s\n";
+  return run;
+}
+
 }  // namespace
 
 TEST(StereoFeatures, RecoversRotationAndBaselineDirectionOnAGeneratedWindow) {
@@ -63,16 +85,7 @@ TEST(StereoFeatures, RecoversRotationAndBaselineDirectionOnAGeneratedWindow) {
   std::mt19937_64 rng(5);
   std::vector<FeatureStereoResult> results;
   for (int trial = 0; trial < 2; ++trial) {
-    const Eigen::Isometry3d guess =
-        perturb(w.rig.T_right_left, randomPerturbation(5.0 / kDegPerRad, 0.3, rng));
-    const FeatureStereoResult r = estimateStereoFromFeatures(w.window(), w.rig, guess);
-    const Vector6d e = poseError(r.T_right_left, w.rig.T_right_left);
-    std::cout << "[ features ] " << r.matches << " matches, " << r.inliers << " inliers, rms "
-              << r.rms_px << " px; error rot [" << e[0] * kDegPerRad << " " << e[1] * kDegPerRad
-              << " " << e[2] * kDegPerRad << "] deg, direction "
-              << directionErrorDeg(r.T_right_left, w.rig.T_right_left) << " deg; sigma "
-              << r.sigma_rot_deg << " deg / " << r.sigma_direction_deg << " deg; " << r.seconds
-              << " s\n";
+    const auto [guess, r, e] = runFrom5Deg(w, rng);
     ASSERT_TRUE(r.ok) << r.message;
     EXPECT_GT(r.inliers, 1000);
     EXPECT_LT(r.rms_px, 0.3);
@@ -87,9 +100,9 @@ TEST(StereoFeatures, RecoversRotationAndBaselineDirectionOnAGeneratedWindow) {
     results.push_back(r);
   }
   // Nothing of the guess but the length and the baseline's side enters.
-  EXPECT_LT(poseError(results[0].T_right_left, results[1].T_right_left).head<3>().norm() *
-                kDegPerRad,
-            0.005);
+  EXPECT_LT(
+      poseError(results[0].T_right_left, results[1].T_right_left).head<3>().norm() * kDegPerRad,
+      0.005);
 }
 
 TEST(StereoFeatures, SaysWhenTheImagesDoNotConstrainThePair) {
@@ -140,14 +153,7 @@ TEST(StereoFeaturesReal, RecoversTheRectifiedPairOnKitti) {
     for (size_t i : seq.keyframes(0.5)) w.add(seq.load(i));
   }
   std::mt19937_64 rng(5);
-  const Eigen::Isometry3d guess =
-      perturb(w.rig.T_right_left, randomPerturbation(5.0 / kDegPerRad, 0.3, rng));
-  const FeatureStereoResult r = estimateStereoFromFeatures(w.window(), w.rig, guess);
-  const Vector6d e = poseError(r.T_right_left, w.rig.T_right_left);
-  std::cout << "[ features ] " << r.matches << " matches, " << r.inliers << " inliers, rms "
-            << r.rms_px << " px; error rot [" << e[0] * kDegPerRad << " " << e[1] * kDegPerRad
-            << " " << e[2] * kDegPerRad << "] deg, direction "
-            << directionErrorDeg(r.T_right_left, w.rig.T_right_left) << " deg\n";
+  const auto [guess, r, e] = runFrom5Deg(w, rng);
   ASSERT_TRUE(r.ok) << r.message;
   // Measured (session 28): [0.003 0.146 -0.021] deg, direction 0.23 deg: the yaw is what KITTI's
   // rectified images leave loosest (the photometric solver finds 0.035 deg there).

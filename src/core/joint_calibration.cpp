@@ -162,6 +162,9 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   CoCalibrationSettings init = s;
   init.max_rounds = 1;
   init.extrapolate = false;
+  // The round must include a photometric solve (its key points and cost set up the problem
+  // below), which a round from feature matches does not.
+  init.stereo_from_features = false;
   CoCalibrationResult res = coCalibrate(window, rig, T_cam_lidar_init, T_right_left_init, init);
   res.stable = res.converged = false;
   res.rounds = 0;

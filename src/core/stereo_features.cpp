@@ -159,9 +159,8 @@ FeatureStereoResult estimateStereoFromFeatures(const std::vector<const Keyframe*
   };
   const Eigen::Matrix3d Rg = T_right_left_guess.linear();
   const Eigen::Matrix3d Ra = toEigen(R1), Rb = toEigen(R2);
-  Eigen::Matrix3d R = logSO3(Ra * Rg.transpose()).norm() <= logSO3(Rb * Rg.transpose()).norm()
-                          ? Ra
-                          : Rb;
+  Eigen::Matrix3d R =
+      logSO3(Ra * Rg.transpose()).norm() <= logSO3(Rb * Rg.transpose()).norm() ? Ra : Rb;
   Eigen::Vector3d t(tcv.at<double>(0), tcv.at<double>(1), tcv.at<double>(2));
   if (t.dot(T_right_left_guess.translation()) < 0) t = -t;
 
@@ -207,8 +206,9 @@ FeatureStereoResult estimateStereoFromFeatures(const std::vector<const Keyframe*
   res.inliers = static_cast<int>(inl.size());
   if (res.inliers < s.min_inliers) {
     char buf[160];
-    std::snprintf(buf, sizeof buf, "%d of %d left-right matches fit one epipolar geometry (%d needed)",
-                  res.inliers, res.matches, s.min_inliers);
+    std::snprintf(buf, sizeof buf,
+                  "%d of %d left-right matches fit one epipolar geometry (%d needed)", res.inliers,
+                  res.matches, s.min_inliers);
     return done(buf);
   }
   double ss = 0;
@@ -217,18 +217,19 @@ FeatureStereoResult estimateStereoFromFeatures(const std::vector<const Keyframe*
   // Ceres' covariance assumes unit residual variance: scale by the residuals' own.
   const double var = res.rms_px * res.rms_px;
   res.sigma_rot_deg =
-      std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov_phi * var)
-                                  .eigenvalues()
-                                  .maxCoeff())) *
+      std::sqrt(std::max(
+          0.0,
+          Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov_phi * var).eigenvalues().maxCoeff())) *
       kDegPerRad;
   res.sigma_direction_deg =
-      std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov_dir * var)
-                                  .eigenvalues()
-                                  .maxCoeff())) *
+      std::sqrt(std::max(
+          0.0,
+          Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov_dir * var).eigenvalues().maxCoeff())) *
       kDegPerRad;
   res.T_right_left.linear() = R;
   res.T_right_left.translation() = t * length;
-  if (res.sigma_rot_deg > s.max_sigma_rot_deg || res.sigma_direction_deg > s.max_sigma_direction_deg) {
+  if (res.sigma_rot_deg > s.max_sigma_rot_deg ||
+      res.sigma_direction_deg > s.max_sigma_direction_deg) {
     char buf[200];
     std::snprintf(buf, sizeof buf,
                   "the matches do not constrain the pair: sigma %.3f deg (rotation), %.2f deg "

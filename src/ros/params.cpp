@@ -97,7 +97,7 @@ void checkRefinementRounds(const DisparityRefinementSettings& r, const std::stri
 
 bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* error,
                     std::vector<std::string>* unknown) {
-  Reader get{pnh, {}};
+  Reader get{pnh, {}, {}};
   get("sync/approximate", &p->approximate_sync);
   get("sync/queue_size", &p->sync_queue);
   get("sync/max_skew", &p->online.max_sync_skew);

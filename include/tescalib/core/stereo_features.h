@@ -18,9 +18,9 @@
 namespace tescalib {
 
 struct FeatureStereoSettings {
-  int max_features_per_image = 2000;  ///< ORB key points per image
-  double ratio_test = 0.8;            ///< Lowe's test on the two nearest descriptors
-  int refine_window_px = 11;          ///< sub-pixel refinement of each match (pyramidal LK)
+  int max_features_per_image = 2000;     ///< ORB key points per image
+  double ratio_test = 0.8;               ///< Lowe's test on the two nearest descriptors
+  int refine_window_px = 11;             ///< sub-pixel refinement of each match (pyramidal LK)
   double max_forward_backward_px = 0.3;  ///< right -> left tracking must come back this close
   double ransac_threshold_px = 1.0;      ///< essential-matrix RANSAC over the window's matches
   double huber_px = 0.5;                 ///< robust loss of the epipolar refinement
@@ -36,9 +36,9 @@ struct FeatureStereoResult {
   bool ok = false;  ///< enough inliers and both sigmas within the settings' bounds
   /// R and the baseline direction from the matches, |t| from the guess the caller gave.
   Eigen::Isometry3d T_right_left = Eigen::Isometry3d::Identity();
-  int matches = 0;   ///< after the ratio and forward-backward tests, over the window
-  int inliers = 0;   ///< within the RANSAC threshold of the refined epipolar geometry
-  double rms_px = 0;  ///< epipolar (Sampson) residual of the inliers
+  int matches = 0;                 ///< after the ratio and forward-backward tests, over the window
+  int inliers = 0;                 ///< within the RANSAC threshold of the refined epipolar geometry
+  double rms_px = 0;               ///< epipolar (Sampson) residual of the inliers
   double sigma_rot_deg = 0;        ///< largest 1-sigma of the rotation
   double sigma_direction_deg = 0;  ///< largest 1-sigma of the baseline direction
   double seconds = 0;
