@@ -479,7 +479,7 @@ TEST(LidarStereoGenerated, StereoScaleAndItsVarianceFindABaselineError) {
   // Clouds triangulated with a baseline 1 % too long: with the stereo scale free (as
   // co-calibration runs the solver) the scale comes out 1 / 1.01 within its own sigma, which the
   // result reports (co-calibration puts it into the left-right covariance along the baseline);
-  // with the scale held at 1 the variance is 0.
+  // with the scale held at 1 the variance is 0. A scale beyond its bound is not converged.
   StereoRig rig;
   std::vector<Keyframe> kfs = generatedWindow(Scenario::kUrban, 6, 3, &rig);
   for (Keyframe& kf : kfs) {
@@ -501,6 +501,19 @@ TEST(LidarStereoGenerated, StereoScaleAndItsVarianceFindABaselineError) {
   const LidarStereoResult fixed = solveLidarStereo(window, rig.T_cam_lidar);
   EXPECT_EQ(fixed.stereo_scale, 1.0);
   EXPECT_EQ(fixed.stereo_scale_variance, 0.0);
+  // A baseline 1.5x too long needs a scale beyond the bound (1 / 1.3): the solve ends on the
+  // bound, which is not a minimum of the data, and says so (not converged).
+  for (Keyframe& kf : kfs) {
+    for (StereoPoint& p : kf.stereo.points) p.p *= static_cast<float>(1.5 / 1.01);
+    kf.stereo.baseline *= 1.5 / 1.01;
+  }
+  const LidarStereoResult bound = solveLidarStereo(window, rig.T_cam_lidar, free_scale);
+  std::cout << "[ scale    ] baseline 1.5x: stereo scale " << bound.stereo_scale << ", "
+            << bound.message << "\n";
+  EXPECT_NEAR(bound.stereo_scale, 1 / free_scale.max_stereo_scale, 1e-3);
+  EXPECT_FALSE(bound.converged);
+  EXPECT_NE(bound.message.find("stereo scale ended on its bound"), std::string::npos)
+      << bound.message;
 }
 
 TEST(PhotometricGenerated, RecoversThePairAndTheExposureDifference) {

@@ -532,7 +532,17 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.message = "too few LiDAR-stereo associations (" + std::to_string(res.fine_inliers) + ")";
   else if (diverged)
     res.message = "diverged: the correction from the initial guess is implausibly large";
-  else if (!all_observable && disparityOffsetWidensBias(res, s)) {
+  else if (s.estimate_stereo_scale &&
+           std::fabs(std::log(res.stereo_scale)) >= std::log(s.max_stereo_scale) - 1e-4) {
+    // A minimum on the bound is the bound's, not the data's (session 28: a co start 10 deg / 1 m
+    // off converged there, the LiDAR 1.1 m off, and ran away in later rounds).
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "the stereo scale ended on its bound (%.3f): the clouds' depth and the LiDAR's "
+                  "disagree by more than a baseline error can explain",
+                  res.stereo_scale);
+    res.message = buf;
+  } else if (!all_observable && disparityOffsetWidensBias(res, s)) {
     char buf[200];
     std::snprintf(buf, sizeof buf,
                   "the window does not constrain every axis with the common disparity offset its "

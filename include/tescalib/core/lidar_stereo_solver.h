@@ -43,7 +43,8 @@ struct LidarStereoSettings {
   bool estimate_stereo_scale = false;
   /// The scale stays within [1 / max_stereo_scale, max_stereo_scale]: a baseline 30 % off is
   /// beyond any stereo rig's calibration, and a free scale can collapse a LiDAR-stereo solve that
-  /// starts far off (seen on KITTI: scale 0.5 and the LiDAR 2 m away).
+  /// starts far off (seen on KITTI: scale 0.5 and the LiDAR 2 m away). A solve whose scale ends
+  /// on the bound is not converged (its minimum is the bound's, not the data's).
   double max_stereo_scale = 1.3;
   /// Also estimate a yaw of the right camera relative to the rectification the clouds were
   /// computed with (it shifts every disparity by f yaw (1 + x_r^2), a depth error growing with
