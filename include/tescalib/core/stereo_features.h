@@ -34,7 +34,8 @@ struct FeatureStereoSettings {
 
 struct FeatureStereoResult {
   bool ok = false;  ///< enough inliers and both sigmas within the settings' bounds
-  /// R and the baseline direction from the matches, |t| from the guess the caller gave.
+  /// R and the baseline direction from the matches, |t| from the guess the caller gave (not ok:
+  /// the guess, or the loose estimate when only its sigmas are beyond the bounds).
   Eigen::Isometry3d T_right_left = Eigen::Isometry3d::Identity();
   int matches = 0;                 ///< after the ratio and forward-backward tests, over the window
   int inliers = 0;                 ///< within the RANSAC threshold of the refined epipolar geometry
