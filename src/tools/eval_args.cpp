@@ -11,9 +11,8 @@ void usage() {
   std::cout
       << "usage: rosrun tescalib tescalib_eval --sequences DIR[,DIR...]\n"
          "         [--mode lidar_stereo|stereo|co|joint]\n"
-         "         [--method tescalib|pcl_gicp|features] [--trials N] [--init-rot-deg R] "
-         "[--init-trans-m "
-         "T]\n"
+         "         [--method tescalib|pcl_gicp|features] [--trials N] [--init-rot-deg R]\n"
+         "         [--init-trans-m T]\n"
          "         [--init-stereo-rot-deg R] [--init-stereo-trans-m T] [--seed S] [--window W]\n"
          "         [--json FILE] [--stages coarse,fine] [--lidar-rot-deg R --lidar-trans-m T]\n"
          "         [--windows first|disjoint] [--cov-cells XxY] [--cov-model-scale K] "
