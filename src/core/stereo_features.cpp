@@ -73,11 +73,12 @@ std::vector<Match> matchKeyframe(const Keyframe& kf, const StereoRig& rig,
   return out;
 }
 
+/// The refinement's residual (Sampson distance, px) of a match at R and the unit direction t.
 double sampsonPx(const Match& m, const Eigen::Matrix3d& R, const Eigen::Vector3d& t, double f) {
-  const Eigen::Matrix3d E = skew(t) * R;
-  const Eigen::Vector3d Ex = E * m.x_l, Etx = E.transpose() * m.x_r;
-  const double den = Ex.head<2>().squaredNorm() + Etx.head<2>().squaredNorm();
-  return f * m.x_r.dot(Ex) / std::sqrt(std::max(den, 1e-300));
+  const double phi[3] = {0, 0, 0};
+  double r = 0;
+  SampsonEpipolarResidual(m.x_l, m.x_r, R, f)(phi, t.data(), &r);
+  return r;
 }
 
 }  // namespace
