@@ -10,15 +10,13 @@
 
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/parallel.h"
+#include "tescalib/core/timing.h"
 
 namespace tescalib {
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 using Vector12d = Eigen::Matrix<double, 12, 1>;
 

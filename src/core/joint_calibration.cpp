@@ -16,14 +16,12 @@
 #include "tescalib/core/mesh_depth.h"
 #include "tescalib/core/residuals/photometric_residual.h"
 #include "tescalib/core/residuals/point_plane_distance.h"
+#include "tescalib/core/timing.h"
 
 namespace tescalib {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 /// LiDAR fine residual, paper eq. point_point_normal_obj, r = n^T (T p_l - F(d')) / sigma, with
 /// the stereo point F linearised in T_right_left (see the header): its baseline is |t_rl| (exact:

@@ -16,14 +16,12 @@
 #include "tescalib/core/parallel.h"
 #include "tescalib/core/residuals/lidar_normal_residual.h"
 #include "tescalib/core/residuals/point_plane_normal_residual.h"
+#include "tescalib/core/timing.h"
 
 namespace tescalib {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 /// [x, y, z, w nx, w ny, w nz]: the 6-D space of eq. KD6.
 class SixDRepresentation : public pcl::PointRepresentation<pcl::PointNormal> {

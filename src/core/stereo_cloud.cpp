@@ -11,13 +11,11 @@
 
 #include "tescalib/core/error.h"
 #include "tescalib/core/geometry.h"
+#include "tescalib/core/timing.h"
 
 namespace tescalib {
 
 namespace {
-double secondsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 cv::Mat toCv(const Eigen::Matrix3d& M) {
   cv::Mat m(3, 3, CV_64F);
   for (int r = 0; r < 3; ++r)

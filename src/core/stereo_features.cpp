@@ -15,6 +15,7 @@
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/parallel.h"
 #include "tescalib/core/residuals/sampson_epipolar.h"
+#include "tescalib/core/timing.h"
 
 namespace tescalib {
 namespace {
@@ -93,7 +94,7 @@ FeatureStereoResult estimateStereoFromFeatures(const std::vector<const Keyframe*
   const double length = T_right_left_guess.translation().norm();
   auto done = [&](const std::string& why) {
     res.message = why;
-    res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    res.seconds = secondsSince(t0);
     return res;
   };
   if (!rig.left.valid() || !rig.right.valid()) return done("invalid camera intrinsics");
