@@ -275,12 +275,13 @@ void solveStereoFeatures(const EvalData& d, const std::vector<const Keyframe*>& 
   tr.stereo.err = poseError(r.T_right_left, d.rig.T_right_left);
   const Eigen::Vector3d dir = r.T_right_left.translation().normalized(),
                         dir_gt = d.rig.T_right_left.translation().normalized();
-  std::fprintf(stderr,
-               "features: %d matches, %d inliers, rms %.3f px, sigma %.4f deg / direction %.3f "
-               "deg; direction error %.3f deg; %.2f s %s\n",
-               r.matches, r.inliers, r.rms_px, r.sigma_rot_deg, r.sigma_direction_deg,
-               std::acos(std::min(1.0, dir.dot(dir_gt))) * kDegPerRad, r.seconds,
-               r.message.c_str());
+  if (std::getenv("TESCALIB_DEBUG"))
+    std::fprintf(stderr,
+                 "features: %d matches, %d inliers, rms %.3f px, sigma %.4f deg / direction %.3f "
+                 "deg; direction error %.3f deg; %.2f s %s\n",
+                 r.matches, r.inliers, r.rms_px, r.sigma_rot_deg, r.sigma_direction_deg,
+                 std::acos(std::min(1.0, dir.dot(dir_gt))) * kDegPerRad, r.seconds,
+                 r.message.c_str());
   tr.message = r.message;
 }
 
