@@ -1,5 +1,7 @@
 #include "tescalib/core/co_calibration.h"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -184,6 +186,61 @@ bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSetti
   }
   addAxisVariances(&stereo->covariance, s.model_sigma_stereo_rot_deg, s.model_sigma_stereo_trans_m);
   return all;
+}
+
+Matrix6d lidarSensitivityToStereo(const std::vector<Keyframe*>& window, const StereoRig& rig,
+                                  const LidarStereoResult& lidar, LidarStereoSettings settings,
+                                  const CoCalibrationSettings& s, double* seconds) {
+  const auto t0 = Clock::now();
+  Matrix6d J = Matrix6d::Zero();
+  settings.run_coarse = false;
+  settings.check_window_halves = false;
+  settings.search_step_deg = 0;
+  // The solver's own tolerances, not the alternation's looser inner ones: the differences are a
+  // few hundredths of a degree.
+  settings.converge_rot_deg = s.lidar.converge_rot_deg;
+  settings.converge_trans_m = s.lidar.converge_trans_m;
+  settings.initial_stereo_yaw_rad = lidar.stereo_yaw_rad;
+  // What re-triangulating changes (and matching again, for a keyframe without matches), restored
+  // at the end; the images of a StereoCloud are shared, not copied.
+  struct Saved {
+    StereoCloud stereo, matched;
+    Eigen::Isometry3d used, matched_with;
+  };
+  std::vector<Saved> saved;
+  std::vector<Eigen::Isometry3d> saved_used;
+  for (const Keyframe* kf : window) {
+    saved.push_back(
+        {kf->stereo, kf->stereo_matched, kf->T_right_left_used, kf->T_right_left_matched});
+    saved_used.push_back(kf->T_right_left_used);
+  }
+  const std::vector<const Keyframe*> cwin(window.begin(), window.end());
+  const int threads = resolveThreads(s.stereo_cloud.threads);
+  // Rotation about x and z, translation along y and z (perturb(): R = Exp(phi) R, t = t + tau).
+  for (const int k : {0, 2, 4, 5}) {
+    const double h = k < 3 ? s.sensitivity_step_rot_deg / kDegPerRad : s.sensitivity_step_trans_m;
+    Vector6d moved[2];
+    bool ok = true;
+    for (int side = 0; side < 2 && ok; ++side) {
+      Vector6d delta = Vector6d::Zero();
+      delta[k] = side == 0 ? h : -h;
+      parallelFor(static_cast<int>(window.size()), threads, [&](int i) {
+        retriangulateStereo(window[i], rig, perturb(saved_used[i], delta), s.stereo_cloud);
+      });
+      const LidarStereoResult r = solveLidarStereo(cwin, lidar.T_cam_lidar, settings);
+      ok = r.settled && !settings.cancelled();
+      moved[side] = poseError(r.T_cam_lidar, lidar.T_cam_lidar);
+    }
+    // A solve that did not settle leaves the column at zero (no propagation from that axis).
+    if (ok) J.col(k) = (moved[0] - moved[1]) / (2 * h);
+  }
+  for (size_t i = 0; i < window.size(); ++i) {
+    Keyframe* kf = window[i];
+    kf->stereo = std::move(saved[i].stereo), kf->stereo_matched = std::move(saved[i].matched);
+    kf->T_right_left_used = saved[i].used, kf->T_right_left_matched = saved[i].matched_with;
+  }
+  if (seconds) *seconds = secondsSince(t0);
+  return J;
 }
 
 std::string secondOpinion(const std::vector<const Keyframe*>& window,
@@ -553,6 +610,30 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
       std::fprintf(stderr, "co second opinion (%.2f s): %s\n", seconds,
                    doubt.empty() ? "agrees or did not converge" : doubt.c_str());
     if (!doubt.empty()) res.lidar.converged = false, res.lidar.message = doubt;
+  }
+  // The left-right pair's uncertainty in the LiDAR covariance, through the LiDAR estimate's
+  // sensitivity to the pair and the alternation's gain at its fixed point.
+  if (s.propagate_stereo_into_lidar && res.stable && res.lidar.converged &&
+      res.stereo.covariance.allFinite()) {
+    double seconds = 0;
+    const Matrix6d& J_ls = res.lidar_stereo_sensitivity =
+        lidarSensitivityToStereo(window, rig, res.lidar, ls_last, s, &seconds);
+    res.seconds_lidar += seconds;
+    const Matrix6d loop = J_ls * res.stereo.lidar_sensitivity;
+    res.coupling = loop.eigenvalues().cwiseAbs().maxCoeff();
+    // Beyond 0.9 the first-order gain is no longer to be trusted: the sensitivity alone.
+    const Matrix6d gain = res.coupling < 0.9 ? Matrix6d((Matrix6d::Identity() - loop).inverse())
+                                             : Matrix6d::Identity();
+    const Matrix6d added = J_ls * res.stereo.covariance * J_ls.transpose();
+    res.lidar.covariance = gain * (res.lidar.covariance + added) * gain.transpose();
+    if (debug)
+      std::fprintf(stderr,
+                   "co: LiDAR sensitivity to the stereo pair (%.2f s), coupling %.3f, sigma added "
+                   "rot [%.4f %.4f %.4f] deg trans [%.2f %.2f %.2f] mm\n",
+                   seconds, res.coupling, std::sqrt(added(0, 0)) * kDegPerRad,
+                   std::sqrt(added(1, 1)) * kDegPerRad, std::sqrt(added(2, 2)) * kDegPerRad,
+                   std::sqrt(added(3, 3)) * 1e3, std::sqrt(added(4, 4)) * 1e3,
+                   std::sqrt(added(5, 5)) * 1e3);
   }
   addAxisVariances(&res.lidar.covariance, s.model_sigma_lidar_rot_deg, s.model_sigma_lidar_trans_m);
   coStereoCovariance(res.lidar, s, &res.stereo);

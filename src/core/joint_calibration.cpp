@@ -350,7 +350,8 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
                    lr.converged ? "converged" : lr.message.c_str(),
                    ph.converged ? "converged" : ph.message.c_str());
     }
-    addAxisVariances(&lr.covariance, s.model_sigma_lidar_rot_deg, s.model_sigma_lidar_trans_m);
+    addAxisVariances(&lr.covariance, js.co_model_sigma_lidar_rot_deg,
+                     js.co_model_sigma_lidar_trans_m);
     ph.T_right_left = T_rl;
     coStereoCovariance(lr, s, &ph);
     addAxisVariances(&lr.covariance, js.model_sigma_lidar_rot_deg, js.model_sigma_lidar_trans_m);

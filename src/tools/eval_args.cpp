@@ -23,7 +23,7 @@ void usage() {
          "         [--lidar-sigma DEG,M]\n"
          "         [--refine-iterations N] [--refine-smoothed-rounds N]\n"
          "         [--deskew 0|1] [--keep-rings N] [--depth-prior SIGMA] [--free-depth-rounds N] "
-         "[--rematch-deg X] [--lidar-first 0|1] [--features 0|1]\n"
+         "[--rematch-deg X] [--lidar-first 0|1] [--features 0|1] [--propagate-stereo 0|1]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
          "(T_right_left\n"
          "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co\n"
@@ -59,6 +59,8 @@ void usage() {
          "lidar_first_fallback; default 0); its LiDAR-stereo search follows --search-deg.\n"
          "--features 0|1: co: round 1 from the stereo pair of left-right feature matches, LiDAR\n"
          "first (CoCalibrationSettings::stereo_from_features); its search follows --search-deg.\n"
+         "--propagate-stereo 0|1: co: the stereo pair's uncertainty in the LiDAR covariance\n"
+         "(CoCalibrationSettings::propagate_stereo_into_lidar; default 1).\n"
          "--rematch-deg X: co: SGBM matches again beyond X deg about x/z (and 5 X of baseline\n"
          "direction) from its last matches, re-triangulates below (< 0: always matches again).\n"
          "--stereo-yaw 0|1: the LiDAR-stereo solve also estimates the right camera's yaw relative\n"
@@ -150,6 +152,8 @@ bool parse(int argc, char** argv, Args* a) {
       a->lidar_first = std::stoi(v);
     else if (k == "--features")
       a->features = std::stoi(v);
+    else if (k == "--propagate-stereo")
+      a->propagate_stereo = std::stoi(v);
     else if (k == "--rematch-deg")
       a->rematch_deg = std::stod(v);
     else if (k == "--co-model-scale")

@@ -183,6 +183,7 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
   if (args.free_depth_rounds >= 0) cs.free_depth_rounds = args.free_depth_rounds;
   if (args.lidar_first >= 0) cs.lidar_first_fallback = args.lidar_first > 0;
   if (args.features >= 0) cs.stereo_from_features = args.features > 0;
+  if (args.propagate_stereo >= 0) cs.propagate_stereo_into_lidar = args.propagate_stereo > 0;
   cs.lidar.search_step_deg = solver_settings.search_step_deg;
   if (args.rematch_deg != 0) {
     cs.rematch_deg = args.rematch_deg;

@@ -36,6 +36,12 @@ struct JointCalibrationSettings {
   /// alternation's (in the joint problem each residual set also pulls the other extrinsic, with
   /// the model errors of its own). Fitted by the method of moments on the 23 converged of the
   /// co benchmark's 30 starts (doc/co_calibration.md).
+  /// The co-calibration LiDAR model error these were fitted on top of (CoCalibrationSettings'
+  /// until session 29, when co-calibration began to propagate the stereo pair's uncertainty into
+  /// the LiDAR covariance, which the joint covariance solves do not); used instead of
+  /// CoCalibrationSettings::model_sigma_lidar_*.
+  std::array<double, 3> co_model_sigma_lidar_rot_deg = {0.0187, 0.0063, 0.0186};
+  std::array<double, 3> co_model_sigma_lidar_trans_m = {0.0019, 0.0019, 0.00275};
   std::array<double, 3> model_sigma_lidar_rot_deg = {0.0, 0.0176, 0.0100};
   std::array<double, 3> model_sigma_lidar_trans_m = {0.00107, 0.00334, 0.01091};
   std::array<double, 3> model_sigma_stereo_rot_deg = {0.0071, 0.0022, 0.0032};
