@@ -611,6 +611,9 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
                    doubt.empty() ? "agrees or did not converge" : doubt.c_str());
     if (!doubt.empty()) res.lidar.converged = false, res.lidar.message = doubt;
   }
+  res.lidar_covariance_given_stereo = res.lidar.covariance;
+  addAxisVariances(&res.lidar_covariance_given_stereo, s.model_sigma_lidar_rot_deg,
+                   s.model_sigma_lidar_trans_m);
   // The left-right pair's uncertainty in the LiDAR covariance, through the LiDAR estimate's
   // sensitivity to the pair and the alternation's gain at its fixed point.
   if (s.propagate_stereo_into_lidar && res.stable && res.lidar.converged &&

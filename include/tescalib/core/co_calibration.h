@@ -183,6 +183,10 @@ struct CoCalibrationResult {
   /// solve's sensitivity to the LiDAR (the alternation's contraction; below 1 at a fixed point).
   Matrix6d lidar_stereo_sensitivity = Matrix6d::Zero();
   double coupling = 0;
+  /// `lidar.covariance` as it would be with the left-right pair taken as exact (before the
+  /// propagation above; with the model error): what a LiDAR-first estimate's covariance is, so
+  /// the two can be compared like with like (OnlineCalibrator's first co-calibrated estimate).
+  Matrix6d lidar_covariance_given_stereo = Matrix6d::Identity();
   bool stable = false;              ///< the stability criterion was met within max_rounds
   bool converged = false;           ///< stable and both solvers converged
   double seconds_stereo_cloud = 0;  ///< time spent recomputing stereo clouds

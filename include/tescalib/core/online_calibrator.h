@@ -113,6 +113,9 @@ struct OnlineEstimate {
   Eigen::Isometry3d T_right_left = Eigen::Isometry3d::Identity();
   Matrix6d cov_lidar = Matrix6d::Identity();
   Matrix6d cov_stereo = Matrix6d::Identity();
+  /// cov_lidar with the left-right pair taken as exact (a LiDAR-first estimate's cov_lidar; a
+  /// co-calibrated one's before the pair's uncertainty was propagated into it).
+  Matrix6d cov_lidar_given_stereo = Matrix6d::Identity();
   bool observable_lidar[6] = {false, false, false, false, false, false};
   bool observable_stereo[6] = {false, false, false, false, false, false};
   bool converged = false;
