@@ -187,10 +187,18 @@ TEST(CoCalibration, StereoTrustFlagsIncludeTheLidarUncertainty) {
   EXPECT_TRUE(coStereoCovariance(lidar, s, &tight));
   EXPECT_TRUE(tight.converged);
   const double mm2 = 1e-6;
-  EXPECT_NEAR(tight.covariance(5, 5), (0.09 + 9.0 + 0.19 * 0.19) * mm2, 1e-9);
+  const double model_x = s.model_sigma_stereo_trans_m[0] * 1e3;  // mm
+  const double model_z = s.model_sigma_stereo_trans_m[2] * 1e3;
+  EXPECT_NEAR(tight.covariance(5, 5), (0.09 + 9.0 + model_z * model_z) * mm2, 1e-9);
   // Along the baseline: the statistical part, the scale's variance times |t|^2 (0.54 mm) and
-  // the model error (0.7 mm), not the 5 mm the sensitivity's length component would add.
-  EXPECT_NEAR(tight.covariance(3, 3), (0.09 + 0.54 * 0.54 + 0.7 * 0.7) * mm2, 1e-9);
+  // the model error, not the 5 mm the sensitivity's length component would add.
+  EXPECT_NEAR(tight.covariance(3, 3), (0.09 + 0.54 * 0.54 + model_x * model_x) * mm2, 1e-9);
+  // coCalibrate's form: the LiDAR covariance given the pair instead of lidar.covariance.
+  PhotometricResult given = stereo;
+  Matrix6d lidar_given = Matrix6d::Zero();
+  addAxisVariances(&lidar_given, {0.01, 0.01, 0.01}, {0.002, 0.002, 0.02});  // tz sigma 2 cm
+  EXPECT_TRUE(coStereoCovariance(lidar, s, &given, lidar_given));
+  EXPECT_NEAR(given.covariance(5, 5), (0.09 + 36.0 + model_z * model_z) * mm2, 1e-9);
 
   addAxisVariances(&lidar.covariance, {0, 0, 0}, {0, 0, 0.05});  // LiDAR tz sigma 5 cm
   PhotometricResult loose = stereo;                              // stereo tz sigma 1.5 cm

@@ -161,6 +161,11 @@ PhotometricSettings coPhotometricSettings(const CoCalibrationSettings& s, bool w
 
 bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& s,
                         PhotometricResult* stereo) {
+  return coStereoCovariance(lidar, s, stereo, lidar.covariance);
+}
+
+bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& s,
+                        PhotometricResult* stereo, const Matrix6d& lidar_covariance) {
   // The baseline length is the LiDAR-stereo solve's stereo scale times the length the clouds
   // were computed with (the photometric solves keep the length they are given): its variance
   // lies along the baseline, and only the rotation and the baseline direction come from the
@@ -174,7 +179,7 @@ bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSetti
   // The left-right solve took the LiDAR extrinsic as exact: what its uncertainty does to the
   // key points' depth moves the left-right estimate (first order, PhotometricResult::
   // lidar_sensitivity).
-  addLidarUncertainty(stereo, lidar.covariance);
+  addLidarUncertainty(stereo, lidar_covariance);
   // The photometric trust flags took the LiDAR extrinsic as exact too: judge them again with
   // what the length and the LiDAR add (the model error below stays out, as for the LiDAR flags).
   const bool all = trustFlags(stereo->covariance, s.stereo, stereo->observable);
@@ -639,7 +644,11 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
                    std::sqrt(added(5, 5)) * 1e3);
   }
   addAxisVariances(&res.lidar.covariance, s.model_sigma_lidar_rot_deg, s.model_sigma_lidar_trans_m);
-  coStereoCovariance(res.lidar, s, &res.stereo);
+  // The pair's covariance takes the LiDAR's given the pair: the propagated one already holds the
+  // pair's own uncertainty, which S would count a second time (session 30). Without the fixed
+  // point's gain on this side: with (I - S J)^-1 the pair's tz sigma doubled (0.42 -> 0.88 mm)
+  // and the fitting windows' stereo z^2 in tz fell to 0.26 (doc/co_calibration.md).
+  coStereoCovariance(res.lidar, s, &res.stereo, res.lidar_covariance_given_stereo);
   res.converged = res.stable && res.lidar.converged && res.stereo.converged;
   if (stuck)
     res.message = "LiDAR-stereo ran away from the initial guess in " +

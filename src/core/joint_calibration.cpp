@@ -353,7 +353,10 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     addAxisVariances(&lr.covariance, js.co_model_sigma_lidar_rot_deg,
                      js.co_model_sigma_lidar_trans_m);
     ph.T_right_left = T_rl;
-    coStereoCovariance(lr, s, &ph);
+    CoCalibrationSettings s_cov = s;
+    s_cov.model_sigma_stereo_rot_deg = js.co_model_sigma_stereo_rot_deg;
+    s_cov.model_sigma_stereo_trans_m = js.co_model_sigma_stereo_trans_m;
+    coStereoCovariance(lr, s_cov, &ph);
     addAxisVariances(&lr.covariance, js.model_sigma_lidar_rot_deg, js.model_sigma_lidar_trans_m);
     addAxisVariances(&ph.covariance, js.model_sigma_stereo_rot_deg, js.model_sigma_stereo_trans_m);
     // The LiDAR result is that solve's (covariances, information, flags, split-window check) with

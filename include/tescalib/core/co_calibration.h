@@ -108,11 +108,12 @@ struct CoCalibrationSettings {
   /// covariance propagated through the key points' depth (session 10: the rotation needs none).
   /// The LiDAR terms were fitted again in session 29, with the stereo pair's uncertainty
   /// propagated (propagate_stereo_into_lidar; before: 0.0187 / 0.0063 / 0.0186 deg, 1.9 / 1.9 /
-  /// 2.75 mm).
+  /// 2.75 mm), the stereo terms in session 30, once the pair's covariance took the LiDAR's given
+  /// the pair (before: 0 / 0 / 0 deg, 0.7 / 0.27 / 0.19 mm).
   std::array<double, 3> model_sigma_lidar_rot_deg = {0.0119, 0.0, 0.0145};
   std::array<double, 3> model_sigma_lidar_trans_m = {0.0, 0.00079, 0.00141};
-  std::array<double, 3> model_sigma_stereo_rot_deg = {0.0, 0.0, 0.0};
-  std::array<double, 3> model_sigma_stereo_trans_m = {0.0007, 0.00027, 0.00019};
+  std::array<double, 3> model_sigma_stereo_rot_deg = {0.0003, 0.0006, 0.0};
+  std::array<double, 3> model_sigma_stereo_trans_m = {0.000535, 0.000064, 0.000135};
   /// The stereo pair's uncertainty in the LiDAR covariance (session 29; an addition to the
   /// paper): the LiDAR-stereo solve estimates the clouds' scale and yaw, but the rest of the pair
   /// (rotation about x and z, the baseline direction in y and z) moves the clouds, and so the
@@ -266,6 +267,10 @@ PhotometricSettings coPhotometricSettings(const CoCalibrationSettings& settings,
 /// adds the model error. Returns whether every axis is still trusted.
 bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& settings,
                         PhotometricResult* stereo);
+/// The same with `lidar_covariance` (coCalibrate: the LiDAR's covariance given the pair, since
+/// the propagated one holds the pair's own uncertainty) instead of `lidar.covariance`.
+bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& settings,
+                        PhotometricResult* stereo, const Matrix6d& lidar_covariance);
 
 /// Runs the alternation over `window` (stereo clouds are recomputed in place). The stereo solver
 /// goes first: it tolerates a bad LiDAR extrinsic (paper, "Sensitivity Analysis").

@@ -42,6 +42,10 @@ struct JointCalibrationSettings {
   /// CoCalibrationSettings::model_sigma_lidar_*.
   std::array<double, 3> co_model_sigma_lidar_rot_deg = {0.0187, 0.0063, 0.0186};
   std::array<double, 3> co_model_sigma_lidar_trans_m = {0.0019, 0.0019, 0.00275};
+  /// The same for the co-calibration stereo model error (CoCalibrationSettings' until session 30,
+  /// refitted there); used instead of CoCalibrationSettings::model_sigma_stereo_*.
+  std::array<double, 3> co_model_sigma_stereo_rot_deg = {0.0, 0.0, 0.0};
+  std::array<double, 3> co_model_sigma_stereo_trans_m = {0.0007, 0.00027, 0.00019};
   std::array<double, 3> model_sigma_lidar_rot_deg = {0.0, 0.0176, 0.0100};
   std::array<double, 3> model_sigma_lidar_trans_m = {0.00107, 0.00334, 0.01091};
   std::array<double, 3> model_sigma_stereo_rot_deg = {0.0071, 0.0022, 0.0032};
