@@ -213,12 +213,9 @@ Matrix6d lidarSensitivityToStereo(const std::vector<Keyframe*>& window, const St
     Eigen::Isometry3d used, matched_with;
   };
   std::vector<Saved> saved;
-  std::vector<Eigen::Isometry3d> saved_used;
-  for (const Keyframe* kf : window) {
+  for (const Keyframe* kf : window)
     saved.push_back(
         {kf->stereo, kf->stereo_matched, kf->T_right_left_used, kf->T_right_left_matched});
-    saved_used.push_back(kf->T_right_left_used);
-  }
   const std::vector<const Keyframe*> cwin(window.begin(), window.end());
   const int threads = resolveThreads(s.stereo_cloud.threads);
   // Rotation about x and z, translation along y and z (perturb(): R = Exp(phi) R, t = t + tau).
@@ -230,7 +227,7 @@ Matrix6d lidarSensitivityToStereo(const std::vector<Keyframe*>& window, const St
       Vector6d delta = Vector6d::Zero();
       delta[k] = side == 0 ? h : -h;
       parallelFor(static_cast<int>(window.size()), threads, [&](int i) {
-        retriangulateStereo(window[i], rig, perturb(saved_used[i], delta), s.stereo_cloud);
+        retriangulateStereo(window[i], rig, perturb(saved[i].used, delta), s.stereo_cloud);
       });
       const LidarStereoResult r = solveLidarStereo(cwin, lidar.T_cam_lidar, settings);
       ok = r.settled && !settings.cancelled();
