@@ -683,6 +683,54 @@ TEST(OnlineCalibratorGenerated, AFewKeyframesAfterALoopDoNotReplaceAFullWindowsE
   EXPECT_EQ(cal.estimate()->keyframes_used, 10);
 }
 
+TEST(OnlineCalibratorGenerated, ASolveKeptBackSaysWhetherItStillAgreesWithThePublishedOne) {
+  // A solve that is not published (here: after a bag's loop, from fewer keyframes than the
+  // published estimate) says how far it is from the published one in chi2; beyond
+  // changed_chi2 it says the extrinsic may have changed. The same drive again agrees; the drive
+  // with the LiDAR turned by 0.3 deg about its z axis (a knock on the mount) does not.
+  SimOptions o;
+  o.frames = 46;
+  o.seed = 4;
+  const Simulator sim(o);
+  OnlineSettings settings;
+  settings.window_size = 10;
+  auto afterALoop = [&](double turn_deg, std::string* msg, OnlineEstimate* kept) {
+    OnlineCalibrator cal(perturbedRig(sim, 3, 1.0, 0.1), settings);
+    EXPECT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 46));
+    EXPECT_TRUE(cal.solve(msg)) << *msg;
+    const Eigen::Matrix3f R =
+        Eigen::AngleAxisf(static_cast<float>(turn_deg / kDegPerRad), Eigen::Vector3f::UnitZ())
+            .toRotationMatrix();
+    const double start = sim.stamp(45) - 20.0;
+    for (int i = 0; i < 15; i += 5) {
+      Frame f = sim.renderFrame(i);
+      f.stamp += start;
+      for (LidarPoint& p : f.scan) {
+        const Eigen::Vector3f q = R * Eigen::Vector3f(p.x, p.y, p.z);
+        p.x = q.x(), p.y = q.y(), p.z = q.z();
+      }
+      const FrameResult r = cal.addFrame(f, f.stamp, msg);
+      EXPECT_TRUE(r == FrameResult::kKeyframe || (i == 0 && r == FrameResult::kReset)) << *msg;
+      if (r == FrameResult::kReset)
+        EXPECT_EQ(cal.addFrame(f, f.stamp, msg), FrameResult::kKeyframe);
+    }
+    EXPECT_FALSE(cal.solve(msg));
+    *kept = *cal.lastSolve();
+    std::cout << "[ changed  ] LiDAR turned " << turn_deg << " deg: " << *msg << "\n";
+  };
+  std::string msg;
+  OnlineEstimate same, turned;
+  afterALoop(0.0, &msg, &same);
+  EXPECT_TRUE(same.converged);
+  EXPECT_NE(msg.find("chi2 (6 DoF) from the published one"), std::string::npos) << msg;
+  EXPECT_LT(same.chi2_to_published, settings.changed_chi2);
+  EXPECT_EQ(msg.find("may have changed"), std::string::npos) << msg;
+  afterALoop(0.3, &msg, &turned);
+  EXPECT_TRUE(turned.converged);
+  EXPECT_GT(turned.chi2_to_published, settings.changed_chi2);
+  EXPECT_NE(msg.find("the extrinsic may have changed"), std::string::npos) << msg;
+}
+
 TEST(OnlineCalibratorGenerated, AKeyframeWithoutAStereoCloudIsRejected) {
   // Session 22 audit: right images gone black were taken as keyframes, silently.
   SimOptions o;

@@ -362,7 +362,23 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
       for (const auto& k : window_)  // only keyframes still in the window (it slides meanwhile)
         if (k->stamp == snapshot[i]->stamp) keyframe_information_[k->stamp] = keyframe_info[i];
   e.solve_id = ++solves_kept_;
-  auto notPublished = [&](const std::string& why) {
+  if (e.converged && estimate_) {
+    const Vector6d d = poseError(e.T_cam_lidar, estimate_->T_cam_lidar);
+    const Matrix6d S = e.cov_lidar + estimate_->cov_lidar;
+    if (S.allFinite()) e.chi2_to_published = d.dot(S.ldlt().solve(d));
+  }
+  auto notPublished = [&](std::string why) {
+    // A converged solve kept back: does it still agree with what is published?
+    if (std::isfinite(e.chi2_to_published)) {
+      char buf[200];
+      std::snprintf(buf, sizeof buf, "; it is %.1f chi2 (6 DoF) from the published one",
+                    e.chi2_to_published);
+      why += buf;
+      if (e.chi2_to_published > settings_.changed_chi2)
+        why +=
+            ", more than the two covariances allow: the extrinsic may have changed since it was "
+            "published (~reset recalibrates)";
+    }
     *msg = why;
     last_solve_ = e;
     last_solve_->message = why;

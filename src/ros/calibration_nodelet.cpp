@@ -573,6 +573,11 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::ERROR, param_error_);
     return;
   }
+  // The last converged solve that was not published: how far from the published estimate.
+  double kept_back_chi2 = std::nan("");
+  if (calibrator())
+    if (const auto last = calibrator()->lastSolve(); last && !last->message.empty())
+      kept_back_chi2 = last->chi2_to_published;
   double since_last_set = -1;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -591,8 +596,15 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
                   e ? "last estimate kept" : "no converged estimate yet");
   else if (!e)
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "no converged estimate yet");
+  else if (kept_back_chi2 > params_.online.changed_chi2)
+    // A converged solve kept back that the published estimate's covariance cannot explain.
+    stat.summaryf(diagnostic_updater::DiagnosticStatusWrapper::WARN,
+                  "the last solve is %.1f chi2 (6 DoF) from the published estimate: the extrinsic "
+                  "may have changed (the estimate is kept; ~reset recalibrates)",
+                  kept_back_chi2);
   else
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::OK, "calibrated");
+  stat.add("last solve chi2 to the published estimate", kept_back_chi2);
   stat.add("window fill", calibrator() ? calibrator()->windowFill() : 0);
   stat.add("window size", params_.online.window_size);
   stat.add("keyframes", keyframes_.load());

@@ -112,6 +112,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("window/min_keyframes_co", &p->online.min_keyframes_co);
   get("window/max_variance_growth", &p->online.max_variance_growth);
   get("window/max_variance_growth_first_co", &p->online.max_variance_growth_first_co);
+  get("window/changed_chi2", &p->online.changed_chi2);
   get("window/warm_start_fine_only", &p->online.warm_start_fine_only);
   get("window/keyframe_selection", &p->online.keyframe_selection);
   get("deskew/enabled", &p->online.deskew);
@@ -203,6 +204,7 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.max_variance_growth < 1) e << "window/max_variance_growth must be >= 1; ";
   if (!(o.max_variance_growth_first_co >= 1))
     e << "window/max_variance_growth_first_co must be >= 1; ";
+  if (!(o.changed_chi2 > 0)) e << "window/changed_chi2 must be > 0; ";
   if (o.min_stereo_points < 0) e << "stereo/min_points must be >= 0; ";
   if (!(o.image_quality.min_contrast >= 0))
     e << "images/min_contrast must be >= 0 (0: no check; got " << o.image_quality.min_contrast

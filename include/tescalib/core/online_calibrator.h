@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <deque>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -59,6 +60,12 @@ struct OnlineSettings {
   /// scale and yaw, so it is wider by construction (session 23: rz variance 2.4-3.3x on
   /// generated urban drives, which max_variance_growth refused every time).
   double max_variance_growth_first_co = 10.0;
+  /// A converged solve that is not published is compared with the published estimate: e^T (P_new
+  /// + P_published)^-1 e of their T_cam_lidar difference (6 DoF; the two covariances taken as
+  /// independent, though their windows may share keyframes, which makes it smaller, not larger).
+  /// Beyond this value (the 99.9 % quantile of chi2 with 6 DoF) the message says that the
+  /// extrinsic may have changed since (the published estimate is kept; ~reset recalibrates).
+  double changed_chi2 = 22.46;
   /// A keyframe whose stereo cloud has fewer points is rejected (a black or noise right image:
   /// generated and KITTI keyframes have 7600-14000 at full size, a black right image 0).
   int min_stereo_points = 200;
@@ -132,6 +139,9 @@ struct OnlineEstimate {
   uint64_t solve_id = 0;
   /// OnlineCalibrator::lastSolve: why the solve was not published (empty when it was).
   std::string message;
+  /// e^T (P + P_published)^-1 e of this T_cam_lidar against the estimate published before the
+  /// solve (OnlineSettings::changed_chi2); NaN when there was none or the solve did not converge.
+  double chi2_to_published = std::numeric_limits<double>::quiet_NaN();
 };
 
 enum class FrameResult { kKeyframe, kTooClose, kReset, kRejected };
