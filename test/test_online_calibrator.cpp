@@ -642,22 +642,39 @@ TEST(OnlineCalibratorGenerated, WithoutTheAzimuthModelOnlyCloudsWithPointTimesAr
   EXPECT_GT(kf->seconds_deskew, 0.0);
 }
 
+/// The loop tests' drive: 46 frames (10 keyframes 0.5 s apart), seed 4.
+std::unique_ptr<Simulator> loopDrive() {
+  SimOptions o;
+  o.frames = 46;
+  o.seed = 4;
+  return std::make_unique<Simulator>(o);
+}
+
+/// A calibrator with a 10-keyframe window, started 1 deg / 0.1 m off on `sim`, its estimate
+/// published from all 46 frames of the loop drive.
+std::unique_ptr<OnlineCalibrator> calibratedOnTheLoopDrive(const Simulator& sim,
+                                                           OnlineSettings settings,
+                                                           OnlineEstimate* published) {
+  settings.window_size = 10;
+  auto cal = std::make_unique<OnlineCalibrator>(perturbedRig(sim, 3, 1.0, 0.1), settings);
+  std::string msg;
+  EXPECT_NO_FATAL_FAILURE(addKeyframes(*cal, sim, 0, 46));  // 10 keyframes
+  EXPECT_TRUE(cal->solve(&msg, published)) << msg;
+  return cal;
+}
+
 TEST(OnlineCalibratorGenerated, AFewKeyframesAfterALoopDoNotReplaceAFullWindowsEstimate) {
   // Session 22 audit: after a bag's loop the window restarts, and its first 3-keyframe solve
   // replaced a 10-keyframe estimate (rotation errors 2-3x larger): the trace-ratio gate only saw
   // translation (rotation was 0.5 % of the trace), and a few keyframes' covariance is mostly the
   // model error's floor, like a full window's.
-  SimOptions o;
-  o.frames = 46;
-  o.seed = 4;
-  const Simulator sim(o);
-  OnlineSettings settings;
-  settings.window_size = 10;
-  OnlineCalibrator cal(perturbedRig(sim, 3, 1.0, 0.1), settings);
-  std::string msg;
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 46));  // 10 keyframes
+  const auto drive = loopDrive();
+  const Simulator& sim = *drive;
   OnlineEstimate full;
-  ASSERT_TRUE(cal.solve(&msg, &full)) << msg;
+  const auto calibrator = calibratedOnTheLoopDrive(sim, OnlineSettings(), &full);
+  ASSERT_FALSE(::testing::Test::HasFailure());
+  OnlineCalibrator& cal = *calibrator;
+  std::string msg;
   EXPECT_EQ(full.keyframes_used, 10);
   // The loop: time jumps back, then three keyframes of the drive's start again.
   Frame again = sim.renderFrame(0);
@@ -688,16 +705,13 @@ TEST(OnlineCalibratorGenerated, ASolveKeptBackSaysWhetherItStillAgreesWithThePub
   // published estimate) says how far it is from the published one in chi2; beyond
   // changed_chi2 it says the extrinsic may have changed. The same drive again agrees; the drive
   // with the LiDAR turned by 0.3 deg about its z axis (a knock on the mount) does not.
-  SimOptions o;
-  o.frames = 46;
-  o.seed = 4;
-  const Simulator sim(o);
-  OnlineSettings settings;
-  settings.window_size = 10;
+  const auto drive = loopDrive();
+  const Simulator& sim = *drive;
+  const OnlineSettings settings;
   auto afterALoop = [&](double turn_deg, std::string* msg, OnlineEstimate* kept) {
-    OnlineCalibrator cal(perturbedRig(sim, 3, 1.0, 0.1), settings);
-    EXPECT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 46));
-    EXPECT_TRUE(cal.solve(msg)) << *msg;
+    OnlineEstimate published;
+    const auto calibrator = calibratedOnTheLoopDrive(sim, settings, &published);
+    OnlineCalibrator& cal = *calibrator;
     const Eigen::Matrix3f R =
         Eigen::AngleAxisf(static_cast<float>(turn_deg / kDegPerRad), Eigen::Vector3f::UnitZ())
             .toRotationMatrix();
