@@ -362,11 +362,9 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
       for (const auto& k : window_)  // only keyframes still in the window (it slides meanwhile)
         if (k->stamp == snapshot[i]->stamp) keyframe_information_[k->stamp] = keyframe_info[i];
   e.solve_id = ++solves_kept_;
-  if (e.converged && estimate_) {
-    const Vector6d d = poseError(e.T_cam_lidar, estimate_->T_cam_lidar);
-    const Matrix6d S = e.cov_lidar + estimate_->cov_lidar;
-    if (S.allFinite()) e.chi2_to_published = d.dot(S.ldlt().solve(d));
-  }
+  if (e.converged && estimate_)  // NaN when the summed covariance is not positive definite
+    e.chi2_to_published =
+        nees(poseError(e.T_cam_lidar, estimate_->T_cam_lidar), e.cov_lidar + estimate_->cov_lidar);
   auto notPublished = [&](std::string why) {
     // A converged solve kept back: does it still agree with what is published?
     if (std::isfinite(e.chi2_to_published)) {
