@@ -71,6 +71,8 @@ OnlineEstimate someEstimate() {
   e.cov_stereo = Matrix6d::Identity() * 1e-8;
   for (int i = 0; i < 6; ++i) e.observable_lidar[i] = e.observable_stereo[i] = true;
   e.observable_lidar[5] = false;
+  e.weakest_lidar.ratio = 2.0;  // tz at 2 cm against the 1 cm limit
+  e.weakest_lidar.direction(5) = 1.0;
   e.converged = true;
   e.stereo_estimated = true;
   e.keyframes_used = 7;
@@ -108,6 +110,10 @@ TEST(CalibrationIo, FilesReadBackAsTheEstimate) {
   EXPECT_NE(yaml.find("child_frame: my_lidar"), std::string::npos);
   EXPECT_NE(yaml.find("sigma_trans_m: [0.001, 0.001, 0.02]"), std::string::npos) << yaml;
   EXPECT_NE(yaml.find("trusted_axes: [true, true, true, true, true, false]"), std::string::npos);
+  EXPECT_NE(
+      yaml.find("  weakest_direction:\n    ratio_to_trust_limit: 2\n    in_words: \"1.00 tz\""),
+      std::string::npos)
+      << yaml;
 
   // tf's parent -> child transform is T_parent_child: the LiDAR's pose in the left camera's
   // inverse, i.e. the camera's position in the LiDAR frame.

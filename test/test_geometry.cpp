@@ -41,6 +41,37 @@ TEST(Geometry, NeesByHandAndWithoutAPositiveDefiniteCovariance) {
   EXPECT_TRUE(std::isnan(nees(e, Matrix6d::Constant(std::nan("")))));
 }
 
+TEST(Geometry, WeakDirectionsFindACoupledDirectionNoAxisShows) {
+  // Limits 0.1 deg and 1 cm. In units of the limits the covariance is 0.25 I plus 1.75 along
+  // v = (tz - tx) / sqrt(2): the eigenvalue along v is 2 (ratio sqrt(2)), every other one 0.25
+  // (ratio 0.5). Per axis tx and tz have 0.25 + 1.75 / 2 = 1.125 (sigma 1.06x the limit); with
+  // 1.35 instead of 1.75 both axes are within the limits (0.925), the direction is not (1.28x).
+  const double rot = 0.1 / kDegPerRad, trans = 0.01;
+  Vector6d scale;
+  scale << rot, rot, rot, trans, trans, trans;
+  Vector6d v = Vector6d::Zero();
+  v(3) = -1 / std::sqrt(2.0), v(5) = 1 / std::sqrt(2.0);
+  for (const double along : {1.75, 1.35}) {
+    const Matrix6d scaled = 0.25 * Matrix6d::Identity() + along * v * v.transpose();
+    const Matrix6d cov = scale.asDiagonal() * scaled * scale.asDiagonal();
+    const std::vector<WeakDirection> weak = weakDirections(cov, 0.1, 0.01);
+    ASSERT_EQ(weak.size(), 6u);
+    EXPECT_NEAR(weak[0].ratio, std::sqrt(0.25 + along), 1e-9);
+    for (int i = 1; i < 6; ++i) EXPECT_NEAR(weak[i].ratio, 0.5, 1e-9);
+    // Unit, and the sign convention: the largest component positive (tx and tz tie here).
+    EXPECT_NEAR(std::fabs(weak[0].direction.dot(v)), 1.0, 1e-9);
+    EXPECT_NEAR(weak[0].direction.norm(), 1.0, 1e-12);
+    bool trusted[6];
+    EXPECT_EQ(axesWithin(cov, 0.1, 0.01, trusted), along < 1.5);
+  }
+  Vector6d d = Vector6d::Zero();
+  d(5) = 0.93, d(3) = -0.34, d(1) = 0.12;  // ry under 0.2: left out
+  EXPECT_EQ(describeDirection(d), "0.93 tz - 0.34 tx");
+  d(1) = 0.25;
+  EXPECT_EQ(describeDirection(d), "0.93 tz - 0.34 tx + 0.25 ry");
+  EXPECT_TRUE(weakDirections(Matrix6d::Constant(std::nan("")), 0.1, 0.01).empty());
+}
+
 TEST(Overlay, StatusTextOnADarkBand) {
   cv::Mat img(120, 400, CV_8UC3, cv::Scalar(200, 200, 200));
   drawStatusText({"LiDAR->left: converged", "left->right: converged"}, &img);

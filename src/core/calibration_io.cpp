@@ -59,6 +59,13 @@ std::string calibrationYaml(const OnlineEstimate& e, const CalibrationFrames& fr
        << std::setprecision(9) << e.stamp << std::defaultfloat << std::setprecision(12) << "\n";
   yamlBlock(yaml, "T_cam_lidar", frames.left, frames.lidar, e.T_cam_lidar, e.cov_lidar,
             e.observable_lidar, true);
+  if (e.weakest_lidar.ratio > 0) {  // what the window constrained least, in trust-limit units
+    yaml << "  weakest_direction:\n    ratio_to_trust_limit: " << e.weakest_lidar.ratio
+         << "\n    in_words: \"" << describeDirection(e.weakest_lidar.direction)
+         << "\"\n    direction_scaled_phi_tau: [";
+    for (int i = 0; i < 6; ++i) yaml << (i ? ", " : "") << e.weakest_lidar.direction[i];
+    yaml << "]\n";
+  }
   yamlBlock(yaml, "T_right_left", frames.right, frames.left, e.T_right_left, e.cov_stereo,
             e.observable_stereo, e.stereo_estimated);
   return yaml.str();

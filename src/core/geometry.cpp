@@ -1,8 +1,11 @@
 #include "tescalib/core/geometry.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 namespace tescalib {
 
@@ -52,6 +55,47 @@ bool axesWithin(const Matrix6d& covariance, double max_sigma_rot_deg, double max
     all = all && trusted[i];
   }
   return all;
+}
+
+std::vector<WeakDirection> weakDirections(const Matrix6d& covariance, double max_sigma_rot_deg,
+                                          double max_sigma_trans_m) {
+  if (!covariance.allFinite()) return {};
+  Vector6d scale;
+  scale << Eigen::Vector3d::Constant(kDegPerRad / max_sigma_rot_deg),
+      Eigen::Vector3d::Constant(1.0 / max_sigma_trans_m);
+  Matrix6d scaled = scale.asDiagonal() * covariance * scale.asDiagonal();
+  scaled = 0.5 * (scaled + scaled.transpose()).eval();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(scaled);
+  std::vector<WeakDirection> out;
+  for (int i = 5; i >= 0; --i) {  // eigenvalues ascending: the weakest last
+    WeakDirection w;
+    w.ratio = std::sqrt(std::max(0.0, eig.eigenvalues()[i]));
+    w.direction = eig.eigenvectors().col(i);
+    Eigen::Index largest;
+    w.direction.cwiseAbs().maxCoeff(&largest);
+    if (w.direction[largest] < 0) w.direction = -w.direction;
+    out.push_back(w);
+  }
+  return out;
+}
+
+std::string describeDirection(const Vector6d& direction) {
+  static const char* names[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
+  std::array<int, 6> order = {0, 1, 2, 3, 4, 5};
+  std::sort(order.begin(), order.end(),
+            [&](int a, int b) { return std::fabs(direction[a]) > std::fabs(direction[b]); });
+  std::string out;
+  char buf[32];
+  for (int i : order) {
+    const double c = direction[i];
+    if (std::fabs(c) < 0.2) break;
+    if (out.empty())
+      std::snprintf(buf, sizeof buf, "%.2f %s", c, names[i]);
+    else
+      std::snprintf(buf, sizeof buf, " %c %.2f %s", c < 0 ? '-' : '+', std::fabs(c), names[i]);
+    out += buf;
+  }
+  return out;
 }
 
 Vector6d poseError(const Eigen::Isometry3d& T_est, const Eigen::Isometry3d& T_gt) {

@@ -142,6 +142,14 @@ Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSett
   return withCommonBiases(r, s, r.bias_sensitivity_held);
 }
 
+/// "; weakest direction 0.93 tz - 0.34 ry, 2.4x the trust limit" ("" without a covariance).
+std::string weakestInWords(const WeakDirection& w) {
+  if (!(w.ratio > 0)) return "";
+  char buf[48];
+  std::snprintf(buf, sizeof buf, ", %.1fx the trust limit", w.ratio);
+  return "; weakest direction " + describeDirection(w.direction) + buf;
+}
+
 bool smallUpdate(const Vector6d& d, const LidarStereoSettings& s) {
   return d.head<3>().norm() * kDegPerRad < s.converge_rot_deg &&
          d.tail<3>().norm() < s.converge_trans_m;
@@ -513,7 +521,9 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       // What the window constrains is the statistical part and the common biases (a weakly
       // constrained axis is the one they move furthest: the highway's optical axis), without
       // the scene-independent floor.
-      all_observable = trustFlags(constrainedCovariance(res, s), s, res.observable);
+      const Matrix6d constrained = constrainedCovariance(res, s);
+      all_observable = trustFlags(constrained, s, res.observable);
+      res.weak_directions = weakDirections(constrained, s.max_sigma_rot_deg, s.max_sigma_trans_m);
       res.covariance = withCommonBiases(res, s, res.bias_sensitivity);
       addAxisVariances(&res.covariance, s.model_sigma_rot_deg, s.model_sigma_trans_m);
     } else {
@@ -546,9 +556,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                   "the window does not constrain every axis with the common disparity offset its "
                   "residuals show (%+.2f px, model %.2f px: rectification or matching bias?)",
                   res.disparity_offset_px, s.model_sigma_disparity_px);
-    res.message = buf;
+    res.message = buf + weakestInWords(res.weakest());
   } else if (!all_observable)
-    res.message = "the window does not constrain every axis (degenerate scene)";
+    res.message = "the window does not constrain every axis (degenerate scene)" +
+                  weakestInWords(res.weakest());
   else if (!settled)
     res.message = "the fine stage did not settle within its iteration budget";
   else
@@ -646,6 +657,7 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   full->covariance *= k;
   full->covariance_statistical *= k;
   full->stereo_scale_variance *= k;
+  full->weak_directions = weakDirections(constrained, s.max_sigma_rot_deg, s.max_sigma_trans_m);
   if (!trustFlags(constrained, s, full->observable) && full->converged) {
     full->converged = false;
     char buf[200];
@@ -653,7 +665,7 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
                   "the window's two halves disagree (chi2 %.1f > %.1f, 6 DoF): covariance scaled "
                   "by %.1f, and then the window does not constrain every axis",
                   chi2, s.halves_chi2_limit, k);
-    full->message = buf;
+    full->message = buf + weakestInWords(full->weakest());
   }
 }
 

@@ -302,6 +302,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
     e.cov_lidar_given_stereo = r.lidar_covariance_given_stereo;
     e.cov_stereo = r.stereo.covariance;
     std::copy(r.lidar.observable, r.lidar.observable + 6, e.observable_lidar);
+    e.weakest_lidar = r.lidar.weakest();
     std::copy(r.stereo.observable, r.stereo.observable + 6, e.observable_stereo);
     e.converged = warm ? r.lidar.converged && r.stereo.converged : r.converged;
     e.cost_lidar = r.lidar.final_cost, e.cost_stereo = r.stereo.final_cost;
@@ -332,6 +333,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
     e.cov_lidar = e.cov_lidar_given_stereo = r.covariance;
     e.cov_stereo = Matrix6d::Zero();
     std::copy(r.observable, r.observable + 6, e.observable_lidar);
+    e.weakest_lidar = r.weakest();
     std::fill(e.observable_stereo, e.observable_stereo + 6, true);
     if (current && current->stereo_estimated) {  // keep a co-calibrated stereo pair as it is
       e.cov_stereo = current->cov_stereo;

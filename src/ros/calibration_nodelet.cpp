@@ -575,9 +575,16 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   }
   // The last converged solve that was not published: how far from the published estimate.
   double kept_back_chi2 = std::nan("");
+  std::string weakest = "none yet";  // the last solve's weakest LiDAR direction
   if (calibrator())
-    if (const auto last = calibrator()->lastSolve(); last && !last->message.empty())
-      kept_back_chi2 = last->chi2_to_published;
+    if (const auto last = calibrator()->lastSolve()) {
+      if (!last->message.empty()) kept_back_chi2 = last->chi2_to_published;
+      if (last->weakest_lidar.ratio > 0) {
+        char buf[32];
+        std::snprintf(buf, sizeof buf, ", %.2fx the trust limit", last->weakest_lidar.ratio);
+        weakest = describeDirection(last->weakest_lidar.direction) + buf;
+      }
+    }
   double since_last_set = -1;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -605,6 +612,7 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   else
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::OK, "calibrated");
   stat.add("last solve chi2 to the published estimate", kept_back_chi2);
+  stat.add("last solve weakest LiDAR direction", weakest);
   stat.add("window fill", calibrator() ? calibrator()->windowFill() : 0);
   stat.add("window size", params_.online.window_size);
   stat.add("keyframes", keyframes_.load());

@@ -195,6 +195,13 @@ void printExtrinsic(const char* name, const Eigen::Isometry3d& T, const Matrix6d
   std::printf("  sigma %s; %s\n", sigma6(cov).c_str(), trusted(observable).c_str());
 }
 
+/// The LiDAR-stereo solve's weakest direction, against the trust limits.
+void printWeakest(const WeakDirection& w) {
+  if (w.ratio > 0)
+    std::printf("  weakest direction %s, %.2fx the trust limit (above 1: not constrained)\n",
+                describeDirection(w.direction).c_str(), w.ratio);
+}
+
 /// Feeds frames to the calibrator, solves as the node does after each new keyframe, and prints
 /// what happened to each keyframe.
 struct Session {
@@ -339,6 +346,7 @@ struct Session {
         // What the window gives, untrusted: for a look, not for use (nothing is written).
         std::printf("the last solve's result, not trusted (%d keyframes):\n", c->keyframes_used);
         printExtrinsic("T_cam_lidar", c->T_cam_lidar, c->cov_lidar, c->observable_lidar);
+        printWeakest(c->weakest_lidar);
         if (c->stereo_estimated)
           printExtrinsic("T_right_left", c->T_right_left, c->cov_stereo, c->observable_stereo);
         std::printf("change from the initial guess: %s\n",
@@ -352,6 +360,7 @@ struct Session {
     }
     std::printf("estimate from %d keyframes:\n", e->keyframes_used);
     printExtrinsic("T_cam_lidar", e->T_cam_lidar, e->cov_lidar, e->observable_lidar);
+    printWeakest(e->weakest_lidar);
     if (e->stereo_estimated)
       printExtrinsic("T_right_left", e->T_right_left, e->cov_stereo, e->observable_stereo);
     else

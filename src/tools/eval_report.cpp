@@ -97,6 +97,26 @@ void printSplitWindowCheck(const std::vector<Trial>& trials) {
         chi2.size(), trials.size(), median(chi2), beyond);
 }
 
+/// The weakest direction of what each window constrains (LidarStereoResult::weakest), and the one
+/// of the trial with the median ratio.
+void printWeakestDirections(const std::vector<Trial>& trials) {
+  std::vector<std::pair<double, const WeakDirection*>> weak;
+  int above = 0;
+  for (const auto& tr : trials)
+    if (tr.lidar_weakest.ratio > 0) {
+      weak.emplace_back(tr.lidar_weakest.ratio, &tr.lidar_weakest);
+      above += tr.lidar_weakest.ratio > 1.0;
+    }
+  if (weak.empty()) return;
+  std::sort(weak.begin(), weak.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  const WeakDirection& mid = *weak[weak.size() / 2].second;
+  std::printf(
+      "  weakest direction (what the window constrains, in units of the trust limits): median "
+      "%.2fx the limit, %s; above it in %d of %zu trials\n",
+      mid.ratio, describeDirection(mid.direction).c_str(), above, weak.size());
+}
+
 /// The common disparity offset the LiDAR-stereo residuals show.
 void printDisparityOffsets(const std::vector<Trial>& trials,
                            const LidarStereoSettings& solver_settings) {
@@ -247,6 +267,12 @@ std::string trialJson(const Args& args, const Estimated& estimated, const Trial&
          << (i < 3 ? tr.lidar_error_found[i] * kDegPerRad : tr.lidar_error_found[i]);
     js << "]";
   }
+  if (tr.lidar_weakest.ratio > 0) {
+    js << ", \"lidar_weakest_direction\": {\"ratio\": " << tr.lidar_weakest.ratio
+       << ", \"direction\": [";
+    for (int i = 0; i < 6; ++i) js << (i ? ", " : "") << tr.lidar_weakest.direction[i];
+    js << "], \"in_words\": \"" << describeDirection(tr.lidar_weakest.direction) << "\"}";
+  }
   if (tr.halves.tested)
     js << ", \"halves\": {\"chi2\": " << tr.halves.chi2
        << ", \"covariance_scale\": " << tr.halves.covariance_scale
@@ -307,6 +333,7 @@ bool report(const Args& args, const EvalData& d, const LidarStereoSettings& solv
     std::printf("  mean NEES with the paper's covariance alone (eq. residual_uncertainty): %.2f\n",
                 mean_nees_model);
   printSplitWindowCheck(trials);
+  printWeakestDirections(trials);
   printDisparityOffsets(trials, solver_settings);
   printLidarNuisance(trials);
 

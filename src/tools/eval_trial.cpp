@@ -221,6 +221,7 @@ Eigen::Isometry3d solveCo(const Args& args, const EvalData& d,
   tr.stereo_scale = r.lidar.stereo_scale;
   tr.stereo_scale_sigma = std::sqrt(r.lidar.stereo_scale_variance);
   tr.halves = r.lidar.halves;
+  tr.lidar_weakest = r.lidar.weakest();
   tr.stage_seconds = {{"photometric", r.seconds_photometric},
                       {"stereo_cloud", r.seconds_stereo_cloud},
                       {"lidar_stereo", r.seconds_lidar}};
@@ -298,6 +299,7 @@ Eigen::Isometry3d solveLidar(const LidarStereoSettings& solver_settings,
   tr.lidar.bias = r.bias_sensitivity;
   if (r.covariance_known) tr.lidar_cov_model = r.covariance_model;
   tr.halves = r.halves;
+  tr.lidar_weakest = r.weakest();
   tr.message = r.message;
   if (solver_settings.estimate_stereo_scale) {
     tr.stereo_scale = r.stereo_scale;

@@ -5,6 +5,7 @@
 #include <array>
 #include <random>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -44,6 +45,24 @@ void addAxisVariances(Matrix6d* covariance, const std::array<double, 3>& sigma_r
 /// true when every axis is.
 bool axesWithin(const Matrix6d& covariance, double max_sigma_rot_deg, double max_sigma_trans_m,
                 bool trusted[6]);
+
+/// A direction of a covariance over [phi; tau] measured against the trust limits. In units of
+/// the limits (rotations divided by `max_sigma_rot_deg`, translations by `max_sigma_trans_m`) the
+/// covariance has eigenvalue `ratio`^2 along `direction`. A ratio above 1: the data leave that
+/// combination of axes looser than the limits, even when each axis on its own is within them.
+struct WeakDirection {
+  double ratio = 0;                       ///< 1 sigma along the direction over the limit
+  Vector6d direction = Vector6d::Zero();  ///< unit, limit-scaled; its largest component > 0
+};
+
+/// The six eigen-directions of `covariance` in units of the limits, the weakest first (the
+/// degeneracy of the paper's uncertainty analysis, in directions rather than axes). Empty when
+/// the covariance is not finite.
+std::vector<WeakDirection> weakDirections(const Matrix6d& covariance, double max_sigma_rot_deg,
+                                          double max_sigma_trans_m);
+
+/// A direction in words, its components of at least 0.2 largest first: "0.93 tz - 0.34 ry".
+std::string describeDirection(const Vector6d& direction);
 
 /// The names of the axes not trusted, "rx ry rz tx ty tz" order, space-separated ("" when none).
 std::string untrustedAxes(const bool trusted[6]);

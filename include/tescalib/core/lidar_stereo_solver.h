@@ -188,6 +188,15 @@ struct LidarStereoResult {
   /// Per axis: constrained within max_sigma_* (false: do not trust this axis of the estimate),
   /// judged with the common biases through `bias_sensitivity_held`.
   bool observable[6] = {false, false, false, false, false, false};
+  /// What the window constrains, in directions: the eigen-directions of the covariance the
+  /// `observable` flags judge, in units of max_sigma_* (weakDirections), the weakest first; a
+  /// ratio above 1 is not constrained. The message of a degenerate window names the weakest.
+  /// Empty when the covariance is not known.
+  std::vector<WeakDirection> weak_directions;
+  /// The first of `weak_directions` (ratio 0 when there are none).
+  WeakDirection weakest() const {
+    return weak_directions.empty() ? WeakDirection() : weak_directions.front();
+  }
   double seconds_coarse = 0, seconds_fine = 0;
   /// solveLidarStereoSearch: the starts solved (1: the guess converged or no search) and the
   /// rotation (camera axes, rad) of the start this result came from.

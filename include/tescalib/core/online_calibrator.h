@@ -125,6 +125,9 @@ struct OnlineEstimate {
   Matrix6d cov_lidar_given_stereo = Matrix6d::Identity();
   bool observable_lidar[6] = {false, false, false, false, false, false};
   bool observable_stereo[6] = {false, false, false, false, false, false};
+  /// The LiDAR-stereo solve's weakest direction (LidarStereoResult::weakest: what the window
+  /// constrains, in units of the trust limits).
+  WeakDirection weakest_lidar;
   bool converged = false;
   int keyframes_used = 0;
   double cost_lidar = 0, cost_stereo = 0;
