@@ -111,6 +111,13 @@ def print_estimate(title, msg, ref):
         fmt(msg.sigma_rot_deg), fmt(msg.sigma_trans_m, 100, 2)))
     print('    observable: %s' % ' '.join(
         '%s=%s' % (a, 'yes' if o else 'NO') for a, o in zip(AXES, msg.observable)))
+    if msg.weakest_ratio > 0:
+        comps = [(c, a) for c, a in sorted(zip(msg.weakest_direction, AXES),
+                                           key=lambda p: -abs(p[0])) if abs(c) >= 0.2]
+        words = '%.2f %s' % comps[0] + ''.join(
+            ' %s %.2f %s' % ('-' if c < 0 else '+', abs(c), a) for c, a in comps[1:])
+        print('    weakest direction: %s, %.2fx the trust limit (above 1: not constrained)' % (
+            words, msg.weakest_ratio))
     if ref is not None:
         phi, tau = ex.error((q, t), ref)
         print('    error vs reference: rotation [%s] deg (norm %.4f deg), translation [%s] cm '

@@ -519,6 +519,17 @@ TEST(Conversions, AGivenExtrinsicIsNotCalledObservableOrExact) {
   const ExtrinsicEstimate estimated =
       ros_conv::toEstimateMsg(h, "right", "left", T, cov, all, true, 3, 0, 0, "", true);
   for (bool o : estimated.observable) EXPECT_TRUE(o);
+  EXPECT_EQ(estimated.weakest_ratio, 0.0);  // none given
+  WeakDirection w;
+  w.ratio = 1.5, w.direction(5) = 0.8, w.direction(3) = -0.6;
+  const ExtrinsicEstimate weak =
+      ros_conv::toEstimateMsg(h, "left", "lidar", T, cov, all, false, 3, 0, 0, "", true, w);
+  EXPECT_EQ(weak.weakest_ratio, 1.5);
+  EXPECT_EQ(weak.weakest_direction[5], 0.8);
+  EXPECT_EQ(weak.weakest_direction[3], -0.6);
+  EXPECT_EQ(
+      ros_conv::toEstimateMsg(h, "r", "l", T, cov, all, true, 3, 0, 0, "", false, w).weakest_ratio,
+      0.0);  // a given extrinsic has no weak direction of its own
   const auto unknown = ros_conv::toPoseMsg(h, T, Matrix6d::Zero(), false);
   EXPECT_EQ(unknown.pose.covariance[0], -1.0);
   EXPECT_EQ(unknown.pose.covariance[7], 0.0);

@@ -151,6 +151,12 @@ class OnlineEndToEnd(unittest.TestCase):
         self.assertGreaterEqual(last.keyframes_used, 3)
         self.assertEqual(list(last.observable), [True] * 6)
         self.assertEqual((last.parent_frame_id, last.child_frame_id), ('tescalib_left', 'velo_link'))
+        # What the window constrained least, beyond the axes: a unit direction (generated urban
+        # windows: the optical axis with some lateral offset, under the trust limit).
+        self.assertGreater(last.weakest_ratio, 0.0)
+        self.assertLess(last.weakest_ratio, 1.5)
+        self.assertAlmostEqual(ex.norm(list(last.weakest_direction)), 1.0, places=6)
+        self.assertEqual(self.est['left_to_right'][-1].weakest_ratio, 0.0)
         phi, tau = ex.error(ex.from_msg(last.transform), self.truth['T_cam_lidar'])
         rospy.loginfo('e2e: %d estimates; last from %d keyframes: %.4f deg / %.2f cm off the truth',
                       len(self.est['lidar_to_left']), last.keyframes_used, ex.norm(phi) * DEG,

@@ -445,9 +445,10 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
 void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
                                              const ros::Publisher& lidar,
                                              const ros::Publisher& stereo) {
-  lidar.publish(ros_conv::toEstimateMsg(
-      h, params_.left_frame, lidar_frame_, e.T_cam_lidar, e.cov_lidar, e.observable_lidar,
-      e.converged, e.keyframes_used, e.cost_lidar, e.iterations_lidar, e.message, true));
+  lidar.publish(ros_conv::toEstimateMsg(h, params_.left_frame, lidar_frame_, e.T_cam_lidar,
+                                        e.cov_lidar, e.observable_lidar, e.converged,
+                                        e.keyframes_used, e.cost_lidar, e.iterations_lidar,
+                                        e.message, true, e.weakest_lidar));
   stereo.publish(ros_conv::toEstimateMsg(h, params_.right_frame, params_.left_frame, e.T_right_left,
                                          e.cov_stereo, e.observable_stereo, e.converged,
                                          e.keyframes_used, e.cost_stereo, e.iterations_stereo,

@@ -445,7 +445,8 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
                                 const std::string& child, const Eigen::Isometry3d& T,
                                 const Matrix6d& cov, const bool observable[6], bool converged,
                                 int keyframes, double cost, int iterations,
-                                const std::string& status, bool estimated) {
+                                const std::string& status, bool estimated,
+                                const WeakDirection& weakest) {
   ExtrinsicEstimate m;
   m.header = header;
   m.header.frame_id = parent;
@@ -465,6 +466,10 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
   m.final_cost = cost;
   m.iterations = static_cast<uint32_t>(iterations);
   m.status = status;
+  if (estimated && weakest.ratio > 0) {
+    for (int i = 0; i < 6; ++i) m.weakest_direction[i] = weakest.direction[i];
+    m.weakest_ratio = weakest.ratio;
+  }
   return m;
 }
 

@@ -100,12 +100,13 @@ namespace ros_conv {
 /// [phi; tau] in the parent frame (our convention), copied as is. `status`: empty for a
 /// published estimate, why it was not published for a candidate. `estimated` false: `T` is the
 /// given extrinsic (left_to_right without co-calibration), not an estimate, and no axis is
-/// `observable`.
+/// `observable`. `weakest`: the window's weakest direction (ratio 0: none).
 ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::string& parent,
                                 const std::string& child, const Eigen::Isometry3d& T,
                                 const Matrix6d& cov, const bool observable[6], bool converged,
                                 int keyframes, double cost, int iterations,
-                                const std::string& status = "", bool estimated = true);
+                                const std::string& status = "", bool estimated = true,
+                                const WeakDirection& weakest = WeakDirection());
 
 /// The same as a PoseWithCovarianceStamped (header.frame_id = parent). ROS orders the pose
 /// covariance [x y z rx ry rz]; ours is [phi; tau]: the blocks are swapped. `estimated` false:
