@@ -571,6 +571,13 @@ TEST(PhotometricGenerated, RecoversThePairAndTheExposureDifference) {
     EXPECT_NEAR(std::exp(ab.x()), gain, 0.02);
     EXPECT_NEAR(ab.y(), offset, 2.0);
   }
+  // What the window constrains, in directions (units of the photometric trust limits, 0.05 deg
+  // and 1 cm): six, the weakest first, all within the limits on this window.
+  ASSERT_EQ(r.weak_directions.size(), 6u);
+  std::cout << "[ stereo   ] weakest direction " << describeWeakest(r.weakest()) << "\n";
+  EXPECT_GT(r.weakest().ratio, 0.0);
+  EXPECT_LT(r.weakest().ratio, 1.0);
+  EXPECT_GE(r.weak_directions[0].ratio, r.weak_directions[5].ratio);
   // Photo-consistent: the median key point residual is a small share of its value 4 px off.
   std::cout << "[ stereo   ] consistency ratio " << r.consistency_ratio << "\n";
   EXPECT_LT(r.consistency_ratio, 0.3);

@@ -20,7 +20,7 @@ namespace {
 
 void yamlBlock(std::ostream& yaml, const std::string& name, const std::string& parent,
                const std::string& child, const Eigen::Isometry3d& T, const Matrix6d& cov,
-               const bool observable[6], bool estimated) {
+               const bool observable[6], bool estimated, const WeakDirection& weakest) {
   const Eigen::Quaterniond q(T.linear());
   yaml << name << ":\n  parent_frame: " << parent << "\n  child_frame: " << child
        << "\n  estimated: " << (estimated ? "true" : "false") << "\n  translation: ["
@@ -35,6 +35,13 @@ void yamlBlock(std::ostream& yaml, const std::string& name, const std::string& p
   yaml << "]\n  covariance_phi_tau: [";
   for (int i = 0; i < 36; ++i) yaml << (i ? ", " : "") << cov(i / 6, i % 6);
   yaml << "]\n";
+  if (weakest.ratio > 0) {  // what the window constrained least, in trust-limit units
+    yaml << "  weakest_direction:\n    ratio_to_trust_limit: " << weakest.ratio
+         << "\n    in_words: \"" << describeDirection(weakest.direction)
+         << "\"\n    direction_scaled_phi_tau: [";
+    for (int i = 0; i < 6; ++i) yaml << (i ? ", " : "") << weakest.direction[i];
+    yaml << "]\n";
+  }
 }
 
 void staticPublisher(std::ostream& launch, const std::string& name, const std::string& parent,
@@ -58,16 +65,10 @@ std::string calibrationYaml(const OnlineEstimate& e, const CalibrationFrames& fr
        << "\nkeyframes_used: " << e.keyframes_used << "\nstamp: " << std::fixed
        << std::setprecision(9) << e.stamp << std::defaultfloat << std::setprecision(12) << "\n";
   yamlBlock(yaml, "T_cam_lidar", frames.left, frames.lidar, e.T_cam_lidar, e.cov_lidar,
-            e.observable_lidar, true);
-  if (e.weakest_lidar.ratio > 0) {  // what the window constrained least, in trust-limit units
-    yaml << "  weakest_direction:\n    ratio_to_trust_limit: " << e.weakest_lidar.ratio
-         << "\n    in_words: \"" << describeDirection(e.weakest_lidar.direction)
-         << "\"\n    direction_scaled_phi_tau: [";
-    for (int i = 0; i < 6; ++i) yaml << (i ? ", " : "") << e.weakest_lidar.direction[i];
-    yaml << "]\n";
-  }
+            e.observable_lidar, true, e.weakest_lidar);
   yamlBlock(yaml, "T_right_left", frames.right, frames.left, e.T_right_left, e.cov_stereo,
-            e.observable_stereo, e.stereo_estimated);
+            e.observable_stereo, e.stereo_estimated,
+            e.stereo_estimated ? e.weakest_stereo : WeakDirection());
   return yaml.str();
 }
 

@@ -183,11 +183,14 @@ bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSetti
   // The photometric trust flags took the LiDAR extrinsic as exact too: judge them again with
   // what the length and the LiDAR add (the model error below stays out, as for the LiDAR flags).
   const bool all = trustFlags(stereo->covariance, s.stereo, stereo->observable);
+  stereo->weak_directions =
+      weakDirections(stereo->covariance, s.stereo.max_sigma_rot_deg, s.stereo.max_sigma_trans_m);
   if (!all && stereo->converged) {
     stereo->converged = false;
     stereo->message =
         "the window does not constrain every axis once the LiDAR extrinsic's uncertainty is "
-        "included";
+        "included; weakest direction " +
+        describeWeakest(stereo->weakest());
   }
   addAxisVariances(&stereo->covariance, s.model_sigma_stereo_rot_deg, s.model_sigma_stereo_trans_m);
   return all;

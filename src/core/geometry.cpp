@@ -98,6 +98,13 @@ std::string describeDirection(const Vector6d& direction) {
   return out;
 }
 
+std::string describeWeakest(const WeakDirection& weakest) {
+  if (!(weakest.ratio > 0)) return "";
+  char buf[40];
+  std::snprintf(buf, sizeof buf, ", %.2fx the trust limit", weakest.ratio);
+  return describeDirection(weakest.direction) + buf;
+}
+
 Vector6d poseError(const Eigen::Isometry3d& T_est, const Eigen::Isometry3d& T_gt) {
   Vector6d e;
   e.head<3>() = logSO3(T_est.linear() * T_gt.linear().transpose());

@@ -142,12 +142,9 @@ Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSett
   return withCommonBiases(r, s, r.bias_sensitivity_held);
 }
 
-/// "; weakest direction 0.93 tz - 0.34 ry, 2.4x the trust limit" ("" without a covariance).
+/// "; weakest direction 0.93 tz - 0.34 tx, 2.40x the trust limit" ("" without a covariance).
 std::string weakestInWords(const WeakDirection& w) {
-  if (!(w.ratio > 0)) return "";
-  char buf[48];
-  std::snprintf(buf, sizeof buf, ", %.1fx the trust limit", w.ratio);
-  return "; weakest direction " + describeDirection(w.direction) + buf;
+  return w.ratio > 0 ? "; weakest direction " + describeWeakest(w) : "";
 }
 
 bool smallUpdate(const Vector6d& d, const LidarStereoSettings& s) {

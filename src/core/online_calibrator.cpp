@@ -303,6 +303,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
     e.cov_stereo = r.stereo.covariance;
     std::copy(r.lidar.observable, r.lidar.observable + 6, e.observable_lidar);
     e.weakest_lidar = r.lidar.weakest();
+    e.weakest_stereo = r.stereo.weakest();
     std::copy(r.stereo.observable, r.stereo.observable + 6, e.observable_stereo);
     e.converged = warm ? r.lidar.converged && r.stereo.converged : r.converged;
     e.cost_lidar = r.lidar.final_cost, e.cost_stereo = r.stereo.final_cost;
@@ -338,6 +339,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
     if (current && current->stereo_estimated) {  // keep a co-calibrated stereo pair as it is
       e.cov_stereo = current->cov_stereo;
       std::copy(current->observable_stereo, current->observable_stereo + 6, e.observable_stereo);
+      e.weakest_stereo = current->weakest_stereo;
       e.stereo_estimated = true;
     }
     e.converged = r.converged;

@@ -419,6 +419,7 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
   res.T_right_left = T;
   for (size_t k = 0; k < window.size(); ++k) res.brightness[k] = {ab[k][0], ab[k][1]};
   const bool all = trustFlags(res.covariance, s, res.observable);
+  res.weak_directions = weakDirections(res.covariance, s.max_sigma_rot_deg, s.max_sigma_trans_m);
   // Ceres' covariance assumes independent pixels; neighbouring key points share interpolation,
   // LiDAR-depth and exposure errors. A per-axis model error, calibrated like the LiDAR one (mean
   // NEES over independent generated windows), is added; the flags above use the statistical part.
@@ -432,7 +433,8 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
                   std::to_string(res.consistency_ratio) +
                   " of its value with the right image 4 px off (a start beyond the basin?)";
   else if (!all)
-    res.message = "the window does not constrain every axis";
+    res.message = "the window does not constrain every axis; weakest direction " +
+                  describeWeakest(res.weakest());
   else
     res.converged = true;
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

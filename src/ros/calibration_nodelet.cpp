@@ -452,7 +452,7 @@ void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_
   stereo.publish(ros_conv::toEstimateMsg(h, params_.right_frame, params_.left_frame, e.T_right_left,
                                          e.cov_stereo, e.observable_stereo, e.converged,
                                          e.keyframes_used, e.cost_stereo, e.iterations_stereo,
-                                         e.message, e.stereo_estimated));
+                                         e.message, e.stereo_estimated, e.weakest_stereo));
 }
 
 void CalibrationNodelet::publishKeyframe(const Keyframe& kf) {
@@ -580,11 +580,7 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   if (calibrator())
     if (const auto last = calibrator()->lastSolve()) {
       if (!last->message.empty()) kept_back_chi2 = last->chi2_to_published;
-      if (last->weakest_lidar.ratio > 0) {
-        char buf[32];
-        std::snprintf(buf, sizeof buf, ", %.2fx the trust limit", last->weakest_lidar.ratio);
-        weakest = describeDirection(last->weakest_lidar.direction) + buf;
-      }
+      if (last->weakest_lidar.ratio > 0) weakest = describeWeakest(last->weakest_lidar);
     }
   double since_last_set = -1;
   {

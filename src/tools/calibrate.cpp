@@ -195,11 +195,10 @@ void printExtrinsic(const char* name, const Eigen::Isometry3d& T, const Matrix6d
   std::printf("  sigma %s; %s\n", sigma6(cov).c_str(), trusted(observable).c_str());
 }
 
-/// The LiDAR-stereo solve's weakest direction, against the trust limits.
+/// A solve's weakest direction, against the trust limits.
 void printWeakest(const WeakDirection& w) {
   if (w.ratio > 0)
-    std::printf("  weakest direction %s, %.2fx the trust limit (above 1: not constrained)\n",
-                describeDirection(w.direction).c_str(), w.ratio);
+    std::printf("  weakest direction %s (above 1: not constrained)\n", describeWeakest(w).c_str());
 }
 
 /// Feeds frames to the calibrator, solves as the node does after each new keyframe, and prints
@@ -347,8 +346,10 @@ struct Session {
         std::printf("the last solve's result, not trusted (%d keyframes):\n", c->keyframes_used);
         printExtrinsic("T_cam_lidar", c->T_cam_lidar, c->cov_lidar, c->observable_lidar);
         printWeakest(c->weakest_lidar);
-        if (c->stereo_estimated)
+        if (c->stereo_estimated) {
           printExtrinsic("T_right_left", c->T_right_left, c->cov_stereo, c->observable_stereo);
+          printWeakest(c->weakest_stereo);
+        }
         std::printf("change from the initial guess: %s\n",
                     pose6(poseError(c->T_cam_lidar, T_initial)).c_str());
         if (!args.overlay.empty())
@@ -361,9 +362,10 @@ struct Session {
     std::printf("estimate from %d keyframes:\n", e->keyframes_used);
     printExtrinsic("T_cam_lidar", e->T_cam_lidar, e->cov_lidar, e->observable_lidar);
     printWeakest(e->weakest_lidar);
-    if (e->stereo_estimated)
+    if (e->stereo_estimated) {
       printExtrinsic("T_right_left", e->T_right_left, e->cov_stereo, e->observable_stereo);
-    else
+      printWeakest(e->weakest_stereo);
+    } else
       std::printf("T_right_left: as calibrated (not estimated; --mode co estimates it)\n");
     std::printf("change from the initial guess: %s\n",
                 pose6(poseError(e->T_cam_lidar, T_initial)).c_str());

@@ -97,24 +97,26 @@ void printSplitWindowCheck(const std::vector<Trial>& trials) {
         chi2.size(), trials.size(), median(chi2), beyond);
 }
 
-/// The weakest direction of what each window constrains (LidarStereoResult::weakest), and the one
-/// of the trial with the median ratio.
+/// The weakest direction of what each window constrains (LidarStereoResult::weakest,
+/// PhotometricResult::weakest), and the one of the trial with the median ratio.
 void printWeakestDirections(const std::vector<Trial>& trials) {
-  std::vector<std::pair<double, const WeakDirection*>> weak;
-  int above = 0;
-  for (const auto& tr : trials)
-    if (tr.lidar_weakest.ratio > 0) {
-      weak.emplace_back(tr.lidar_weakest.ratio, &tr.lidar_weakest);
-      above += tr.lidar_weakest.ratio > 1.0;
-    }
-  if (weak.empty()) return;
-  std::sort(weak.begin(), weak.end(),
-            [](const auto& a, const auto& b) { return a.first < b.first; });
-  const WeakDirection& mid = *weak[weak.size() / 2].second;
-  std::printf(
-      "  weakest direction (what the window constrains, in units of the trust limits): median "
-      "%.2fx the limit, %s; above it in %d of %zu trials\n",
-      mid.ratio, describeDirection(mid.direction).c_str(), above, weak.size());
+  for (const auto& [name, member] :
+       {std::pair{"LiDAR", &Trial::lidar_weakest}, std::pair{"stereo", &Trial::stereo_weakest}}) {
+    std::vector<const WeakDirection*> weak;
+    int above = 0;
+    for (const auto& tr : trials)
+      if ((tr.*member).ratio > 0) {
+        weak.push_back(&(tr.*member));
+        above += (tr.*member).ratio > 1.0;
+      }
+    if (weak.empty()) continue;
+    std::sort(weak.begin(), weak.end(),
+              [](const WeakDirection* a, const WeakDirection* b) { return a->ratio < b->ratio; });
+    std::printf(
+        "  %s weakest direction (what the window constrains, in units of the trust limits): "
+        "median %s; above the limit in %d of %zu trials\n",
+        name, describeWeakest(*weak[weak.size() / 2]).c_str(), above, weak.size());
+  }
 }
 
 /// The common disparity offset the LiDAR-stereo residuals show.
@@ -267,11 +269,12 @@ std::string trialJson(const Args& args, const Estimated& estimated, const Trial&
          << (i < 3 ? tr.lidar_error_found[i] * kDegPerRad : tr.lidar_error_found[i]);
     js << "]";
   }
-  if (tr.lidar_weakest.ratio > 0) {
-    js << ", \"lidar_weakest_direction\": {\"ratio\": " << tr.lidar_weakest.ratio
-       << ", \"direction\": [";
-    for (int i = 0; i < 6; ++i) js << (i ? ", " : "") << tr.lidar_weakest.direction[i];
-    js << "], \"in_words\": \"" << describeDirection(tr.lidar_weakest.direction) << "\"}";
+  for (const auto& [key, w] : {std::pair{"lidar_weakest_direction", &tr.lidar_weakest},
+                               std::pair{"stereo_weakest_direction", &tr.stereo_weakest}}) {
+    if (!(w->ratio > 0)) continue;
+    js << ", \"" << key << "\": {\"ratio\": " << w->ratio << ", \"direction\": [";
+    for (int i = 0; i < 6; ++i) js << (i ? ", " : "") << w->direction[i];
+    js << "], \"in_words\": \"" << describeDirection(w->direction) << "\"}";
   }
   if (tr.halves.tested)
     js << ", \"halves\": {\"chi2\": " << tr.halves.chi2

@@ -222,6 +222,7 @@ Eigen::Isometry3d solveCo(const Args& args, const EvalData& d,
   tr.stereo_scale_sigma = std::sqrt(r.lidar.stereo_scale_variance);
   tr.halves = r.lidar.halves;
   tr.lidar_weakest = r.lidar.weakest();
+  tr.stereo_weakest = r.stereo.weakest();
   tr.stage_seconds = {{"photometric", r.seconds_photometric},
                       {"stereo_cloud", r.seconds_stereo_cloud},
                       {"lidar_stereo", r.seconds_lidar}};
@@ -261,6 +262,7 @@ void solveStereo(const Args& args, const EvalData& d, const std::vector<const Ke
   if (std::getenv("TESCALIB_DEBUG"))
     std::fprintf(stderr, "photo-consistency ratio %.3f over %d key points\n", r.consistency_ratio,
                  r.inliers);
+  tr.stereo_weakest = r.weakest();
   tr.message = r.message;
   tr.brightness = r.brightness;
   if (!r.lidar_error.isZero()) tr.lidar_error_found = r.lidar_error;

@@ -59,6 +59,7 @@ struct Trial {
   bool disparity_offset_used = false;  ///< determined and beyond the model: the bias term uses it
   LidarStereoResult::Halves halves;    ///< the LiDAR-stereo split-window check
   WeakDirection lidar_weakest;         ///< LidarStereoResult::weakest (ratio 0: none)
+  WeakDirection stereo_weakest;        ///< PhotometricResult::weakest (ratio 0: none)
   std::vector<std::pair<std::string, double>> stage_seconds;  ///< co/joint: time per solve stage
   std::vector<Eigen::Vector2d> brightness;                    ///< stereo mode: per keyframe (a, b)
   /// stereo mode with the LiDAR error nuisance: PhotometricResult::lidar_error (NaN: none)

@@ -64,6 +64,15 @@ std::vector<WeakDirection> weakDirections(const Matrix6d& covariance, double max
 /// A direction in words, its components of at least 0.2 largest first: "0.93 tz - 0.34 ry".
 std::string describeDirection(const Vector6d& direction);
 
+/// A weak direction in words with its ratio: "0.93 tz - 0.34 tx, 1.74x the trust limit" ("" when
+/// its ratio is 0: none computed).
+std::string describeWeakest(const WeakDirection& weakest);
+
+/// The first (weakest) of weakDirections' list; ratio 0 when it is empty.
+inline WeakDirection weakestOf(const std::vector<WeakDirection>& directions) {
+  return directions.empty() ? WeakDirection() : directions.front();
+}
+
 /// The names of the axes not trusted, "rx ry rz tx ty tz" order, space-separated ("" when none).
 std::string untrustedAxes(const bool trusted[6]);
 

@@ -193,10 +193,7 @@ struct LidarStereoResult {
   /// ratio above 1 is not constrained. The message of a degenerate window names the weakest.
   /// Empty when the covariance is not known.
   std::vector<WeakDirection> weak_directions;
-  /// The first of `weak_directions` (ratio 0 when there are none).
-  WeakDirection weakest() const {
-    return weak_directions.empty() ? WeakDirection() : weak_directions.front();
-  }
+  WeakDirection weakest() const { return weakestOf(weak_directions); }
   double seconds_coarse = 0, seconds_fine = 0;
   /// solveLidarStereoSearch: the starts solved (1: the guess converged or no search) and the
   /// rotation (camera axes, rad) of the start this result came from.

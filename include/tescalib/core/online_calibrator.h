@@ -128,6 +128,8 @@ struct OnlineEstimate {
   /// The LiDAR-stereo solve's weakest direction (LidarStereoResult::weakest: what the window
   /// constrains, in units of the trust limits).
   WeakDirection weakest_lidar;
+  /// The same for T_right_left (the left-right solve's; ratio 0 when it is not estimated).
+  WeakDirection weakest_stereo;
   bool converged = false;
   int keyframes_used = 0;
   double cost_lidar = 0, cost_stereo = 0;

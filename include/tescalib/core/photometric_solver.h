@@ -108,6 +108,10 @@ struct PhotometricResult {
   /// [phi; tau] of the LiDAR extrinsic's error in the camera frame, to first order; else zero.
   Vector6d lidar_error = Vector6d::Zero();
   bool observable[6] = {false, false, false, false, false, false};
+  /// The covariance the `observable` flags judge in directions (weakDirections, in units of
+  /// max_sigma_*), the weakest first; empty when not computed.
+  std::vector<WeakDirection> weak_directions;
+  WeakDirection weakest() const { return weakestOf(weak_directions); }
   double seconds = 0;
   std::string message;
 };
