@@ -116,7 +116,7 @@ def print_estimate(title, msg, ref):
                                            key=lambda p: -abs(p[0])) if abs(c) >= 0.2]
         words = '%.2f %s' % comps[0] + ''.join(
             ' %s %.2f %s' % ('-' if c < 0 else '+', abs(c), a) for c, a in comps[1:])
-        print('    weakest direction: %s, %.2fx the trust limit (above 1: not constrained)' % (
+        print('    weakest direction: %s, %.2fx the trust limit (above 1: looser than the limits)' % (
             words, msg.weakest_ratio))
     if ref is not None:
         phi, tau = ex.error((q, t), ref)

@@ -8,6 +8,7 @@
 #include <memory>
 #include <sstream>
 #include <string>
+#include <utility>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -114,6 +115,17 @@ TEST(CalibrationIo, FilesReadBackAsTheEstimate) {
       yaml.find("  weakest_direction:\n    ratio_to_trust_limit: 2\n    in_words: \"1.00 tz\""),
       std::string::npos)
       << yaml;
+
+  // A T_right_left that was not estimated is trusted on no axis, as on the topics (audit, session
+  // 31: the YAML said every axis).
+  OnlineEstimate given = e;
+  given.stereo_estimated = false;
+  const std::string y2 = calibrationYaml(given, frames);
+  const std::string stereo_block = y2.substr(y2.find("T_right_left:"));
+  EXPECT_NE(stereo_block.find("estimated: false"), std::string::npos) << y2;
+  EXPECT_NE(stereo_block.find("trusted_axes: [false, false, false, false, false, false]"),
+            std::string::npos)
+      << y2;
 
   // tf's parent -> child transform is T_parent_child: the LiDAR's pose in the left camera's
   // inverse, i.e. the camera's position in the LiDAR frame.
@@ -294,17 +306,23 @@ TEST(CalibrateToolReal, RefusesTheKittiWindowItCannotTrust) {
 }
 
 TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
-  ToolRun r = runCalibrate("--mode both --sequences x");
-  EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.output.find("--mode must be lidar_stereo or co"), std::string::npos) << r.output;
-  r = runCalibrate("--window 2 --sequences x");
-  EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.output.find("--window must be at least 3"), std::string::npos) << r.output;
-  r = runCalibrate("--search-deg 45 --sequences x");
-  EXPECT_EQ(r.status, 2);
-  EXPECT_NE(r.output.find("--search-deg must be between 0 (off) and 20"), std::string::npos)
-      << r.output;
-  r = runCalibrate("--sequences /nonexistent_drive");
+  // Usage errors (exit status 2), each named. Numbers are read whole (std::stoi alone took 7.9 as
+  // 7), and where the result goes is checked before any work (audit, session 31: a folder given
+  // as --out failed after the whole run).
+  const std::pair<const char*, const char*> usage_errors[] = {
+      {"--mode both", "--mode must be lidar_stereo or co"},
+      {"--window 2", "--window must be at least 3"},
+      {"--window 7.9", "bad value '7.9' for --window"},
+      {"--max-skew -1", "--max-skew must be > 0 s"},
+      {"--out /tmp/", "names a folder"},
+      {"--out /nonexistent_folder/result", "the folder \"/nonexistent_folder\" does not exist"},
+      {"--search-deg 45", "--search-deg must be between 0 (off) and 20"}};
+  for (const auto& [args, why] : usage_errors) {
+    const ToolRun u = runCalibrate(std::string(args) + " --sequences x");
+    EXPECT_EQ(u.status, 2) << args;
+    EXPECT_NE(u.output.find(why), std::string::npos) << args << ": " << u.output;
+  }
+  ToolRun r = runCalibrate("--sequences /nonexistent_drive");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("/nonexistent_drive"), std::string::npos) << r.output;
   TempDir tmp;

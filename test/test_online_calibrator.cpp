@@ -680,6 +680,11 @@ TEST(OnlineCalibratorGenerated, AFewKeyframesAfterALoopDoNotReplaceAFullWindowsE
   Frame again = sim.renderFrame(0);
   again.stamp = sim.stamp(45) - 20.0;
   EXPECT_EQ(cal.addFrame(again, again.stamp, &msg), FrameResult::kReset) << msg;
+  // The loop's message says what happens to the published estimate (audit, session 31).
+  EXPECT_NE(msg.find("time went backwards by 20.00 s (looping bag?): window cleared; the "
+                     "published estimate is kept until a solve from 10 keyframes replaces it"),
+            std::string::npos)
+      << msg;
   for (int i = 0; i < 15; i += 5) {
     Frame f = sim.renderFrame(i);
     f.stamp += again.stamp + 1.0;

@@ -31,7 +31,9 @@ void yamlBlock(std::ostream& yaml, const std::string& name, const std::string& p
   yaml << "]\n  sigma_trans_m: [";
   for (int i = 3; i < 6; ++i) yaml << (i > 3 ? ", " : "") << std::sqrt(cov(i, i));
   yaml << "]\n  trusted_axes: [";  // rx ry rz tx ty tz
-  for (int i = 0; i < 6; ++i) yaml << (i ? ", " : "") << (observable[i] ? "true" : "false");
+  // A given extrinsic constrains nothing from the data (as on the topics): no axis is trusted.
+  for (int i = 0; i < 6; ++i)
+    yaml << (i ? ", " : "") << (estimated && observable[i] ? "true" : "false");
   yaml << "]\n  covariance_phi_tau: [";
   for (int i = 0; i < 36; ++i) yaml << (i ? ", " : "") << cov(i / 6, i % 6);
   yaml << "]\n";

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <future>
 
 #include <Eigen/Eigenvalues>
@@ -55,8 +56,13 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (frame.stamp < last_stamp_ - settings_.max_time_jump_back) {
-      *msg = "time went backwards by " + std::to_string(last_stamp_ - frame.stamp) +
-             " s (looping bag?): window cleared";
+      char back[32];
+      std::snprintf(back, sizeof back, "%.2f", last_stamp_ - frame.stamp);
+      *msg = std::string("time went backwards by ") + back + " s (looping bag?): window cleared";
+      if (estimate_)
+        *msg += "; the published estimate is kept until a solve from " +
+                std::to_string(std::min(estimate_->keyframes_used, settings_.window_size)) +
+                " keyframes replaces it";
       window_.clear();
       keyframe_information_.clear();
       previous_scan_.reset();

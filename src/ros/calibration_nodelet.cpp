@@ -530,6 +530,7 @@ void CalibrationNodelet::watchdog(const ros::WallTimerEvent&) {
 bool CalibrationNodelet::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   if (calibrator()) calibrator()->reset();
   last_enqueued_stamp_ = -1e300;
+  ++resets_;
   res.success = true;
   res.message = "window cleared, back to the initial extrinsics";
   NODELET_INFO("tescalib: reset");
@@ -541,7 +542,10 @@ bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
   const auto e = calibrator() ? calibrator()->estimate() : std::nullopt;
   if (!e) {
     res.success = false;
-    res.message = "no converged estimate yet";
+    res.message = resets_ > 0
+                      ? "no converged estimate since the last ~reset (the latched topics and tf "
+                        "still hold the one before it, which the reset discarded)"
+                      : "no converged estimate yet";
     return true;
   }
   CalibrationFrames frames;

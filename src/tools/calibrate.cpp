@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <random>
@@ -71,7 +72,7 @@ void usage() {
          "  cloud frame), or --init.\n"
          "--mode lidar_stereo: T_cam_lidar only (the stereo pair as calibrated); co: both\n"
          "  extrinsics (co-calibration).\n"
-         "--window N: keyframes in the sliding window (default 20; co: 10).\n"
+         "--window N: keyframes in the sliding window (default, or 0: 20; co: 10).\n"
          "--init FILE: initial extrinsics from a KITTI calib.txt (e.g. an earlier "
          "BASE_calib.txt);\n"
          "  intrinsics stay those of DIR. Default: DIR's own calibration.\n"
@@ -103,17 +104,17 @@ bool parse(int argc, char** argv, Args* a) {
     else if (k == "--mode")
       a->mode = v;
     else if (k == "--window")
-      a->window = std::stoi(v);
+      a->window = cli::toInt(v);
     else if (k == "--init")
       a->init = v;
     else if (k == "--perturb-rot-deg")
-      a->perturb_rot_deg = std::stod(v);
+      a->perturb_rot_deg = cli::toDouble(v);
     else if (k == "--perturb-trans-m")
-      a->perturb_trans_m = std::stod(v);
+      a->perturb_trans_m = cli::toDouble(v);
     else if (k == "--seed")
       a->seed = static_cast<unsigned>(std::stoul(v));
     else if (k == "--deskew") {
-      a->deskew = std::stoi(v);
+      a->deskew = cli::toInt(v);
       if (a->deskew != 0 && a->deskew != 1) throw std::invalid_argument(v);
     } else if (k == "--out")
       a->out = v;
@@ -122,7 +123,7 @@ bool parse(int argc, char** argv, Args* a) {
     else if (k == "--overlay")
       a->overlay = v;
     else if (k == "--search-deg") {
-      a->search_deg = std::stod(v);
+      a->search_deg = cli::toDouble(v);
       if (a->search_deg < 0) throw std::invalid_argument(v);
     } else if (k == "--bag")
       a->bag = v;
@@ -133,7 +134,7 @@ bool parse(int argc, char** argv, Args* a) {
       (k == "--left" ? a->topics.left : a->topics.right) = v;
       (k == "--left" ? a->topics.left_info : a->topics.right_info) = info;
     } else if (k == "--max-skew")
-      a->topics.max_skew = std::stod(v);
+      a->topics.max_skew = cli::toDouble(v);
     else
       return false;
     return true;
@@ -159,6 +160,24 @@ bool parse(int argc, char** argv, Args* a) {
   if (a->perturb_rot_deg < 0 || a->perturb_trans_m < 0) {
     std::cerr << "tescalib_calibrate: perturbations are sizes (>= 0)\n";
     return false;
+  }
+  if (!(a->topics.max_skew > 0)) {
+    std::cerr << "tescalib_calibrate: --max-skew must be > 0 s\n";
+    return false;
+  }
+  // Where the result goes is checked before the work, not after it.
+  if (!a->out.empty()) {
+    namespace fs = std::filesystem;
+    const fs::path folder = fs::path(a->out).parent_path();
+    if (a->out.back() == '/' || fs::is_directory(a->out)) {
+      std::cerr << "tescalib_calibrate: --out '" << a->out
+                << "' names a folder: give a file name without extension (BASE)\n";
+      return false;
+    }
+    if (!folder.empty() && !fs::is_directory(folder)) {
+      std::cerr << "tescalib_calibrate: --out: the folder " << folder << " does not exist\n";
+      return false;
+    }
   }
   return true;
 }
@@ -198,7 +217,8 @@ void printExtrinsic(const char* name, const Eigen::Isometry3d& T, const Matrix6d
 /// A solve's weakest direction, against the trust limits.
 void printWeakest(const WeakDirection& w) {
   if (w.ratio > 0)
-    std::printf("  weakest direction %s (above 1: not constrained)\n", describeWeakest(w).c_str());
+    std::printf("  weakest direction %s (above 1: looser than the limits)\n",
+                describeWeakest(w).c_str());
 }
 
 /// Feeds frames to the calibrator, solves as the node does after each new keyframe, and prints

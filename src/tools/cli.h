@@ -6,6 +6,7 @@
 #include <functional>
 #include <iostream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,21 @@ inline std::vector<std::string> splitList(const std::string& s, char sep = ',') 
   for (std::string item; std::getline(ss, item, sep);)
     if (!item.empty()) out.push_back(item);
   return out;
+}
+
+/// The whole of `s` as an int / a double: "7.9", "3x" or "" throw std::invalid_argument (std::stoi
+/// alone would take "7.9" as 7).
+inline int toInt(const std::string& s) {
+  size_t used = 0;
+  const int v = std::stoi(s, &used);
+  if (used != s.size()) throw std::invalid_argument(s);
+  return v;
+}
+inline double toDouble(const std::string& s) {
+  size_t used = 0;
+  const double v = std::stod(s, &used);
+  if (used != s.size()) throw std::invalid_argument(s);
+  return v;
 }
 
 /// Calls `option(key, value)` for every "--key value" pair of argv; -h / --help prints `usage`

@@ -110,29 +110,29 @@ bool parse(int argc, char** argv, Args* a) {
     else if (k == "--method")
       a->method = v;
     else if (k == "--trials")
-      a->trials = std::stoi(v);
+      a->trials = cli::toInt(v);
     else if (k == "--first-trial")
-      a->first_trial = std::stoi(v);
+      a->first_trial = cli::toInt(v);
     else if (k == "--init-rot-deg")
-      a->init_rot_deg = std::stod(v);
+      a->init_rot_deg = cli::toDouble(v);
     else if (k == "--init-trans-m")
-      a->init_trans_m = std::stod(v);
+      a->init_trans_m = cli::toDouble(v);
     else if (k == "--init-stereo-rot-deg")
-      a->init_stereo_rot_deg = std::stod(v);
+      a->init_stereo_rot_deg = cli::toDouble(v);
     else if (k == "--init-stereo-trans-m")
-      a->init_stereo_trans_m = std::stod(v);
+      a->init_stereo_trans_m = cli::toDouble(v);
     else if (k == "--seed")
       a->seed = std::stoull(v);
     else if (k == "--window")
-      a->window = std::stoi(v);
+      a->window = cli::toInt(v);
     else if (k == "--json")
       a->json = v;
     else if (k == "--stages")
       a->stages = v;
     else if (k == "--lidar-rot-deg")
-      a->lidar_rot_deg = std::stod(v);
+      a->lidar_rot_deg = cli::toDouble(v);
     else if (k == "--lidar-trans-m")
-      a->lidar_trans_m = std::stod(v);
+      a->lidar_trans_m = cli::toDouble(v);
     else if (k == "--windows")
       a->windows = v;
     else if (k == "--cov-cells") {
@@ -141,49 +141,49 @@ bool parse(int argc, char** argv, Args* a) {
       a->cov_cells_x = std::stoi(v.substr(0, x));
       a->cov_cells_y = std::stoi(v.substr(x + 1));
     } else if (k == "--cov-model-scale")
-      a->cov_model_scale = std::stod(v);
+      a->cov_model_scale = cli::toDouble(v);
     else if (k == "--smooth-keypoints")
-      a->smooth_keypoints_px = std::stoi(v);
+      a->smooth_keypoints_px = cli::toInt(v);
     else if (k == "--depth-prior")
-      a->depth_prior = std::stod(v);
+      a->depth_prior = cli::toDouble(v);
     else if (k == "--free-depth-rounds")
-      a->free_depth_rounds = std::stoi(v);
+      a->free_depth_rounds = cli::toInt(v);
     else if (k == "--lidar-first")
-      a->lidar_first = std::stoi(v);
+      a->lidar_first = cli::toInt(v);
     else if (k == "--features")
-      a->features = std::stoi(v);
+      a->features = cli::toInt(v);
     else if (k == "--propagate-stereo")
-      a->propagate_stereo = std::stoi(v);
+      a->propagate_stereo = cli::toInt(v);
     else if (k == "--rematch-deg")
-      a->rematch_deg = std::stod(v);
+      a->rematch_deg = cli::toDouble(v);
     else if (k == "--co-model-scale")
-      a->co_model_scale = std::stod(v);
+      a->co_model_scale = cli::toDouble(v);
     else if (k == "--stereo-yaw")
-      a->stereo_yaw = std::stoi(v);
+      a->stereo_yaw = cli::toInt(v);
     else if (k == "--stereo-scale")
-      a->stereo_scale = std::stoi(v);
+      a->stereo_scale = cli::toInt(v);
     else if (k == "--deskew")
-      a->deskew = std::stoi(v);
+      a->deskew = cli::toInt(v);
     else if (k == "--keep-rings") {
-      a->keep_rings = std::stoi(v);
+      a->keep_rings = cli::toInt(v);
       if (a->keep_rings < 1) throw std::invalid_argument(v);
     } else if (k == "--check-halves")
-      a->check_halves = std::stoi(v);
+      a->check_halves = cli::toInt(v);
     else if (k == "--measure-offset")
-      a->measure_offset = std::stoi(v);
+      a->measure_offset = cli::toInt(v);
     else if (k == "--coarse-nuisances")
-      a->coarse_nuisances = std::stoi(v);
+      a->coarse_nuisances = cli::toInt(v);
     else if (k == "--search-deg")
-      a->search_deg = std::stod(v);
+      a->search_deg = cli::toDouble(v);
     else if (k == "--coarse-gates") {
       a->coarse_gates.clear();
-      for (const auto& g : cli::splitList(v)) a->coarse_gates.push_back(std::stod(g));
+      for (const auto& g : cli::splitList(v)) a->coarse_gates.push_back(cli::toDouble(g));
       if (a->coarse_gates.empty()) throw std::invalid_argument(v);
     } else if (k == "--refine-smoothed-rounds") {
-      a->refine_smoothed = std::stoi(v);
+      a->refine_smoothed = cli::toInt(v);
       if (a->refine_smoothed < 0) throw std::invalid_argument(v);
     } else if (k == "--refine-iterations") {
-      a->refine_iterations = std::stoi(v);
+      a->refine_iterations = cli::toInt(v);
       if (a->refine_iterations < 0) throw std::invalid_argument(v);
     } else if (k == "--lidar-sigma") {
       const auto parts = cli::splitList(v);
@@ -216,8 +216,8 @@ bool parse(int argc, char** argv, Args* a) {
     return false;
   }
   if (a->mode != "lidar_stereo" && a->mode != "stereo" && a->mode != "co" && a->mode != "joint") {
-    std::cerr << "tescalib_eval: mode '" << a->mode
-              << "' is not available in this build (available: lidar_stereo, stereo, co, joint)\n";
+    std::cerr << "tescalib_eval: unknown mode '" << a->mode
+              << "' (the modes: lidar_stereo, stereo, co, joint)\n";
     return false;
   }
   if (a->method != "tescalib" && a->method != "pcl_gicp" && a->method != "features") {

@@ -183,6 +183,7 @@ class CalibrationNodelet : public nodelet::Nodelet {
   double first_estimate_wall_s_ = -1;  ///< wall s from the first synchronized set to it
   double first_estimate_sim_s_ = -1;   ///< same in sensor (bag) time
   std::atomic<double> last_enqueued_stamp_{-1e300};
+  std::atomic<int> resets_{0};  ///< ~reset calls (~save's reply says why it has nothing)
   /// deskew/enabled: the last set's scan (callback thread only) and its stamp.
   std::shared_ptr<const LidarScan> last_scan_;
   double last_scan_stamp_ = -1e300;
