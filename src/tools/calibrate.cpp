@@ -58,8 +58,8 @@ void usage() {
       << "usage: rosrun tescalib tescalib_calibrate --sequences DIR[,DIR...] | --bag FILE\n"
          "       [--points TOPIC --left IMAGE_TOPIC --right IMAGE_TOPIC --max-skew S]\n"
          "       [--mode lidar_stereo|co]\n"
-         "       [--window N] [--init CALIB.txt] [--perturb-rot-deg R --perturb-trans-m T "
-         "[--seed S]]\n"
+         "       [--window N] [--init CALIB.txt] [--perturb-rot-deg R] [--perturb-trans-m T]\n"
+         "       [--seed S]\n"
          "       [--deskew 0|1] [--out BASE [--lidar-frame NAME]] [--overlay FILE.png]\n"
          "       [--search-deg D]\n"
          "Calibrates the recording in DIR (KITTI odometry or raw layout; several folders of one\n"
@@ -75,9 +75,11 @@ void usage() {
          "--window N: keyframes in the sliding window (default, or 0: 20; co: 10).\n"
          "--init FILE: initial extrinsics from a KITTI calib.txt (e.g. an earlier "
          "BASE_calib.txt);\n"
-         "  intrinsics stay those of DIR. Default: DIR's own calibration.\n"
-         "--perturb-rot-deg / --perturb-trans-m: start that far from the initial T_cam_lidar\n"
-         "  (random direction, --seed); the errors against DIR's calibration are then printed,\n"
+         "  intrinsics stay the data's (DIR's calibration, a bag's camera_info). Default: DIR's\n"
+         "  own calibration, a bag's /tf_static.\n"
+         "--perturb-rot-deg / --perturb-trans-m (either or both): start that far from the\n"
+         "  initial T_cam_lidar (random direction, --seed); the errors against that initial\n"
+         "  guess (DIR's calibration, a bag's /tf_static, or --init) are then printed,\n"
          "  with each estimate's NEES (e^T P^-1 e, 6 DoF: does its covariance cover the error?).\n"
          "--deskew: motion-compensate the scans (default for folders: on for KITTI raw\n"
          "  recordings and swept generated scans; for --bag: off, give --deskew 1 for a bag of\n"
@@ -564,8 +566,8 @@ void runBag(const Args& args, Session* session) {
 
 int main(int argc, char** argv) {
   Args args;
-  if (!parse(argc, argv, &args)) {
-    usage();
+  if (!parse(argc, argv, &args)) {  // the reason is on stderr; the usage would scroll it away
+    std::cerr << "tescalib_calibrate: --help lists the options\n";
     return 2;
   }
   Session session;

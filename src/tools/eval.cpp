@@ -11,8 +11,8 @@ using namespace tescalib::eval;
 
 int main(int argc, char** argv) {
   Args args;
-  if (!parse(argc, argv, &args)) {
-    usage();
+  if (!parse(argc, argv, &args)) {  // the reason is on stderr; the usage would scroll it away
+    std::cerr << "tescalib_eval: --help lists the options\n";
     return 2;
   }
   EvalData data;

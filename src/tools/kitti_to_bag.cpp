@@ -22,7 +22,8 @@ void usage() {
          "  DIR: a KITTI odometry sequence (calib.txt, times.txt, image_2/, image_3/,\n"
          "       velodyne/) or a KITTI raw drive folder (image_02/data, image_03/data,\n"
          "       velodyne_points/data; calib_*.txt in it or in its parent).\n"
-         "  Several DIRs (one rig) are written one after the other, 1 s apart.\n"
+         "  Several DIRs (one rig) are written one after the other, 1 s apart. Odometry\n"
+         "  stamps (from 0 s) are shifted to start at 1317384000 s (ROS times must be positive).\n"
          "  Topics: /kitti/velo/pointcloud (velo_link; x y z intensity ring),\n"
          "          /kitti/camera_color_{left,right}/{image_raw,camera_info} (P = the data's\n"
          "          P2 / P3), /tf_static (base_link -> velo_link -> cameras)\n"
@@ -70,13 +71,16 @@ int main(int argc, char** argv) {
       usage();
       return 0;
     } else {
-      std::cerr << "kitti_to_bag: unknown argument " << a << "\n";
-      usage();
+      std::cerr << "kitti_to_bag: unknown argument " << a << " (--help lists the options)\n";
       return 2;
     }
   }
   if (in.empty() || out.empty()) {
-    usage();
+    if (argc == 1) {  // no arguments at all: what the tool takes
+      usage();
+      return 2;
+    }
+    std::cerr << "kitti_to_bag: --in and --out are required (--help lists the options)\n";
     return 2;
   }
   ros::Time::init();

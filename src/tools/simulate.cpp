@@ -94,8 +94,7 @@ int main(int argc, char** argv) {
     if (!have_scenario || !have_frames || !have_seed || out.empty())
       throw std::invalid_argument("--scenario, --frames, --seed and --out are required");
   } catch (const std::exception& e) {
-    std::cerr << "tescalib_simulate: " << e.what() << "\n";
-    usage();
+    std::cerr << "tescalib_simulate: " << e.what() << " (--help lists the options)\n";
     return 2;
   }
   try {
