@@ -353,6 +353,7 @@ TEST(EvalTool, WritesTheJsonOfTheContract) {
   EXPECT_NE(j.find("\"sigma_rot_deg\": [null, null, null]"), std::string::npos);
   EXPECT_NE(j.find("\"summary\": {\"lidar\": {\"median_abs_rot_err_deg\": ["), std::string::npos);
   EXPECT_NE(j.find("\"stereo\": {\"estimated\": false}, \"success_rate\": "), std::string::npos);
+  EXPECT_NE(j.find("\"declared_converged_rate\": "), std::string::npos);
   EXPECT_NE(j.find("\"seconds\": {\"preprocess\": "), std::string::npos);
   // The GICP baseline has no covariance: null, and no NEES.
   const ToolRun gicp = runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/g.json --method pcl_gicp");

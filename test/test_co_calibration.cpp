@@ -534,3 +534,29 @@ TEST(CoCalibration, LeavesAWrongPhotometricYawMinimum) {
   EXPECT_LT(std::fabs(es[1]) * kDegPerRad, 0.02);
   EXPECT_LT(es.tail<3>().norm(), 0.005);
 }
+
+TEST(CoCalibration, APairThatCannotBeRectifiedEndsTheAlternationWithoutThrowing) {
+  // Audit, session 31: from the LiDAR 90 deg / 3 m off, a round's photometric solve matched
+  // nothing and left a baseline more vertical than horizontal; rectifying the clouds with it threw
+  // (DataError) through coCalibrate and tescalib_eval aborted. Here the pair starts so: the
+  // baseline straight down. The alternation must stop, not converged, and say why.
+  const StereoRig rig = coCase(3, 0.0, 0.0).truth;
+  Eigen::Isometry3d down = rig.T_right_left;
+  down.translation() = Eigen::Vector3d(0.0, rig.T_right_left.translation().norm(), 0.0);
+  EXPECT_GT(rectifiedBaseline(rig, rig.T_right_left), 0.5);
+  EXPECT_LE(rectifiedBaseline(rig, down), 0.0);
+  Eigen::Isometry3d left_of_it = rig.T_right_left;  // the "right" camera to the left
+  left_of_it.translation() = -rig.T_right_left.translation();
+  EXPECT_LE(rectifiedBaseline(rig, left_of_it), 0.0);
+
+  CoCase c = coCase(3, 0.0, 0.0);
+  const std::vector<Keyframe*> window = c.w.window();
+  CoCalibrationSettings s;
+  s.stereo_from_features = false;  // round 1 photometric, from the pair as given
+  s.max_rounds = 3;
+  CoCalibrationResult r;
+  ASSERT_NO_THROW(r = coCalibrate(window, c.w.rig, c.T_cl_init, down, s));
+  std::cout << "[ co       ] " << r.rounds << " rounds: " << r.message << "\n";
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.message.find("cannot be rectified side by side"), std::string::npos) << r.message;
+}

@@ -358,6 +358,20 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   }
   bool rejected_last = false;  // the last round's LiDAR-stereo estimate was not taken
   bool stuck = false;  // ... and this one's, from the same estimates and clouds: nothing changes
+  // A left-right estimate the clouds cannot be rectified with (a photometric solve lost far
+  // off, its baseline turned more vertical than horizontal): the alternation stops there.
+  std::string unrectifiable;
+  auto cannotRectify = [&](const Eigen::Isometry3d& T) {
+    if (rectifiedBaseline(rig, T) > 0) return false;
+    const Eigen::Vector3d t = T.translation().normalized();
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  "the left-right estimate of round %d cannot be rectified side by side (its "
+                  "baseline %.1f deg from the camera's -x axis; left-right: ",
+                  res.rounds, std::acos(std::clamp(-t.x(), -1.0, 1.0)) * kDegPerRad);
+    unrectifiable = buf + (res.stereo.converged ? "converged" : res.stereo.message) + ")";
+    return true;
+  };
   for (res.rounds = 1; res.rounds <= s.max_rounds; ++res.rounds) {
     if (s.lidar.cancelled()) {  // LidarStereoSettings::cancel: before each round too
       res.converged = false;
@@ -443,6 +457,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
       if (take) res.lidar = r, ls_last = ls_first;
       return take;
     };
+    if (lidar_first_now && cannotRectify(T_rl_first)) break;
     if (lidar_first_now) {
       rectify(T_rl_first);
       if (tryLidarFirst("the photometric solve failed with this LiDAR depth")) {
@@ -453,6 +468,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
       }
     }
     // 2. Stereo clouds, only where the rectification changed enough to matter.
+    if (!lidar_first_now && cannotRectify(T_rl_new)) break;
     if (!lidar_first_now) rectify(T_rl_new);
     const double b_used = window.front()->T_right_left_used.translation().norm();
     // 3. LiDAR-stereo with the stereo scale: the LiDAR is metric, so the scale corrects the
@@ -650,7 +666,9 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   // and the fitting windows' stereo z^2 in tz fell to 0.26 (doc/co_calibration.md).
   coStereoCovariance(res.lidar, s, &res.stereo, res.lidar_covariance_given_stereo);
   res.converged = res.stable && res.lidar.converged && res.stereo.converged;
-  if (stuck)
+  if (!unrectifiable.empty())
+    res.converged = false, res.message = unrectifiable;
+  else if (stuck)
     res.message = "LiDAR-stereo ran away from the initial guess in " +
                   std::to_string(res.rejected) +
                   " rounds, the last two started from the same estimates and clouds (a start "

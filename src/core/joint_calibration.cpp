@@ -168,13 +168,16 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   res.rounds = 0;
   const std::string init_message = res.message;
   res.message.clear();
+  // A pair the clouds cannot be rectified with: the round said why (coCalibrate's message).
+  const bool unusable_pair =
+      !window.empty() && rectifiedBaseline(rig, res.stereo.T_right_left) <= 0;
   if (window.empty() || res.stereo.keypoints < ps.min_keypoints ||
-      res.lidar.fine_inliers < ls.min_inliers) {
-    res.message =
-        "initial round failed: " + (window.empty() ? std::string("empty window")
-                                    : res.stereo.message.empty() && res.lidar.message.empty()
-                                        ? init_message
-                                        : res.stereo.message + " / " + res.lidar.message);
+      res.lidar.fine_inliers < ls.min_inliers || unusable_pair) {
+    res.message = "initial round failed: " +
+                  (window.empty() ? std::string("empty window")
+                   : unusable_pair || (res.stereo.message.empty() && res.lidar.message.empty())
+                       ? init_message
+                       : res.stereo.message + " / " + res.lidar.message);
     res.seconds = secondsSince(t0);
     return res;
   }
@@ -206,6 +209,11 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   // ------------------------------------------------------------ outer iterations
   for (res.rounds = 1; res.rounds <= js.max_outer; ++res.rounds) {
     // Re-rectify when the left-right rotation or direction moved enough to matter.
+    if (rectifiedBaseline(rig, T_rl) <= 0) {
+      res.message = "the left-right estimate of outer iteration " + std::to_string(res.rounds) +
+                    " cannot be rectified side by side (its baseline turned away from -x)";
+      break;
+    }
     RectifyTolerances tol = rectifyTolerances(s);
     tol.direction_deg = tol.yaw_deg = -1.0;  // the joint problem has no yaw nuisance
     res.rectifications += rectifyWindow(window, rig, T_rl, s.stereo_cloud, tol,

@@ -274,84 +274,93 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
   std::vector<Matrix6d> keyframe_info;
   std::vector<Keyframe*> win;
   for (auto& k : snapshot) win.push_back(k.get());
-  if (co) {
-    CoCalibrationSettings cs = settings_.co;
-    cs.lidar.cancel = &cancel_;
-    // Its LiDAR-first fallback searches as the LiDAR-stereo solves below do.
-    if (current || static_cast<int>(win.size()) <
-                       std::min(settings_.window_size, settings_.search_min_keyframes))
-      cs.lidar.search_step_deg = 0;
-    // The pair from feature matches only for a start without an estimate: from a LiDAR-first one
-    // round 1's photometric solve has good depth, and its yaw is far tighter than the matches'
-    // (generated windows: 0.03-0.07 deg off; real KITTI 0.13-0.15 deg).
-    if (current) cs.stereo_from_features = false;
-    // Warm only from a co-calibration: a LiDAR-first estimate has the stereo pair at its start.
-    const bool warm = current && current->stereo_estimated && settings_.warm_start_fine_only;
-    if (warm) {
-      cs.warm_first_round = true;
-      cs.max_rounds = std::min(cs.max_rounds, settings_.warm_co_rounds);
-    }
-    const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, cs);
-    {
-      // Keep the re-rectified or rescaled clouds: swap those keyframes into the window (the
-      // window's keyframes are shared and never modified in place).
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (generation_ == generation)
-        for (const auto& k : snapshot)
-          for (auto& w : window_)
-            if (w->stamp == k->stamp && !w->T_right_left_used.isApprox(k->T_right_left_used)) w = k;
-    }
-    keyframe_info = r.lidar.keyframe_information;
-    e.T_cam_lidar = r.lidar.T_cam_lidar;
-    e.T_right_left = r.stereo.T_right_left;
-    e.cov_lidar = r.lidar.covariance;
-    e.cov_lidar_given_stereo = r.lidar_covariance_given_stereo;
-    e.cov_stereo = r.stereo.covariance;
-    std::copy(r.lidar.observable, r.lidar.observable + 6, e.observable_lidar);
-    e.weakest_lidar = r.lidar.weakest();
-    e.weakest_stereo = r.stereo.weakest();
-    std::copy(r.stereo.observable, r.stereo.observable + 6, e.observable_stereo);
-    e.converged = warm ? r.lidar.converged && r.stereo.converged : r.converged;
-    e.cost_lidar = r.lidar.final_cost, e.cost_stereo = r.stereo.final_cost;
-    e.iterations_lidar = r.lidar.iterations, e.iterations_stereo = r.stereo.iterations;
-    e.co_rounds = r.rounds;
-    e.stereo_estimated = true;
-    if (!warm)
-      *msg = r.message;
-    else if (!r.stereo.converged)
-      *msg = "left-right: " + r.stereo.message;
-    else if (!r.lidar.converged)
-      *msg = "LiDAR-stereo: " + r.lidar.message;
-    else
-      msg->clear();
-  } else {
-    std::vector<const Keyframe*> cwin(win.begin(), win.end());
-    LidarStereoSettings ls = settings_.co.lidar;
-    ls.cancel = &cancel_;
-    ls.disparity_sigma = settings_.keyframe.stereo.disparity_sigma;
-    if (current && settings_.warm_start_fine_only) ls.run_coarse = false;
-    if (current || static_cast<int>(cwin.size()) <
-                       std::min(settings_.window_size, settings_.search_min_keyframes))
-      ls.search_step_deg = 0;
-    const LidarStereoResult r = solveLidarStereoSearch(cwin, T_cl, ls);
-    keyframe_info = r.keyframe_information;
-    e.T_cam_lidar = r.T_cam_lidar;
-    e.T_right_left = T_rl;
-    e.cov_lidar = e.cov_lidar_given_stereo = r.covariance;
-    e.cov_stereo = Matrix6d::Zero();
-    std::copy(r.observable, r.observable + 6, e.observable_lidar);
-    e.weakest_lidar = r.weakest();
-    std::fill(e.observable_stereo, e.observable_stereo + 6, true);
-    if (current && current->stereo_estimated) {  // keep a co-calibrated stereo pair as it is
-      e.cov_stereo = current->cov_stereo;
-      std::copy(current->observable_stereo, current->observable_stereo + 6, e.observable_stereo);
-      e.weakest_stereo = current->weakest_stereo;
+  // A solver that throws (a DataError on an estimate gone far off, OpenCV on data it cannot use)
+  // fails this solve, not the node: the published estimate stays.
+  try {
+    if (co) {
+      CoCalibrationSettings cs = settings_.co;
+      cs.lidar.cancel = &cancel_;
+      // Its LiDAR-first fallback searches as the LiDAR-stereo solves below do.
+      if (current || static_cast<int>(win.size()) <
+                         std::min(settings_.window_size, settings_.search_min_keyframes))
+        cs.lidar.search_step_deg = 0;
+      // The pair from feature matches only for a start without an estimate: from a LiDAR-first one
+      // round 1's photometric solve has good depth, and its yaw is far tighter than the matches'
+      // (generated windows: 0.03-0.07 deg off; real KITTI 0.13-0.15 deg).
+      if (current) cs.stereo_from_features = false;
+      // Warm only from a co-calibration: a LiDAR-first estimate has the stereo pair at its start.
+      const bool warm = current && current->stereo_estimated && settings_.warm_start_fine_only;
+      if (warm) {
+        cs.warm_first_round = true;
+        cs.max_rounds = std::min(cs.max_rounds, settings_.warm_co_rounds);
+      }
+      const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, cs);
+      {
+        // Keep the re-rectified or rescaled clouds: swap those keyframes into the window (the
+        // window's keyframes are shared and never modified in place).
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (generation_ == generation)
+          for (const auto& k : snapshot)
+            for (auto& w : window_)
+              if (w->stamp == k->stamp && !w->T_right_left_used.isApprox(k->T_right_left_used))
+                w = k;
+      }
+      keyframe_info = r.lidar.keyframe_information;
+      e.T_cam_lidar = r.lidar.T_cam_lidar;
+      e.T_right_left = r.stereo.T_right_left;
+      e.cov_lidar = r.lidar.covariance;
+      e.cov_lidar_given_stereo = r.lidar_covariance_given_stereo;
+      e.cov_stereo = r.stereo.covariance;
+      std::copy(r.lidar.observable, r.lidar.observable + 6, e.observable_lidar);
+      e.weakest_lidar = r.lidar.weakest();
+      e.weakest_stereo = r.stereo.weakest();
+      std::copy(r.stereo.observable, r.stereo.observable + 6, e.observable_stereo);
+      e.converged = warm ? r.lidar.converged && r.stereo.converged : r.converged;
+      e.cost_lidar = r.lidar.final_cost, e.cost_stereo = r.stereo.final_cost;
+      e.iterations_lidar = r.lidar.iterations, e.iterations_stereo = r.stereo.iterations;
+      e.co_rounds = r.rounds;
       e.stereo_estimated = true;
+      if (!warm)
+        *msg = r.message;
+      else if (!r.stereo.converged)
+        *msg = "left-right: " + r.stereo.message;
+      else if (!r.lidar.converged)
+        *msg = "LiDAR-stereo: " + r.lidar.message;
+      else
+        msg->clear();
+    } else {
+      std::vector<const Keyframe*> cwin(win.begin(), win.end());
+      LidarStereoSettings ls = settings_.co.lidar;
+      ls.cancel = &cancel_;
+      ls.disparity_sigma = settings_.keyframe.stereo.disparity_sigma;
+      if (current && settings_.warm_start_fine_only) ls.run_coarse = false;
+      if (current || static_cast<int>(cwin.size()) <
+                         std::min(settings_.window_size, settings_.search_min_keyframes))
+        ls.search_step_deg = 0;
+      const LidarStereoResult r = solveLidarStereoSearch(cwin, T_cl, ls);
+      keyframe_info = r.keyframe_information;
+      e.T_cam_lidar = r.T_cam_lidar;
+      e.T_right_left = T_rl;
+      e.cov_lidar = e.cov_lidar_given_stereo = r.covariance;
+      e.cov_stereo = Matrix6d::Zero();
+      std::copy(r.observable, r.observable + 6, e.observable_lidar);
+      e.weakest_lidar = r.weakest();
+      std::fill(e.observable_stereo, e.observable_stereo + 6, true);
+      if (current && current->stereo_estimated) {  // keep a co-calibrated stereo pair as it is
+        e.cov_stereo = current->cov_stereo;
+        std::copy(current->observable_stereo, current->observable_stereo + 6, e.observable_stereo);
+        e.weakest_stereo = current->weakest_stereo;
+        e.stereo_estimated = true;
+      }
+      e.converged = r.converged;
+      e.cost_lidar = r.final_cost;
+      e.iterations_lidar = r.iterations;
+      *msg = r.message;
     }
-    e.converged = r.converged;
-    e.cost_lidar = r.final_cost;
-    e.iterations_lidar = r.iterations;
-    *msg = r.message;
+  } catch (const std::exception& ex) {
+    *msg = std::string("the solve failed: ") + ex.what() +
+           (current ? " (keeping the previous estimate)" : " (nothing published yet)");
+    return false;
   }
   e.keyframes_used = static_cast<int>(snapshot.size());
   e.stamp = snapshot.back()->stamp;

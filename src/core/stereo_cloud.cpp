@@ -59,6 +59,15 @@ Rectification rectificationFor(const StereoRig& rig, const Eigen::Isometry3d& T,
   return r;
 }
 
+}  // namespace
+
+double rectifiedBaseline(const StereoRig& rig, const Eigen::Isometry3d& T_right_left) {
+  if (!isRigidTransform(T_right_left)) return 0.0;
+  return rectificationFor(rig, T_right_left, cv::Size(rig.left.width, rig.left.height)).baseline;
+}
+
+namespace {
+
 void setRectification(const Rectification& r, StereoCloud* out) {
   out->fx = r.fx, out->fy = r.fy, out->cx = r.cx, out->cy = r.cy;
   out->baseline = r.baseline;

@@ -293,7 +293,7 @@ bool report(const Args& args, const EvalData& d, const LidarStereoSettings& solv
             const std::vector<Trial>& trials) {
   const Estimated estimated = estimatedExtrinsics(args);
   std::vector<double> pre, sol, nees, nees_model, nees_converged;
-  int ok_all = 0;
+  int ok_all = 0, converged_all = 0;
   for (const auto& tr : trials) {
     pre.push_back(tr.preprocess);
     sol.push_back(tr.solve);
@@ -301,6 +301,7 @@ bool report(const Args& args, const EvalData& d, const LidarStereoSettings& solv
     if (std::isfinite(tr.nees) && tr.converged) nees_converged.push_back(tr.nees);
     if (std::isfinite(tr.nees_model)) nees_model.push_back(tr.nees_model);
     ok_all += trialSuccess(estimated, tr);
+    converged_all += tr.converged;
   }
   double mean_nees_model = std::nan("");
   if (!nees_model.empty()) {
@@ -317,8 +318,9 @@ bool report(const Args& args, const EvalData& d, const LidarStereoSettings& solv
   const double mean_nees_converged = mean(nees_converged);
   std::printf("\nsummary (%s, %s, %zu window(s) of %zu, %zu trials)\n", args.mode.c_str(),
               args.method.c_str(), d.n_windows, d.window_size, trials.size());
-  std::printf("  success rate (< 0.2 deg and < 3 cm%s): %.1f %%\n",
-              estimated.size() > 1 ? ", both extrinsics" : "", 100.0 * ok_all / trials.size());
+  std::printf("  success rate (< 0.2 deg and < 3 cm%s): %.1f %%; declared converged: %d of %zu\n",
+              estimated.size() > 1 ? ", both extrinsics" : "", 100.0 * ok_all / trials.size(),
+              converged_all, trials.size());
   const std::string summary_json = printExtrinsicSummaries(estimated, trials);
   std::printf(
       "  time per window: preprocess %.2f s (stereo %.2f s, %zu keyframes), solve median %.2f s\n",
@@ -356,6 +358,7 @@ bool report(const Args& args, const EvalData& d, const LidarStereoSettings& solv
     }
     js << "], \"summary\": {" << summary_json
        << "\"success_rate\": " << double(ok_all) / trials.size()
+       << ", \"declared_converged_rate\": " << double(converged_all) / trials.size()
        << ", \"mean_nees\": " << jsonNumber(mean_nees)
        << ", \"mean_nees_converged\": " << jsonNumber(mean_nees_converged)
        << ", \"mean_nees_model\": " << jsonNumber(mean_nees_model)

@@ -368,20 +368,33 @@ Trial runTrial(const Args& args, int t, const LidarStereoSettings& solver_settin
       std::chrono::duration<double>(Clock::now() - t_pre).count() + window_stereo_seconds;
   const auto t_solve = Clock::now();
   Eigen::Isometry3d T_est = T_init;
-  if (co_mode) {
-    T_est = solveCo(args, d, solver_settings, mwin, T_init, tr);
-  } else if (stereo_mode) {
-    if (args.method == "features")
-      solveStereoFeatures(d, window, tr);
-    else
-      solveStereo(args, d, window, T_init, tr);
-  } else if (args.method == "tescalib") {
-    T_est = solveLidar(solver_settings, window, T_init, tr);
-  } else {
-    const GicpBaselineResult r = solveGicpBaseline(window, T_init);
-    T_est = r.T_cam_lidar;
-    tr.converged = r.converged;
-    tr.lidar.cov = Matrix6d::Constant(std::nan(""));
+  try {
+    if (co_mode) {
+      T_est = solveCo(args, d, solver_settings, mwin, T_init, tr);
+    } else if (stereo_mode) {
+      if (args.method == "features")
+        solveStereoFeatures(d, window, tr);
+      else
+        solveStereo(args, d, window, T_init, tr);
+    } else if (args.method == "tescalib") {
+      T_est = solveLidar(solver_settings, window, T_init, tr);
+    } else {
+      const GicpBaselineResult r = solveGicpBaseline(window, T_init);
+      T_est = r.T_cam_lidar;
+      tr.converged = r.converged;
+      tr.lidar.cov = Matrix6d::Constant(std::nan(""));
+    }
+  } catch (const std::exception& ex) {
+    // A solver that throws fails its trial, not the run: the estimates stay where they started,
+    // with no covariance (left out of the NEES).
+    T_est = T_init;
+    tr.converged = false;
+    tr.message = std::string("the solve failed: ") + ex.what();
+    tr.lidar.cov = tr.lidar.cov_stat = Matrix6d::Constant(std::nan(""));
+    if (tr.stereo.estimated) {
+      tr.stereo.err = tr.stereo.init;
+      tr.stereo.cov = Matrix6d::Constant(std::nan(""));
+    }
   }
   tr.solve = std::chrono::duration<double>(Clock::now() - t_solve).count();
   ExtrinsicOutcome& est = stereo_mode ? tr.stereo : tr.lidar;

@@ -81,6 +81,12 @@ bool matchExposure(cv::Mat* left_grey, cv::Mat* right_grey, double ratio_limit);
 /// True when `T_right_left` is a pure translation along x (the pair needs no re-rectification).
 bool isRectified(const Eigen::Isometry3d& T_right_left, double tol = 1e-9);
 
+/// The rectified baseline (m) a left->right estimate gives the pair, as the stereo clouds
+/// rectify it (OpenCV's stereoRectify at the left image's size). Not above 0: the pair cannot be
+/// rectified side by side (the right camera not to the right of the left one, or a baseline
+/// more vertical than horizontal), and computeStereoCloud would refuse it (DataError).
+double rectifiedBaseline(const StereoRig& rig, const Eigen::Isometry3d& T_right_left);
+
 /// Computes the stereo cloud of a pair with the left->right estimate `T_right_left` (the rig's
 /// intrinsics are used; the pair is re-rectified when the estimate is not a pure x translation).
 StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
