@@ -70,6 +70,11 @@ TEST(Geometry, WeakDirectionsFindACoupledDirectionNoAxisShows) {
   d(1) = 0.25;
   EXPECT_EQ(describeDirection(d), "0.93 tz - 0.34 tx + 0.25 ry");
   EXPECT_TRUE(weakDirections(Matrix6d::Constant(std::nan("")), 0.1, 0.01).empty());
+  // The clause a solver's message ends with: nothing without a covariance.
+  EXPECT_EQ(weakestClause({}), "");
+  WeakDirection w;
+  w.ratio = 2.0, w.direction(5) = 1.0;
+  EXPECT_EQ(weakestClause({w}), "; weakest direction 1.00 tz, 2.00x the trust limit");
 }
 
 TEST(Overlay, StatusTextOnADarkBand) {

@@ -189,8 +189,8 @@ bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSetti
     stereo->converged = false;
     stereo->message =
         "the window does not constrain every axis once the LiDAR extrinsic's uncertainty is "
-        "included; weakest direction " +
-        describeWeakest(stereo->weakest());
+        "included" +
+        weakestClause(stereo->weak_directions);
   }
   addAxisVariances(&stereo->covariance, s.model_sigma_stereo_rot_deg, s.model_sigma_stereo_trans_m);
   return all;

@@ -105,6 +105,10 @@ std::string describeWeakest(const WeakDirection& weakest) {
   return describeDirection(weakest.direction) + buf;
 }
 
+std::string weakestClause(const std::vector<WeakDirection>& directions) {
+  return directions.empty() ? "" : "; weakest direction " + describeWeakest(directions.front());
+}
+
 Vector6d poseError(const Eigen::Isometry3d& T_est, const Eigen::Isometry3d& T_gt) {
   Vector6d e;
   e.head<3>() = logSO3(T_est.linear() * T_gt.linear().transpose());

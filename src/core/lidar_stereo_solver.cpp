@@ -142,11 +142,6 @@ Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSett
   return withCommonBiases(r, s, r.bias_sensitivity_held);
 }
 
-/// "; weakest direction 0.93 tz - 0.34 tx, 2.40x the trust limit" ("" without a covariance).
-std::string weakestInWords(const WeakDirection& w) {
-  return w.ratio > 0 ? "; weakest direction " + describeWeakest(w) : "";
-}
-
 bool smallUpdate(const Vector6d& d, const LidarStereoSettings& s) {
   return d.head<3>().norm() * kDegPerRad < s.converge_rot_deg &&
          d.tail<3>().norm() < s.converge_trans_m;
@@ -553,10 +548,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                   "the window does not constrain every axis with the common disparity offset its "
                   "residuals show (%+.2f px, model %.2f px: rectification or matching bias?)",
                   res.disparity_offset_px, s.model_sigma_disparity_px);
-    res.message = buf + weakestInWords(res.weakest());
+    res.message = buf + weakestClause(res.weak_directions);
   } else if (!all_observable)
     res.message = "the window does not constrain every axis (degenerate scene)" +
-                  weakestInWords(res.weakest());
+                  weakestClause(res.weak_directions);
   else if (!settled)
     res.message = "the fine stage did not settle within its iteration budget";
   else
@@ -662,7 +657,7 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
                   "the window's two halves disagree (chi2 %.1f > %.1f, 6 DoF): covariance scaled "
                   "by %.1f, and then the window does not constrain every axis",
                   chi2, s.halves_chi2_limit, k);
-    full->message = buf + weakestInWords(full->weakest());
+    full->message = buf + weakestClause(full->weak_directions);
   }
 }
 

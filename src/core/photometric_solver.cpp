@@ -433,8 +433,7 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
                   std::to_string(res.consistency_ratio) +
                   " of its value with the right image 4 px off (a start beyond the basin?)";
   else if (!all)
-    res.message = "the window does not constrain every axis; weakest direction " +
-                  describeWeakest(res.weakest());
+    res.message = "the window does not constrain every axis" + weakestClause(res.weak_directions);
   else
     res.converged = true;
   res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

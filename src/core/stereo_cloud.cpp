@@ -63,7 +63,12 @@ Rectification rectificationFor(const StereoRig& rig, const Eigen::Isometry3d& T,
 
 double rectifiedBaseline(const StereoRig& rig, const Eigen::Isometry3d& T_right_left) {
   if (!isRigidTransform(T_right_left)) return 0.0;
-  return rectificationFor(rig, T_right_left, cv::Size(rig.left.width, rig.left.height)).baseline;
+  // A rig read from a calibration file alone has no image size: the principal point's twice.
+  const cv::Size size =
+      rig.left.width > 0 && rig.left.height > 0
+          ? cv::Size(rig.left.width, rig.left.height)
+          : cv::Size(static_cast<int>(2 * rig.left.cx) + 1, static_cast<int>(2 * rig.left.cy) + 1);
+  return rectificationFor(rig, T_right_left, size).baseline;
 }
 
 namespace {

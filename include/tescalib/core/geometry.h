@@ -68,6 +68,10 @@ std::string describeDirection(const Vector6d& direction);
 /// its ratio is 0: none computed).
 std::string describeWeakest(const WeakDirection& weakest);
 
+/// "; weakest direction 0.93 tz - 0.34 tx, 1.74x the trust limit" for the first of a
+/// weakDirections list, to end a solver's message ("" when the list is empty).
+std::string weakestClause(const std::vector<WeakDirection>& directions);
+
 /// The first (weakest) of weakDirections' list; ratio 0 when it is empty.
 inline WeakDirection weakestOf(const std::vector<WeakDirection>& directions) {
   return directions.empty() ? WeakDirection() : directions.front();
