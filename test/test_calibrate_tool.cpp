@@ -354,6 +354,16 @@ TEST(EvalTool, WritesTheJsonOfTheContract) {
   EXPECT_NE(j.find("\"summary\": {\"lidar\": {\"median_abs_rot_err_deg\": ["), std::string::npos);
   EXPECT_NE(j.find("\"stereo\": {\"estimated\": false}, \"success_rate\": "), std::string::npos);
   EXPECT_NE(j.find("\"declared_converged_rate\": "), std::string::npos);
+  // The run's own settings, so that a JSON says how it was made.
+  EXPECT_NE(j.find("\"seed\": 1, \"init_rot_deg\": 3, \"init_trans_m\": 0.3"), std::string::npos)
+      << j;
+  // A seed is digits (std::stoull wrapped -1 to 2^64 - 1 and read 1.5 as 1).
+  for (const char* bad : {"-1", "1.5"}) {
+    const ToolRun r = runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/x.json --seed " + bad);
+    EXPECT_EQ(r.status, 2) << bad;
+    EXPECT_NE(r.output.find(std::string("bad value '") + bad + "' for --seed"), std::string::npos)
+        << r.output;
+  }
   EXPECT_NE(j.find("\"seconds\": {\"preprocess\": "), std::string::npos);
   // The GICP baseline has no covariance: null, and no NEES.
   const ToolRun gicp = runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/g.json --method pcl_gicp");

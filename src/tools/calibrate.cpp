@@ -114,7 +114,7 @@ bool parse(int argc, char** argv, Args* a) {
     else if (k == "--perturb-trans-m")
       a->perturb_trans_m = cli::toDouble(v);
     else if (k == "--seed")
-      a->seed = static_cast<unsigned>(std::stoul(v));
+      a->seed = static_cast<unsigned>(cli::toSeed(v));
     else if (k == "--deskew") {
       a->deskew = cli::toInt(v);
       if (a->deskew != 0 && a->deskew != 1) throw std::invalid_argument(v);

@@ -1,6 +1,7 @@
 // The command-line walk the tools share: "--key value" pairs, -h / --help, comma lists.
 #pragma once
 
+#include <cstdint>
 #include <cstdlib>
 #include <exception>
 #include <functional>
@@ -33,6 +34,16 @@ inline double toDouble(const std::string& s) {
   size_t used = 0;
   const double v = std::stod(s, &used);
   if (used != s.size()) throw std::invalid_argument(s);
+  return v;
+}
+
+/// A seed: decimal digits only, at most 2^53 (a JSON reader's double holds it exactly); "-1"
+/// (which std::stoull wraps to 2^64 - 1) or "1.5" throw std::invalid_argument.
+inline uint64_t toSeed(const std::string& s) {
+  if (s.empty() || s.find_first_not_of("0123456789") != std::string::npos)
+    throw std::invalid_argument(s);
+  const unsigned long long v = std::stoull(s);
+  if (v > (1ULL << 53)) throw std::invalid_argument(s);
   return v;
 }
 

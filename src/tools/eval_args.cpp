@@ -124,7 +124,7 @@ bool parse(int argc, char** argv, Args* a) {
     else if (k == "--init-stereo-trans-m")
       a->init_stereo_trans_m = cli::toDouble(v);
     else if (k == "--seed")
-      a->seed = std::stoull(v);
+      a->seed = cli::toSeed(v);
     else if (k == "--window")
       a->window = cli::toInt(v);
     else if (k == "--json")

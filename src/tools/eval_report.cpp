@@ -350,6 +350,10 @@ bool report(const Args& args, const EvalData& d, const LidarStereoSettings& solv
     }
     js << std::setprecision(10) << "{\"mode\": \"" << args.mode << "\", \"method\": \""
        << args.method << "\", \"window\": " << d.window_size << ", \"windows\": " << d.n_windows
+       << ", \"seed\": " << args.seed << ", \"init_rot_deg\": " << args.init_rot_deg
+       << ", \"init_trans_m\": " << args.init_trans_m
+       << ", \"init_stereo_rot_deg\": " << args.init_stereo_rot_deg
+       << ", \"init_stereo_trans_m\": " << args.init_stereo_trans_m
        << ", \"refinement\": {\"iterations\": " << d.used_refinement.iterations
        << ", \"smoothed_rounds\": " << d.used_refinement.smoothed_gradient_rounds
        << "}, \"trials\": [\n";

@@ -308,7 +308,9 @@ Eigen::Isometry3d solveLidar(const LidarStereoSettings& solver_settings,
     tr.stereo_scale_sigma = std::sqrt(r.stereo_scale_variance);
   }
   if (solver_settings.estimate_stereo_yaw) tr.stereo_yaw_deg = r.stereo_yaw_rad * kDegPerRad;
-  if (solver_settings.measure_disparity_offset && !solver_settings.estimate_stereo_yaw) {
+  // Measured only where the fine stage had residuals (sigma 0: not measured; NaN, JSON's null).
+  if (solver_settings.measure_disparity_offset && !solver_settings.estimate_stereo_yaw &&
+      r.disparity_offset_sigma_px > 0) {
     tr.disparity_offset_px = r.disparity_offset_px;
     tr.disparity_offset_sigma_px = r.disparity_offset_sigma_px;
     tr.disparity_offset_used = disparityOffsetWidensBias(r, solver_settings);
