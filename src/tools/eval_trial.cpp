@@ -416,11 +416,34 @@ void printTrialHeader() {
                "        sigma(deg,cm)   iters  prep(s) solve(s)\n";
 }
 
+namespace {
+/// Which success threshold an extrinsic missed: "LiDAR 3.23 cm" ("" when it succeeded).
+std::string missed(const char* name, const ExtrinsicOutcome& o) {
+  if (o.success()) return "";
+  const double rot = o.err.head<3>().norm() * kDegPerRad, trans = o.err.tail<3>().norm() * 100;
+  char buf[96];
+  if (rot >= 0.2 && trans >= 3.0)
+    std::snprintf(buf, sizeof buf, "%s %.3f deg, %.2f cm", name, rot, trans);
+  else if (rot >= 0.2)
+    std::snprintf(buf, sizeof buf, "%s %.3f deg", name, rot);
+  else
+    std::snprintf(buf, sizeof buf, "%s %.2f cm", name, trans);
+  return buf;
+}
+}  // namespace
+
 void printTrial(const Args& args, int t, const Trial& tr) {
   const bool stereo_mode = args.mode == "stereo";
   const bool co_mode = args.mode == "co" || args.mode == "joint";
   const ExtrinsicOutcome& est = stereo_mode ? tr.stereo : tr.lidar;
   const Vector6d& e = est.err;
+  // A failed trial says which threshold (0.2 deg, 3 cm) it missed, then the solver's message.
+  std::string fail = missed(stereo_mode ? "stereo" : "LiDAR", est);
+  if (co_mode) {
+    const std::string s = missed("stereo", tr.stereo);
+    fail += fail.empty() || s.empty() ? s : "; " + s;
+  }
+  if (!fail.empty()) fail = " FAIL (" + fail + ")" + (tr.message.empty() ? "" : " " + tr.message);
   std::printf(
       " %4d   %s   %4.2f/%4.2f  [%7.4f %7.4f %7.4f]  [%7.3f %7.3f %7.3f]  %6.3f/%6.2f  %4d  "
       "%6.2f  %6.2f %s\n",
@@ -429,8 +452,7 @@ void printTrial(const Args& args, int t, const Trial& tr) {
       e[3] * 100, e[4] * 100, e[5] * 100,
       std::sqrt(est.cov.topLeftCorner<3, 3>().trace() / 3) * kDegPerRad,
       std::sqrt(est.cov.bottomRightCorner<3, 3>().trace() / 3) * 100, tr.iterations, tr.preprocess,
-      tr.solve,
-      (est.success() && (!co_mode || tr.stereo.success())) ? "" : (" FAIL " + tr.message).c_str());
+      tr.solve, fail.c_str());
   if (co_mode) {
     const Vector6d& es = tr.stereo.err;
     std::printf(
