@@ -98,11 +98,17 @@ KittiOdometryCalib calibrationAsKitti(const StereoRig& rig, const OnlineEstimate
   return c;
 }
 
+std::string calibrationBaseProblem(const std::string& base) {
+  if (base.empty() || base.back() == '/')
+    return "'" + base + "' names a folder: give a file name without extension (BASE)";
+  return "";
+}
+
 bool writeCalibrationFiles(const std::string& base, const StereoRig& rig, const OnlineEstimate& e,
                            const CalibrationFrames& frames, std::string* message) {
   namespace fs = std::filesystem;
-  if (base.empty() || base.back() == '/') {
-    *message = "'" + base + "' names a folder: give a file name without extension (BASE)";
+  if (const std::string problem = calibrationBaseProblem(base); !problem.empty()) {
+    *message = problem;
     return false;
   }
   const std::pair<std::string, std::string> files[3] = {

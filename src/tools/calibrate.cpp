@@ -7,7 +7,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <random>
@@ -169,15 +168,12 @@ bool parse(int argc, char** argv, Args* a) {
   }
   // Where the result goes is checked before the work, not after it.
   if (!a->out.empty()) {
-    namespace fs = std::filesystem;
-    const fs::path folder = fs::path(a->out).parent_path();
-    if (a->out.back() == '/' || fs::is_directory(a->out)) {
-      std::cerr << "tescalib_calibrate: --out '" << a->out
-                << "' names a folder: give a file name without extension (BASE)\n";
+    if (const std::string problem = calibrationBaseProblem(a->out); !problem.empty()) {
+      std::cerr << "tescalib_calibrate: --out " << problem << "\n";
       return false;
     }
-    if (!folder.empty() && !fs::is_directory(folder)) {
-      std::cerr << "tescalib_calibrate: --out: the folder " << folder << " does not exist\n";
+    if (const std::string folder = cli::missingFolder(a->out); !folder.empty()) {
+      std::cerr << "tescalib_calibrate: --out: the folder \"" << folder << "\" does not exist\n";
       return false;
     }
   }

@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <functional>
 #include <iostream>
 #include <sstream>
@@ -45,6 +46,13 @@ inline uint64_t toSeed(const std::string& s) {
   const unsigned long long v = std::stoull(s);
   if (v > (1ULL << 53)) throw std::invalid_argument(s);
   return v;
+}
+
+/// The folder a file at `path` would go into, when that folder does not exist ("" otherwise, and
+/// for a bare file name): a tool checks its output paths before the work.
+inline std::string missingFolder(const std::string& path) {
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  return !folder.empty() && !std::filesystem::is_directory(folder) ? folder.string() : "";
 }
 
 /// Calls `option(key, value)` for every "--key value" pair of argv; -h / --help prints `usage`

@@ -1,6 +1,5 @@
 #include "eval_args.h"
 
-#include <filesystem>
 #include <iostream>
 #include <string>
 
@@ -223,12 +222,9 @@ bool parse(int argc, char** argv, Args* a) {
     return false;
   }
   // The JSON's folder is checked before the trials run, not after them.
-  if (!a->json.empty()) {
-    const std::filesystem::path folder = std::filesystem::path(a->json).parent_path();
-    if (!folder.empty() && !std::filesystem::is_directory(folder)) {
-      std::cerr << "tescalib_eval: --json: the folder " << folder << " does not exist\n";
-      return false;
-    }
+  if (const std::string folder = cli::missingFolder(a->json); !folder.empty()) {
+    std::cerr << "tescalib_eval: --json: the folder \"" << folder << "\" does not exist\n";
+    return false;
   }
   if (a->method != "tescalib" && a->method != "pcl_gicp" && a->method != "features") {
     std::cerr << "tescalib_eval: unknown method '" << a->method

@@ -28,6 +28,10 @@ std::string staticTransformLaunch(const OnlineEstimate& e, const CalibrationFram
 /// The rig's intrinsics with the estimate's extrinsics (see the file comment).
 KittiOdometryCalib calibrationAsKitti(const StereoRig& rig, const OnlineEstimate& e);
 
+/// What is wrong with BASE as the files' common name ("" when nothing): empty, or a folder (a
+/// trailing '/'). writeCalibrationFiles refuses such a BASE with this message.
+std::string calibrationBaseProblem(const std::string& base);
+
 /// Writes the three files BASE.yaml, BASE_calib.txt and BASE_static_tf.launch, as a set: each to
 /// a temporary file beside it first, renamed only when all three were written. `message`: the
 /// files written, or what went wrong (with the system's reason).
