@@ -370,6 +370,42 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
   EXPECT_FALSE(fresh.estimate()->stereo_estimated);
 }
 
+TEST(OnlineCalibratorGenerated, ARecordingShorterThanTheWindowIsCoCalibratedAtItsEnd) {
+  // With the stereo pair 0.2 deg / 1 cm off, the LiDAR-first solves on its misrectified clouds
+  // are never trusted, and 5 keyframes never fill a window of 10: the node would wait for more,
+  // an offline tool at the end of its input co-calibrates what it has (tescalib_calibrate on the
+  // 8 keyframes of KITTI 2011_09_30 ended without any co-calibration).
+  const auto drive = coDrive();
+  const Simulator& sim = *drive;
+  const StereoRig rig = perturbedRig(sim, 8, 1.0, 0.05, 0.2, 0.01);
+  OnlineSettings settings;
+  settings.estimate_stereo = true;
+  settings.window_size = 10;
+  OnlineCalibrator cal(rig, settings);
+  std::string msg;
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  ASSERT_EQ(cal.windowFill(), 5u);
+  EXPECT_TRUE(cal.coCalibrationPending());  // enough keyframes, none co-calibrated yet
+  EXPECT_FALSE(cal.solve(&msg));
+  ASSERT_TRUE(cal.lastSolve().has_value());
+  EXPECT_FALSE(cal.lastSolve()->stereo_estimated) << "LiDAR first, the window is not full";
+  EXPECT_FALSE(cal.estimate().has_value()) << msg;
+  EXPECT_TRUE(cal.coCalibrationPending());
+  ASSERT_TRUE(cal.solve(&msg, nullptr, /*recording_ended=*/true)) << msg;
+  const auto e = cal.estimate();
+  ASSERT_TRUE(e.has_value());
+  EXPECT_TRUE(e->stereo_estimated);
+  EXPECT_GE(e->co_rounds, 1);
+  expectCoAccuracy(*e, sim.rig(), "co-calibration at the end of 5 keyframes");
+  EXPECT_FALSE(cal.coCalibrationPending());
+  // LiDAR-stereo only: never pending.
+  settings.estimate_stereo = false;
+  OnlineCalibrator lidar_only(rig, settings);
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(lidar_only, sim, 0, 25));
+  lidar_only.solve(&msg);
+  EXPECT_FALSE(lidar_only.coCalibrationPending());
+}
+
 TEST(OnlineCalibratorGenerated, TheFirstCoEstimateReplacesTheLidarFirstOne) {
   // With camera_info's stereo pair exact, the LiDAR-first estimate's covariance (stereo taken as
   // exact) is narrower than the co-calibrated one's (the clouds' scale and yaw free): the
@@ -730,8 +766,9 @@ TEST(OnlineCalibratorGenerated, ASolveKeptBackSaysWhetherItStillAgreesWithThePub
       }
       const FrameResult r = cal.addFrame(f, f.stamp, msg);
       EXPECT_TRUE(r == FrameResult::kKeyframe || (i == 0 && r == FrameResult::kReset)) << *msg;
-      if (r == FrameResult::kReset)
+      if (r == FrameResult::kReset) {
         EXPECT_EQ(cal.addFrame(f, f.stamp, msg), FrameResult::kKeyframe);
+      }
     }
     EXPECT_FALSE(cal.solve(msg));
     *kept = *cal.lastSolve();

@@ -236,7 +236,14 @@ size_t OnlineCalibrator::windowFill() const {
   return window_.size();
 }
 
-bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
+bool OnlineCalibrator::coCalibrationPending() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return settings_.estimate_stereo &&
+         static_cast<int>(window_.size()) >= settings_.min_keyframes_co &&
+         !(last_solve_ && last_solve_->stereo_estimated);
+}
+
+bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool recording_ended) {
   std::vector<std::shared_ptr<Keyframe>> snapshot;
   Eigen::Isometry3d T_cl, T_rl;
   std::optional<OnlineEstimate> current;
@@ -255,12 +262,13 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published) {
       return false;
     }
     // LiDAR first: co-calibration once a LiDAR-stereo estimate is published (or, failing that,
-    // once the window is full), so that a start too far off for the alternation gets the
-    // LiDAR-stereo solves' wide-basin search first.
+    // once the window is full or no more keyframes will come), so that a start too far off for
+    // the alternation gets the LiDAR-stereo solves' wide-basin search first.
     const int fill = static_cast<int>(window_.size());
     co = settings_.estimate_stereo &&
          (!settings_.lidar_first ||
-          (fill >= settings_.min_keyframes_co && (estimate_ || fill >= settings_.window_size)));
+          (fill >= settings_.min_keyframes_co &&
+           (estimate_ || fill >= settings_.window_size || recording_ended)));
     // Co-calibration recomputes the stereo clouds in place: it gets deep copies. The LiDAR-stereo
     // solve only reads, and the shared keyframes are never modified after insertion.
     for (const auto& k : window_) snapshot.push_back(co ? std::make_shared<Keyframe>(*k) : k);

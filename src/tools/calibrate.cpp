@@ -271,9 +271,40 @@ struct Session {
     if (keep_last_keyframe) last_keyframe = frame;
     if (!msg.empty()) std::printf("  %s: %s\n", label.c_str(), msg.c_str());
     if (!calibrator->readyToSolve()) return;
-    const bool changed = calibrator->solve(&last_solve);
+    solveAndPrint("keyframe " + std::to_string(keyframes) + " (" + label + ")", false);
+  }
+
+  /// The end of the input: with --mode co, a recording shorter than the window whose LiDAR-first
+  /// solves were never trusted has not been co-calibrated yet (the node waits for a full window
+  /// or a published estimate); its keyframes are co-calibrated once now.
+  void finish() {
+    if (!calibrator || !settings.estimate_stereo) return;
+    const auto last = calibrator->lastSolve();
+    if (!calibrator->coCalibrationPending()) {
+      if (!(last && last->stereo_estimated) &&
+          static_cast<int>(calibrator->windowFill()) < settings.min_keyframes_co)
+        std::printf(
+            "  end of the input: %zu keyframes, co-calibration needs %d: T_right_left was "
+            "not estimated\n",
+            calibrator->windowFill(), settings.min_keyframes_co);
+      return;
+    }
+    std::printf(
+        "  end of the input: %zu keyframes, %s, so not co-calibrated yet; co-calibrating "
+        "them\n",
+        calibrator->windowFill(),
+        calibrator->estimate()
+            ? "the LiDAR-stereo estimate came with the last keyframe"
+            : ("fewer than the window's " + std::to_string(settings.window_size) +
+               " and no LiDAR-stereo estimate trusted")
+                  .c_str());
+    solveAndPrint("all " + std::to_string(calibrator->windowFill()) + " keyframes", true);
+  }
+
+  void solveAndPrint(const std::string& what, bool recording_ended) {
+    const bool changed = calibrator->solve(&last_solve, nullptr, recording_ended);
     ++solves;
-    std::printf("  keyframe %d (%s): ", keyframes, label.c_str());
+    std::printf("  %s: ", what.c_str());
     const auto e = calibrator->estimate();
     if (changed && e) {
       ++published;
@@ -384,7 +415,10 @@ struct Session {
       printExtrinsic("T_right_left", e->T_right_left, e->cov_stereo, e->observable_stereo);
       printWeakest(e->weakest_stereo);
     } else
-      std::printf("T_right_left: as calibrated (not estimated; --mode co estimates it)\n");
+      std::printf("T_right_left: as calibrated (%s)\n",
+                  settings.estimate_stereo
+                      ? "no co-calibrated estimate was published; the last solve's message says why"
+                      : "not estimated; --mode co estimates it");
     std::printf("change from the initial guess: %s\n",
                 pose6(poseError(e->T_cam_lidar, T_initial)).c_str());
     if (perturbed) {
@@ -583,6 +617,7 @@ int main(int argc, char** argv) {
     std::cerr << "tescalib_calibrate: " << e.what() << "\n";
     return 1;
   }
+  session.finish();  // a solve never throws (it turns solver errors into a failed solve)
   return session.report(
       args, std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count());
 }

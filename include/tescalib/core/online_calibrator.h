@@ -174,7 +174,17 @@ class OnlineCalibrator {
   /// A solve during which the window was cleared (reset(), or time going backwards) discards
   /// its result: it belongs to data that are gone, and a reset must not bring back the estimate
   /// it cleared.
-  bool solve(std::string* message, OnlineEstimate* published = nullptr);
+  /// `recording_ended`: no more keyframes will come (an offline tool at the end of its input),
+  /// so with co-calibration the window counts as full for the LiDAR-first rule: a recording
+  /// shorter than the window whose LiDAR-stereo solves were never trusted is co-calibrated once
+  /// instead of ending without a co-calibration (see coCalibrationPending).
+  bool solve(std::string* message, OnlineEstimate* published = nullptr,
+             bool recording_ended = false);
+
+  /// With co-calibration: the window holds enough keyframes for it, and the last solve on it was
+  /// not one (LiDAR-first, because no estimate was published and the window never filled).
+  /// A caller at the end of its input then solves once more with `recording_ended`.
+  bool coCalibrationPending() const;
 
   /// Clears the window and returns to the initial extrinsics.
   void reset();
