@@ -398,6 +398,16 @@ TEST(EvalTool, WritesTheJsonOfTheContract) {
   EXPECT_NE(g.find("\"covariance\": [null, null"), std::string::npos) << g;
   EXPECT_EQ(g.find("\"covariance\": [0, 0"), std::string::npos) << g;
   EXPECT_NE(g.find("\"mean_nees\": null"), std::string::npos) << g;
+  // Nor a measured disparity offset: the keys are there, null (doc/evaluation.md).
+  EXPECT_NE(g.find("\"disparity_offset_px\": null, \"disparity_offset_sigma_px\": null, "
+                   "\"disparity_offset_used\": null"),
+            std::string::npos)
+      << g;
+  // Measured by the solver's fine stage: a number and a boolean.
+  const size_t used = j.find("\"disparity_offset_used\": ");
+  ASSERT_NE(used, std::string::npos) << j;
+  EXPECT_NE(j.at(used + 25), 'n') << j;
+  EXPECT_EQ(j.find("\"disparity_offset_px\": null"), std::string::npos) << j;
   // A baseline of LiDAR-stereo only: asked for another mode, the tool refuses.
   const ToolRun wrong = runTool(
       TESCALIB_EVAL_BIN, common + tmp.str() + "/w.json --mode stereo " + "--method pcl_gicp");

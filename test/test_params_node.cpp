@@ -40,6 +40,19 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_EQ(p.online.co.stereo_cloud.num_disparities, p.online.keyframe.stereo.num_disparities);
 }
 
+TEST(Params, WithoutAConfigTheNodeRunsLidarStereoAsDocumented) {
+  // The README and config/kitti.yaml give LiDAR-stereo only as the node's default; the core's
+  // OnlineSettings default co-calibrates (session 32 docs audit: a nodelet loaded without
+  // kitti.yaml co-calibrated).
+  tescalib::NodeParams p;
+  EXPECT_FALSE(p.online.estimate_stereo);
+  ros::NodeHandle pnh("~kitti");
+  std::string error;
+  std::vector<std::string> unknown;
+  ASSERT_TRUE(tescalib::loadNodeParams(pnh, &p, &error, &unknown)) << error;
+  EXPECT_FALSE(p.online.estimate_stereo);
+}
+
 TEST(Params, LiveProfileLoadsOverTheDefaults) {
   ros::NodeHandle pnh("~live");
   tescalib::NodeParams p;

@@ -258,10 +258,12 @@ std::string trialJson(const Args& args, const Estimated& estimated, const Trial&
     js << ", \"stereo_scale\": " << tr.stereo_scale
        << ", \"stereo_scale_sigma\": " << tr.stereo_scale_sigma;
   if (std::isfinite(tr.stereo_yaw_deg)) js << ", \"stereo_yaw_deg\": " << tr.stereo_yaw_deg;
-  if (std::isfinite(tr.disparity_offset_px))
-    js << ", \"disparity_offset_px\": " << tr.disparity_offset_px
-       << ", \"disparity_offset_sigma_px\": " << tr.disparity_offset_sigma_px
-       << ", \"disparity_offset_used\": " << (tr.disparity_offset_used ? "true" : "false");
+  // null where not measured (doc/evaluation.md); before session 32 the keys were left out.
+  js << ", \"disparity_offset_px\": " << jsonNumber(tr.disparity_offset_px)
+     << ", \"disparity_offset_sigma_px\": " << jsonNumber(tr.disparity_offset_sigma_px)
+     << ", \"disparity_offset_used\": "
+     << (std::isfinite(tr.disparity_offset_px) ? (tr.disparity_offset_used ? "true" : "false")
+                                               : "null");
   if (std::isfinite(tr.lidar_error_found[0])) {
     js << ", \"lidar_error_found\": [";
     for (int i = 0; i < 6; ++i)
