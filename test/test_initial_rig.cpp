@@ -147,6 +147,14 @@ TEST(InitialRig, ParametersGiveBothExtrinsicsWithoutTf) {
   EXPECT_LT((r.rig.T_cam_lidar.translation() - t).norm(), 1e-12);
   EXPECT_LT((r.rig.T_right_left.translation() - Eigen::Vector3d(-0.5, 0.01, 0)).norm(), 1e-12);
   EXPECT_TRUE(r.rig.T_right_left.linear().isIdentity(1e-12));
+  // Clouds without a frame_id: without the tf lookup nothing else would refuse them, and the
+  // estimate's tf edge would have an empty parent, which every tf listener drops (session 32).
+  in.cloud.header.frame_id = "";
+  EXPECT_FALSE(initialRig(p, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error));
+  EXPECT_NE(error.find("no frame_id and frames/lidar is not set"), std::string::npos) << error;
+  p.lidar_frame = "velodyne";  // ... unless frames/lidar names it
+  EXPECT_TRUE(initialRig(p, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error)) << error;
+  EXPECT_EQ(r.lidar_frame, "velodyne");
 }
 
 TEST(InitialRig, ThePerturbationAndARectifyingRAreSaid) {

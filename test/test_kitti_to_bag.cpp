@@ -375,6 +375,54 @@ TEST(Conversions, CloudWithoutRingNaNsAndEmpty) {
   EXPECT_NE(err.find("empty"), std::string::npos) << err;
 }
 
+TEST(Conversions, ABrokenCloudLayoutIsAMessageNotACrash) {
+  // Session 32 review: only data.size() was checked, so point_step 0 with no data read from
+  // address 0 (the nodelet manager died), and a field past point_step read beyond the buffer.
+  LidarScan scan = tescalib_test::syntheticScan(16, 50);
+  recoverRings(scan);
+  std_msgs::Header h;
+  const sensor_msgs::PointCloud2 good = ros_conv::toPointCloud2(scan, h);
+  LidarScan out;
+  std::string err;
+  ASSERT_TRUE(ros_conv::fromPointCloud2(good, &out, &err)) << err;
+  ASSERT_EQ(out.size(), scan.size());
+
+  sensor_msgs::PointCloud2 no_step = good;
+  no_step.point_step = 0, no_step.row_step = 0;
+  no_step.data.clear();
+  EXPECT_FALSE(ros_conv::fromPointCloud2(no_step, &out, &err));
+  EXPECT_NE(err.find("layout is inconsistent"), std::string::npos) << err;
+
+  sensor_msgs::PointCloud2 past = good;
+  past.fields.back().offset = past.point_step;  // the ring field beyond the point
+  EXPECT_FALSE(ros_conv::fromPointCloud2(past, &out, &err));
+  EXPECT_NE(err.find("field 'ring'"), std::string::npos) << err;
+  EXPECT_NE(err.find("does not fit"), std::string::npos) << err;
+
+  sensor_msgs::PointCloud2 odd_type = good;
+  odd_type.fields.front().datatype = 42;
+  EXPECT_FALSE(ros_conv::fromPointCloud2(odd_type, &out, &err));
+  EXPECT_NE(err.find("unknown datatype"), std::string::npos) << err;
+
+  // Organised clouds are read row by row, with row_step's padding skipped.
+  sensor_msgs::PointCloud2 organised = good;
+  const uint32_t width = static_cast<uint32_t>(scan.size() / 2), pad = 8;
+  organised.width = width, organised.height = 2;
+  organised.row_step = width * good.point_step + pad;
+  organised.data.assign(2 * organised.row_step, 0);
+  for (uint32_t r = 0; r < 2; ++r)
+    std::memcpy(&organised.data[r * organised.row_step], &good.data[r * width * good.point_step],
+                width * good.point_step);
+  ASSERT_TRUE(ros_conv::fromPointCloud2(organised, &out, &err)) << err;
+  ASSERT_EQ(out.size(), 2u * width);
+  EXPECT_EQ(out[width].x, scan[width].x);
+  EXPECT_EQ(out[width].ring, scan[width].ring);
+  // A row_step shorter than a row is not a layout.
+  organised.row_step = width * good.point_step - 1;
+  EXPECT_FALSE(ros_conv::fromPointCloud2(organised, &out, &err));
+  EXPECT_NE(err.find("row_step"), std::string::npos) << err;
+}
+
 TEST(Conversions, ImageEncodings) {
   cv::Mat bgr(4, 6, CV_8UC3, cv::Scalar(10, 20, 30));
   std_msgs::Header h;

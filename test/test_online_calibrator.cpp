@@ -499,6 +499,32 @@ TEST(OnlineCalibratorGenerated, ATimeJumpBackSeenDuringASolveDiscardsItsResult) 
   EXPECT_EQ(forward.lastSolve()->solve_id, 1u);
 }
 
+TEST(OnlineCalibratorGenerated, AKeyframeBuiltAcrossAResetIsDropped) {
+  // ~reset while a keyframe is being built (SGBM and the mesh take 0.1-0.7 s): it was made with
+  // the extrinsics of the cleared estimate and must not start the fresh window (session 32
+  // review). The reset comes 20 ms into the build; a try where the thread had not yet started is
+  // repeated.
+  const auto drive = coDrive();
+  const Simulator& sim = *drive;
+  OnlineCalibrator cal(perturbedRig(sim, 3, 1.0, 0.1), OnlineSettings{});
+  const Frame f = sim.renderFrame(0);
+  std::string msg;
+  FrameResult r = FrameResult::kKeyframe;
+  for (int attempt = 0; attempt < 5 && r == FrameResult::kKeyframe; ++attempt) {
+    cal.reset();
+    std::thread builder([&] { r = cal.addFrame(f, f.stamp, &msg); });
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    cal.reset();
+    builder.join();
+  }
+  EXPECT_EQ(r, FrameResult::kRejected) << msg;
+  EXPECT_NE(msg.find("cleared while this keyframe was built"), std::string::npos) << msg;
+  EXPECT_EQ(cal.windowFill(), 0u);
+  // The next frame is taken as usual.
+  EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  EXPECT_EQ(cal.windowFill(), 1u);
+}
+
 TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
   // ~reset while a solve runs: the solve's result belongs to the window that was cleared and
   // must not come back as the published estimate (nor as the warm start of the next window).

@@ -1,4 +1,6 @@
 // rostest: every shipped config/*.yaml loads and validates; invalid values are named.
+#include <cmath>
+
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 
@@ -123,6 +125,34 @@ TEST(Params, InvalidValuesAreNamed) {
       << error;
   EXPECT_NE(error.find("initial/T_cam_lidar must be [x, y, z, qx, qy, qz, qw] (7 values, got 3)"),
             std::string::npos)
+      << error;
+}
+
+TEST(Params, ValuesThatWouldRejectEveryFrameAreNamed) {
+  // Session 32 review: these were read but never checked; the node started and then rejected
+  // every keyframe with a message about the images, or every solve for too few associations.
+  ros::NodeHandle pnh("~bad2");
+  pnh.setParam("stereo/max_depth", 0.0);
+  pnh.setParam("lidar_stereo/max_depth", -5.0);
+  pnh.setParam("lidar_stereo/normal_weight", -0.5);
+  pnh.setParam("lidar_stereo/lidar_range_sigma", 0.0);
+  pnh.setParam("photometric/huber", 0.0);
+  pnh.setParam("initial/T_cam_lidar", std::vector<double>{0, 0, 0, 0, 0, 0, 0});
+  pnh.setParam("initial/T_right_left", std::vector<double>{0, 0, 0, 0, 0, 0, 1});
+  tescalib::NodeParams p;
+  std::string error;
+  EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
+  for (const char* named :
+       {"stereo/max_depth must be > 0 m (got 0)", "lidar_stereo/max_depth must be > 0 m (got -5)",
+        "lidar_stereo/normal_weight must be >= 0", "lidar_stereo/lidar_range_sigma must be > 0",
+        "photometric/huber must be > 0", "initial/T_cam_lidar's quaternion",
+        "initial/T_right_left must have a baseline"})
+    EXPECT_NE(error.find(named), std::string::npos) << named << " in: " << error;
+  // A non-finite entry: .nan in YAML.
+  ros::NodeHandle nan_pnh("~bad3");
+  nan_pnh.setParam("initial/T_cam_lidar", std::vector<double>{0, std::nan(""), 0, 0, 0, 0, 1});
+  EXPECT_FALSE(tescalib::loadNodeParams(nan_pnh, &p, &error));
+  EXPECT_NE(error.find("initial/T_cam_lidar must hold 7 finite numbers"), std::string::npos)
       << error;
 }
 

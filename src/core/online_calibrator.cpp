@@ -45,6 +45,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   Eigen::Isometry3d T_cl, T_rl;
   std::shared_ptr<const LidarScan> previous;
   double previous_stamp = -1e300, deskew_seconds = 0;
+  uint64_t generation = 0;  // a window cleared while the keyframe is built does not get it
   double previous_keyframe_stamp = -1e300;
   // A frame selected by time but then not taken: the next one is judged against the last
   // keyframe taken, not against this one.
@@ -84,6 +85,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
     last_keyframe_stamp_ = frame.stamp;
     T_cl = estimate_ ? estimate_->T_cam_lidar : rig_.T_cam_lidar;
     T_rl = estimate_ ? estimate_->T_right_left : rig_.T_right_left;
+    generation = generation_;
   }
   // De-skewing: the velocity from the previous scan. Without it the keyframe is not taken (a
   // skewed scan would bias the calibration by centimetres at speed); the next frame can be one.
@@ -173,8 +175,17 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
       *msg = buf;
     }
   }
-  if (built) *built = kf;
   std::lock_guard<std::mutex> lock(mutex_);
+  if (generation_ != generation) {
+    // Built from the extrinsics (and, de-skewed, the scans) of a window that is gone: a reset
+    // would otherwise find a keyframe of the estimate it cleared in its fresh window (session 32
+    // review).
+    *msg =
+        "the window was cleared while this keyframe was built (reset, or time went backwards): "
+        "dropped";
+    return FrameResult::kRejected;
+  }
+  if (built) *built = kf;
   window_.push_back(std::move(kf));
   while (static_cast<int>(window_.size()) > std::max(1, settings_.window_size)) {
     const size_t drop = keyframeToDrop();

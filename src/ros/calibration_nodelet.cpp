@@ -416,6 +416,15 @@ void CalibrationNodelet::solveLoop() {
       publishEstimateMsgs(*c, h, candidate_lidar_pub_, candidate_stereo_pub_);
     }
     if (updated) {
+      std::lock_guard<std::mutex> publishing(publish_mutex_);
+      const auto current = calibrator()->estimate();
+      if (!current || current->solve_id != e->solve_id) {
+        NODELET_INFO(
+            "tescalib: a ~reset cleared the estimate from %d keyframes before it was "
+            "published: not published",
+            e->keyframes_used);
+        continue;
+      }
       publish(*e, ros::Time(e->stamp));
       const std::string kind = e->co_rounds > 0
                                    ? "co-calibration, " + std::to_string(e->co_rounds) + " round(s)"
@@ -528,7 +537,14 @@ void CalibrationNodelet::watchdog(const ros::WallTimerEvent&) {
 }
 
 bool CalibrationNodelet::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  std::lock_guard<std::mutex> publishing(publish_mutex_);  // no solve publishes across it
   if (calibrator()) calibrator()->reset();
+  {
+    // Sets received before the reset are not the fresh window's either.
+    std::lock_guard<std::mutex> lock(mutex_);
+    queue_.clear();
+    unsolved_arrivals_.clear();
+  }
   last_enqueued_stamp_ = -1e300;
   ++resets_;
   res.success = true;

@@ -131,6 +131,40 @@ const sensor_msgs::PointField* findField(const sensor_msgs::PointCloud2& msg,
   return nullptr;
 }
 
+/// Bytes of one value of a PointField datatype; 0 for an unknown one.
+size_t datatypeSize(uint8_t datatype) {
+  switch (datatype) {
+    case sensor_msgs::PointField::INT8:
+    case sensor_msgs::PointField::UINT8:
+      return 1;
+    case sensor_msgs::PointField::INT16:
+    case sensor_msgs::PointField::UINT16:
+      return 2;
+    case sensor_msgs::PointField::INT32:
+    case sensor_msgs::PointField::UINT32:
+    case sensor_msgs::PointField::FLOAT32:
+      return 4;
+    case sensor_msgs::PointField::FLOAT64:
+      return 8;
+    default:
+      return 0;
+  }
+}
+
+/// Empty when field `f` (one the reader uses) lies within a point of `point_step` bytes; else
+/// why not. A driver's or a bag's broken layout must be a message, not a read past the buffer.
+std::string fieldProblem(const sensor_msgs::PointField& f, uint32_t point_step) {
+  const size_t size = datatypeSize(f.datatype);
+  if (size == 0)
+    return "point cloud field '" + f.name + "' has an unknown datatype (" +
+           std::to_string(f.datatype) + ")";
+  if (static_cast<size_t>(f.offset) + size > point_step)
+    return "point cloud field '" + f.name + "' (offset " + std::to_string(f.offset) + ", " +
+           std::to_string(size) + " bytes) does not fit in a point of point_step " +
+           std::to_string(point_step) + " bytes";
+  return "";
+}
+
 double readScalar(const uint8_t* data, uint8_t datatype) {
   switch (datatype) {
     case sensor_msgs::PointField::FLOAT32: {
@@ -208,8 +242,16 @@ bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::
     *error = "point cloud is empty";
     return false;
   }
-  if (msg.data.size() < n * msg.point_step) {
-    *error = "point cloud data is shorter than width*height*point_step";
+  // The layout: rows of row_step bytes, each holding width points of point_step bytes.
+  // A single row's row_step is not needed: some hand-made clouds leave it 0.
+  const size_t row_bytes = static_cast<size_t>(msg.width) * msg.point_step;
+  const size_t row_step = msg.height == 1 ? row_bytes : msg.row_step;
+  if (msg.point_step == 0 || row_step < row_bytes ||
+      msg.data.size() < static_cast<size_t>(msg.height - 1) * row_step + row_bytes) {
+    *error = "point cloud layout is inconsistent (width " + std::to_string(msg.width) +
+             ", height " + std::to_string(msg.height) + ", point_step " +
+             std::to_string(msg.point_step) + ", row_step " + std::to_string(msg.row_step) + ", " +
+             std::to_string(msg.data.size()) + " bytes of data)";
     return false;
   }
   const auto* fi = findField(msg, "intensity");
@@ -217,11 +259,20 @@ bool fromPointCloud2(const sensor_msgs::PointCloud2& msg, LidarScan* scan, std::
   const auto* fr = findField(msg, "ring");
   const std::string time_name = perPointTimeField(msg);
   const auto* ft = time_name.empty() ? nullptr : findField(msg, time_name);
+  for (const auto* f : {fx, fy, fz, fi, fr, ft}) {
+    if (!f) continue;
+    const std::string problem = fieldProblem(*f, msg.point_step);
+    if (!problem.empty()) {
+      *error = problem;
+      return false;
+    }
+  }
   const double stamp = msg.header.stamp.toSec();
   scan->reserve(n);
   size_t dropped = 0;
   for (size_t k = 0; k < n; ++k) {
-    const uint8_t* p = msg.data.data() + k * msg.point_step;
+    const uint8_t* p =
+        msg.data.data() + (k / msg.width) * row_step + (k % msg.width) * msg.point_step;
     LidarPoint q;
     q.x = static_cast<float>(readScalar(p + fx->offset, fx->datatype));
     q.y = static_cast<float>(readScalar(p + fy->offset, fy->datatype));

@@ -104,6 +104,12 @@ bool initialRig(const NodeParams& params, const sensor_msgs::PointCloud2& cloud,
     return false;
   out->lidar_frame =
       tf2Frame(params.lidar_frame.empty() ? cloud.header.frame_id : params.lidar_frame);
+  if (out->lidar_frame.empty()) {  // tf2 rejects an edge with an empty parent
+    *error =
+        "the point clouds have no frame_id and frames/lidar is not set: the estimate's tf would "
+        "have no parent frame. Set frames/lidar to the LiDAR's frame";
+    return false;
+  }
   const std::string cloud_frame = tf2Frame(cloud.header.frame_id);
   if (!cloud_frame.empty() && out->lidar_frame != cloud_frame)
     out->warnings.push_back("frames/lidar '" + out->lidar_frame + "' is not the clouds' frame '" +

@@ -260,12 +260,39 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
     e << "lidar_stereo/search_min_keyframes must be >= 1 (got " << o.search_min_keyframes << "); ";
   if (o.co.stereo.pyramid_levels < 1 || o.co.stereo.pyramid_levels > 5)
     e << "photometric/pyramid_levels must be in [1, 5]; ";
-  if (!p.initial_T_cam_lidar.empty() && p.initial_T_cam_lidar.size() != 7)
-    e << "initial/T_cam_lidar must be [x, y, z, qx, qy, qz, qw] (7 values, got "
-      << p.initial_T_cam_lidar.size() << "); ";
-  if (!p.initial_T_right_left.empty() && p.initial_T_right_left.size() != 7)
-    e << "initial/T_right_left must be [x, y, z, qx, qy, qz, qw] (7 values, got "
-      << p.initial_T_right_left.size() << "); ";
+  // Read but not checked until session 32's review: 0 made every keyframe fail as "a dark,
+  // blurred ... right image" (stereo) or every solve as "too few associations" (LiDAR-stereo).
+  if (!(o.keyframe.stereo.max_depth > 0))
+    e << "stereo/max_depth must be > 0 m (got " << o.keyframe.stereo.max_depth << "); ";
+  if (!(o.co.lidar.max_depth > 0))
+    e << "lidar_stereo/max_depth must be > 0 m (got " << o.co.lidar.max_depth << "); ";
+  if (!(o.co.lidar.normal_weight >= 0 && std::isfinite(o.co.lidar.normal_weight)))
+    e << "lidar_stereo/normal_weight must be >= 0 (got " << o.co.lidar.normal_weight << "); ";
+  if (!(o.co.lidar.lidar_range_sigma > 0 && std::isfinite(o.co.lidar.lidar_range_sigma)))
+    e << "lidar_stereo/lidar_range_sigma must be > 0 m (got " << o.co.lidar.lidar_range_sigma
+      << "); ";
+  if (!(o.co.stereo.huber > 0 && std::isfinite(o.co.stereo.huber)))
+    e << "photometric/huber must be > 0 (got " << o.co.stereo.huber << "); ";
+  for (const auto& [name, v] : {std::pair{"initial/T_cam_lidar", &p.initial_T_cam_lidar},
+                                std::pair{"initial/T_right_left", &p.initial_T_right_left}}) {
+    if (v->empty()) continue;
+    if (v->size() != 7) {
+      e << name << " must be [x, y, z, qx, qy, qz, qw] (7 values, got " << v->size() << "); ";
+      continue;
+    }
+    bool finite = true;
+    for (double x : *v) finite = finite && std::isfinite(x);
+    const double qnorm =
+        std::sqrt((*v)[3] * (*v)[3] + (*v)[4] * (*v)[4] + (*v)[5] * (*v)[5] + (*v)[6] * (*v)[6]);
+    if (!finite)
+      e << name << " must hold 7 finite numbers; ";
+    else if (qnorm < 1e-6)  // Eigen would "normalise" a zero quaternion to itself
+      e << name << "'s quaternion [qx, qy, qz, qw] must not be zero; ";
+  }
+  if (p.initial_T_right_left.size() == 7 &&
+      std::hypot(p.initial_T_right_left[0], p.initial_T_right_left[1], p.initial_T_right_left[2]) <
+          1e-3)
+    e << "initial/T_right_left must have a baseline (its translation is under 1 mm); ";
   if (p.left_frame.empty() || p.right_frame.empty())
     e << "frames/left and frames/right must be set; ";
   *error = e.str();

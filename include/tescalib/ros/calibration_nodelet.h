@@ -142,6 +142,11 @@ class CalibrationNodelet : public nodelet::Nodelet {
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
 
   std::mutex mutex_;
+  /// Held by the solve thread from checking that its estimate is still the calibrator's to the
+  /// end of publishing it, and by ~reset around the reset: a solve's estimate is published
+  /// entirely before a reset or not at all (session 32 review: it could land on the latched
+  /// topics and tf after ~reset had answered). Taken before mutex_ when both are.
+  std::mutex publish_mutex_;
   std::condition_variable cv_;
   std::deque<PendingFrame> queue_;  ///< GUARDED_BY(mutex_), at most 2
   std::atomic<bool> running_{false};
