@@ -77,6 +77,8 @@ void CalibrationNodelet::onInit() {
     left_sub_.subscribe(*image_transport_, nh.resolveName("left/image_raw"), q, hints);
     right_sub_.subscribe(*image_transport_, nh.resolveName("right/image_raw"), q, hints);
   } catch (const std::exception& ex) {
+    left_sub_.unsubscribe();  // an inert node receives nothing (left may have subscribed)
+    right_sub_.unsubscribe();
     std::string available;
     bool installed = false;
     for (std::string t : image_transport_->getLoadableTransports()) {
