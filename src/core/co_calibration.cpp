@@ -204,11 +204,12 @@ Matrix6d lidarSensitivityToStereo(const std::vector<Keyframe*>& window, const St
   settings.run_coarse = false;
   settings.check_window_halves = false;
   settings.search_step_deg = 0;
-  // The solver's own tolerances, not the alternation's looser inner ones: the differences are a
-  // few hundredths of a degree.
-  settings.converge_rot_deg = s.lidar.converge_rot_deg;
-  settings.converge_trans_m = s.lidar.converge_trans_m;
+  // Fine stage only: it stops at fine_settle_* (1e-3 deg / 0.3 mm; the converge_* tolerances are
+  // the coarse stage's). Session 32: a fine settle 0.3x as tight changed the columns by a few
+  // percent (the translation response's nonlinearity dominates, doc/co_calibration.md); 0.1x left
+  // a column unsettled (zeroed). So the default stays.
   settings.initial_stereo_yaw_rad = lidar.stereo_yaw_rad;
+  settings.initial_stereo_scale = lidar.stereo_scale;
   // What re-triangulating changes (and matching again, for a keyframe without matches), restored
   // at the end; the images of a StereoCloud are shared, not copied.
   struct Saved {
@@ -262,6 +263,7 @@ std::string secondOpinion(const std::vector<const Keyframe*>& window,
   const auto t0 = Clock::now();
   LidarStereoSettings ls = settings;
   ls.run_coarse = true;
+  ls.initial_stereo_scale = lidar.stereo_scale;  // the final clouds' scale, as found
   const LidarStereoResult again = solveLidarStereo(window, T_cam_lidar_init, ls);
   if (seconds) *seconds = secondsSince(t0);
   if (!again.converged) return ls.cancelled() ? "cancelled during the second opinion" : "";
@@ -426,6 +428,10 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     ls.check_window_halves = false;
     ls.converge_rot_deg = std::max(ls.converge_rot_deg, s.inner_settle_fraction * s.stable_rot_deg);
     ls.converge_trans_m = std::max(ls.converge_trans_m, s.inner_settle_fraction * s.stable_trans_m);
+    // ... and the fine stage, which stops on fine_settle_* (converge_* is the coarse stage's; until
+    // session 32 only the defaults' coincidence, 0.1 x 0.01 deg / 3 mm, made this hold).
+    ls.fine_settle_rot_deg = s.inner_settle_fraction * s.stable_rot_deg;
+    ls.fine_settle_trans_m = s.inner_settle_fraction * s.stable_trans_m;
     const LidarStereoSettings ls_first = ls;
     int rectified = 0;  // keyframes whose clouds this round recomputed
     auto rectify = [&](const Eigen::Isometry3d& T) {

@@ -207,7 +207,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     return res;
   }
   Eigen::Isometry3d T = T_init;
-  double scale = 1.0, yaw = s.estimate_stereo_yaw ? s.initial_stereo_yaw_rad : 0.0;
+  double scale = s.estimate_stereo_scale ? std::clamp(s.initial_stereo_scale,
+                                                      1.0 / s.max_stereo_scale, s.max_stereo_scale)
+                                         : 1.0;
+  double yaw = s.estimate_stereo_yaw ? s.initial_stereo_yaw_rad : 0.0;
 
   // ---------------------------------------------------------------- coarse (eq. KD6 + eq. 2)
   const auto t_coarse = Clock::now();
@@ -325,8 +328,12 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
           const Eigen::Vector3d m = R * f.normal.cast<double>();
           const double g = yawGain(st, u, d);
           const double k = correctedStereoScale(&scale, &yaw, d, g);
+          // The point sits at the yaw-corrected disparity (the clamp of correctedStereoScale):
+          // its depth noise is that disparity's (session 32 review: the raw one weighted far
+          // points up to 2.6x wrong with the clouds 0.3 deg off in yaw).
           const double inv_sigma =
-              pointPlaneInvSigma(m, c.normalized(), f.range, ps, d, k, s.disparity_sigma, s);
+              pointPlaneInvSigma(m, c.normalized(), f.range, ps, std::max(d + g * yaw, 0.1 * d), k,
+                                 s.disparity_sigma, s);
           if (std::fabs(m.dot(c - k * ps)) * inv_sigma > s.fine_gate_sigma) continue;
           const int cell =
               std::clamp(static_cast<int>(u * s.cov_cells_x / st.disparity.cols), 0,
@@ -604,6 +611,7 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   hs.run_coarse = false;
   hs.check_window_halves = false;
   hs.initial_stereo_yaw_rad = full->stereo_yaw_rad;
+  hs.initial_stereo_scale = full->stereo_scale;
   // A half constrains less than the window: its fine stage may need longer to settle.
   hs.fine_reassociations = 2 * s.fine_reassociations;
   const std::vector<const Keyframe*> first(window.begin(), window.begin() + half),

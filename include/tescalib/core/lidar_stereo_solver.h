@@ -62,6 +62,10 @@ struct LidarStereoSettings {
   /// Start of the yaw (rad): a warm start knows it from the previous solve; starting at 0 with
   /// clouds 0.3 deg off in yaw, the fine stage's gate can reject nearly every association.
   double initial_stereo_yaw_rad = 0.0;
+  /// Start of the scale (with estimate_stereo_scale, clamped to its bounds): re-solves on the
+  /// clouds of a solve that estimated it (the split-window halves, co-calibration's sensitivity
+  /// and second opinion) start from that solve's scale, not from 1 (session 32 review).
+  double initial_stereo_scale = 1.0;
   // Noise model (paper eq. lidar_noise and the disparity noise).
   double lidar_range_sigma = 0.02;     ///< m
   double lidar_beam_sigma_deg = 0.02;  ///< beam direction, deg
