@@ -331,6 +331,12 @@ void CalibrationNodelet::preprocessLoop() {
     const FrameResult r = calibrator()->addFrame(pf.frame, pf.lidar_stamp, &msg, &kf);
     if (r == FrameResult::kKeyframe) {
       const double build_s = (ros::WallTime::now() - t0).toSec();
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        keyframe_stamps_[pf.frame.stamp] = pf.header.stamp;
+        // More than any window holds; older ones (and a looped bag's) are no longer asked for.
+        while (keyframe_stamps_.size() > 256) keyframe_stamps_.erase(keyframe_stamps_.begin());
+      }
       if (kf) publishKeyframe(*kf);
       const size_t fill = calibrator()->windowFill();
       {
@@ -414,7 +420,7 @@ void CalibrationNodelet::solveLoop() {
     if (c && c->solve_id != last_candidate_id_) {  // not again after a discarded solve
       last_candidate_id_ = c->solve_id;
       std_msgs::Header h;
-      h.stamp = ros::Time(c->stamp);
+      h.stamp = rosStamp(c->stamp);
       publishEstimateMsgs(*c, h, candidate_lidar_pub_, candidate_stereo_pub_);
     }
     if (updated) {
@@ -427,7 +433,7 @@ void CalibrationNodelet::solveLoop() {
             e->keyframes_used);
         continue;
       }
-      publish(*e, ros::Time(e->stamp));
+      publish(*e, rosStamp(e->stamp));
       const std::string kind = e->co_rounds > 0
                                    ? "co-calibration, " + std::to_string(e->co_rounds) + " round(s)"
                                : e->stereo_estimated ? "LiDAR-stereo, T_right_left kept"
@@ -466,9 +472,15 @@ void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_
                                          e.message, e.stereo_estimated, e.weakest_stereo));
 }
 
+ros::Time CalibrationNodelet::rosStamp(double stamp) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const auto it = keyframe_stamps_.find(stamp);
+  return it != keyframe_stamps_.end() ? it->second : ros::Time(stamp);
+}
+
 void CalibrationNodelet::publishKeyframe(const Keyframe& kf) {
   std_msgs::Header h;
-  h.stamp.fromSec(kf.stamp);
+  h.stamp = rosStamp(kf.stamp);
   if (keyframe_cloud_pub_.getNumSubscribers() > 0) {
     h.frame_id = params_.left_frame;  // shown once the first estimate puts that frame on tf
     keyframe_cloud_pub_.publish(ros_conv::toPointCloud2(kf.stereo, h));

@@ -4,6 +4,7 @@
 #include <rosbag/bag.h>
 #include <tf2_msgs/TFMessage.h>
 #include <boost/make_shared.hpp>
+#include <cmath>
 
 #include "tescalib/ros/conversions.h"
 
@@ -13,6 +14,18 @@ void writeKittiBag(const KittiSequence& seq, const std::string& bag_path, const 
                    const std::function<void(size_t, size_t)>& progress) {
   writeKittiBag(std::vector<const KittiSequence*>{&seq}, bag_path, o, progress);
 }
+
+namespace {
+/// A sequence's stamp `s` (seconds, from times.txt) shifted by `offset`, to the nanosecond of its
+/// decimal value: the whole seconds of the offset as integers, the rest as a short duration.
+/// ros::Time(s + offset) rounds through a double of about 0.24 us resolution at this epoch, so
+/// the bag's stamps looked like a real driver's only on a 0.24 us grid, which hid a node that
+/// rebuilt stamps from doubles (session 32).
+ros::Time bagStamp(double offset, double s, uint32_t extra_nsec) {
+  const double whole = std::floor(offset);
+  return ros::Time(whole) + ros::Duration(offset - whole + s) + ros::Duration(0, extra_nsec);
+}
+}  // namespace
 
 void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::string& bag_path,
                    const KittiBagOptions& o, const std::function<void(size_t, size_t)>& progress) {
@@ -29,7 +42,7 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
 
   // Static transforms: base_link -> velo_link (identity: the LiDAR is the vehicle reference here)
   // and velo_link -> both cameras (the dataset's calibration, i.e. the ground truth).
-  const ros::Time t0(seq.stamp(0) + offset);
+  const ros::Time t0 = bagStamp(offset, seq.stamp(0), o.stamp_offset_nsec);
   tf2_msgs::TFMessage tf_static;
   auto add = [&](const std::string& parent, const std::string& child, const Eigen::Isometry3d& T) {
     geometry_msgs::TransformStamped ts;
@@ -79,7 +92,7 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
         o.max_frames < 0 ? cur.size() : std::min(cur.size(), static_cast<size_t>(o.max_frames));
     for (size_t i = 0; i < n; ++i) {
       const Frame f = cur.load(i);
-      const ros::Time stamp(f.stamp + offset);
+      const ros::Time stamp = bagStamp(offset, f.stamp, o.stamp_offset_nsec);
       std_msgs::Header h;
       h.stamp = stamp;
       h.seq = static_cast<uint32_t>(written);

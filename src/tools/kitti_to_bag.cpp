@@ -18,7 +18,7 @@ namespace {
 void usage() {
   std::cout
       << "usage: rosrun tescalib kitti_to_bag --in DIR[,DIR...] --out FILE.bag [--max-frames N]\n"
-         "         [--like-kitti2bag 0|1]\n"
+         "         [--like-kitti2bag 0|1] [--stamp-offset-ns N]\n"
          "  DIR: a KITTI odometry sequence (calib.txt, times.txt, image_2/, image_3/,\n"
          "       velodyne/) or a KITTI raw drive folder (image_02/data, image_03/data,\n"
          "       velodyne_points/data; calib_*.txt in it or in its parent).\n"
@@ -30,7 +30,9 @@ void usage() {
          "  --like-kitti2bag 1: as kitti2bag's raw mode lays a bag out (imu_link above\n"
          "  velo_link and the cameras, bgr8 images, x y z i clouds without ring), to check a\n"
          "  pipeline against such bags.\n"
-         "  --max-frames N: at most the first N frames of each DIR (not of the whole bag).\n";
+         "  --max-frames N: at most the first N frames of each DIR (not of the whole bag).\n"
+         "  --stamp-offset-ns N: add N nanoseconds (0-999999999) to every stamp, so that they\n"
+         "  are not on the files' 0.1 s grid (tests of stamp handling).\n";
 }
 }  // namespace
 
@@ -58,6 +60,18 @@ int main(int argc, char** argv) {
         if (used != v.size() || options.max_frames < 1) throw std::invalid_argument(v);
       } catch (const std::exception&) {
         std::cerr << "kitti_to_bag: --max-frames needs a whole number >= 1, not '" << v << "'\n";
+        return 2;
+      }
+    } else if (a == "--stamp-offset-ns") {
+      const std::string v = next();
+      try {
+        size_t used = 0;
+        const long ns = std::stol(v, &used);
+        if (used != v.size() || ns < 0 || ns > 999999999) throw std::invalid_argument(v);
+        options.stamp_offset_nsec = static_cast<uint32_t>(ns);
+      } catch (const std::exception&) {
+        std::cerr << "kitti_to_bag: --stamp-offset-ns needs a whole number 0-999999999, not '" << v
+                  << "'\n";
         return 2;
       }
     } else if (a == "--like-kitti2bag") {

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <deque>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -147,6 +148,12 @@ class CalibrationNodelet : public nodelet::Nodelet {
   /// entirely before a reset or not at all (session 32 review: it could land on the latched
   /// topics and tf after ~reset had answered). Taken before mutex_ when both are.
   std::mutex publish_mutex_;
+  /// The left images' header stamps of recent keyframes, by the core's double stamp: estimates
+  /// and keyframe topics carry their image's exact stamp (a double holds about 0.24 us at today's
+  /// epoch, so ros::Time(double) could be 0.1 us off; session 32 review). GUARDED_BY(mutex_).
+  std::map<double, ros::Time> keyframe_stamps_;
+  /// The exact ros::Time of a keyframe stamp, or the double's when it is not remembered.
+  ros::Time rosStamp(double stamp);
   std::condition_variable cv_;
   std::deque<PendingFrame> queue_;  ///< GUARDED_BY(mutex_), at most 2
   std::atomic<bool> running_{false};

@@ -23,6 +23,9 @@ struct KittiBagOptions {
   /// Odometry-layout stamps start at 0 s; ROS times must be positive, so they are shifted to
   /// start here (seconds since the epoch). Raw-layout stamps are absolute and kept as they are.
   double odometry_start_stamp = 1317384000.0;
+  /// Nanoseconds added to every stamp: a bag whose stamps are not on the whole-0.1 s grid of the
+  /// files (as a real driver's are not), for tests of stamp handling.
+  uint32_t stamp_offset_nsec = 0;
   int max_frames = -1;  ///< -1: all frames
   /// Lay the bag out exactly as kitti2bag's raw mode does, for testing a pipeline against the
   /// bags users have: the LiDAR and the cameras hang off an `imu_link` in /tf_static
