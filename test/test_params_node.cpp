@@ -16,6 +16,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_TRUE(unknown.empty()) << unknown.front();
   EXPECT_EQ(p.online.window_size, 10);
   EXPECT_DOUBLE_EQ(p.online.keyframe_min_dt, 0.5);
+  EXPECT_DOUBLE_EQ(p.online.max_time_jump_back, 0.0);
   EXPECT_EQ(p.initial_tf_camera_frame, "");  // the left camera_info's frame_id
   EXPECT_EQ(p.left_frame, "tescalib_left");
   EXPECT_DOUBLE_EQ(p.online.co.yaw_handover_deg, 0.2);
@@ -137,6 +138,7 @@ TEST(Params, ValuesThatWouldRejectEveryFrameAreNamed) {
   pnh.setParam("lidar_stereo/normal_weight", -0.5);
   pnh.setParam("lidar_stereo/lidar_range_sigma", 0.0);
   pnh.setParam("photometric/huber", 0.0);
+  pnh.setParam("window/max_time_jump_back", -0.1);
   pnh.setParam("initial/T_cam_lidar", std::vector<double>{0, 0, 0, 0, 0, 0, 0});
   pnh.setParam("initial/T_right_left", std::vector<double>{0, 0, 0, 0, 0, 0, 1});
   tescalib::NodeParams p;
@@ -146,6 +148,7 @@ TEST(Params, ValuesThatWouldRejectEveryFrameAreNamed) {
        {"stereo/max_depth must be > 0 m (got 0)", "lidar_stereo/max_depth must be > 0 m (got -5)",
         "lidar_stereo/normal_weight must be >= 0", "lidar_stereo/lidar_range_sigma must be > 0",
         "photometric/huber must be > 0", "initial/T_cam_lidar's quaternion",
+        "window/max_time_jump_back must be >= 0 s (got -0.1)",
         "initial/T_right_left must have a baseline"})
     EXPECT_NE(error.find(named), std::string::npos) << named << " in: " << error;
   // A non-finite entry: .nan in YAML.

@@ -115,6 +115,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("window/changed_chi2", &p->online.changed_chi2);
   get("window/warm_start_fine_only", &p->online.warm_start_fine_only);
   get("window/keyframe_selection", &p->online.keyframe_selection);
+  get("window/max_time_jump_back", &p->online.max_time_jump_back);
   get("deskew/enabled", &p->online.deskew);
   get("deskew/max_dt", &p->online.deskew_max_dt);
   get("deskew/rate_hz", &p->online.sweep.rate_hz);
@@ -197,6 +198,8 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.keyframe_min_dt <= 0)
     e << "window/keyframe_min_dt must be > 0 (got " << o.keyframe_min_dt << "); ";
   if (o.window_size < 1) e << "window/size must be >= 1 (got " << o.window_size << "); ";
+  if (!(o.max_time_jump_back >= 0 && std::isfinite(o.max_time_jump_back)))
+    e << "window/max_time_jump_back must be >= 0 s (got " << o.max_time_jump_back << "); ";
   if (o.min_keyframes < 1 || o.min_keyframes > o.window_size)
     e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes << "); ";
   if (o.min_keyframes_co < 1 || o.min_keyframes_co > o.window_size)
