@@ -97,5 +97,6 @@ TEST(PhotometricSolver, EmptyWindowIsNotConverged) {
   const PhotometricResult r =
       solvePhotometric({}, rig, Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity());
   EXPECT_FALSE(r.converged);
+  EXPECT_FALSE(r.covariance_known);
   EXPECT_EQ(r.message, "empty window");
 }

@@ -76,6 +76,8 @@ TEST(Robustness, ThePhotometricSolverChecksTheRigAgainstTheImages) {
   const PhotometricResult r = solvePhotometric(w.window, rig, rig.T_cam_lidar, rig.T_right_left);
   EXPECT_FALSE(r.converged);
   EXPECT_NE(r.message.find("not of the rig's size"), std::string::npos) << r.message;
+  // No covariance was computed: the identity it holds is a placeholder, not an uncertainty.
+  EXPECT_FALSE(r.covariance_known);
   PhotometricSettings s;
   s.cell_size = 0;  // looped forever
   const StereoRig& good = w.sim->rig();

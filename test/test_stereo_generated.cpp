@@ -561,6 +561,7 @@ TEST(PhotometricGenerated, RecoversThePairAndTheExposureDifference) {
   std::cout << "[ stereo   ] from 1 deg / 10 cm: error " << e.head<3>().norm() * kDegPerRad
             << " deg, " << e.tail<3>().norm() * 1000 << " mm\n";
   EXPECT_TRUE(r.converged) << r.message;
+  EXPECT_TRUE(r.covariance_known);
   EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.01);
   EXPECT_LT(e.tail<3>().norm(), 0.002);
   ASSERT_EQ(r.brightness.size(), kfs.size());

@@ -373,6 +373,7 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     res.lidar = lr;
     res.lidar.fine_inliers = joint_inliers;
     res.stereo.covariance = ph.covariance;
+    res.stereo.covariance_known = ph.covariance_known;
     res.stereo.lidar_sensitivity = ph.lidar_sensitivity;
     std::copy(ph.observable, ph.observable + 6, res.stereo.observable);
   }

@@ -411,6 +411,7 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
         const double sigma2 = 2.0 * summary.final_cost /
                               std::max(1, n - 6 - 2 * int(window.size()) - 2 * int(rho.size()));
         for (int i = 0; i < 36; ++i) res.covariance(i / 6, i % 6) = C[i] * sigma2;
+        res.covariance_known = true;
       }
       if (sensitivity)
         res.lidar_sensitivity =

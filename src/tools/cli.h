@@ -1,6 +1,7 @@
 // The command-line walk the tools share: "--key value" pairs, -h / --help, comma lists.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <exception>
@@ -31,10 +32,23 @@ inline int toInt(const std::string& s) {
   if (used != s.size()) throw std::invalid_argument(s);
   return v;
 }
+/// Finite only: "nan" and "inf" throw too (no option of the tools means either).
 inline double toDouble(const std::string& s) {
   size_t used = 0;
   const double v = std::stod(s, &used);
-  if (used != s.size()) throw std::invalid_argument(s);
+  if (used != s.size() || !std::isfinite(v)) throw std::invalid_argument(s);
+  return v;
+}
+/// A 0|1 switch: anything else throws.
+inline int toSwitch(const std::string& s) {
+  const int v = toInt(s);
+  if (v != 0 && v != 1) throw std::invalid_argument(s);
+  return v;
+}
+/// A value that must be >= 0 (the tools keep negative values as "the default").
+inline double toNonNegative(const std::string& s) {
+  const double v = toDouble(s);
+  if (v < 0) throw std::invalid_argument(s);
   return v;
 }
 

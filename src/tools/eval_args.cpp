@@ -1,9 +1,12 @@
 #include "eval_args.h"
 
+#include <cstdint>
 #include <iostream>
+#include <limits>
 #include <string>
 
 #include "cli.h"
+#include "tescalib/core/lidar_stereo_solver.h"
 
 namespace tescalib::eval {
 
@@ -40,7 +43,8 @@ void usage() {
          "--init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1 --window "
          "20\n"
          "--windows first (doc/evaluation.md has the conventions and the JSON).\n"
-         "--stages coarse,fine: the LiDAR-stereo stages to run (coarse, fine or both).\n"
+         "--stages coarse,fine: lidar_stereo mode: the LiDAR-stereo stages to run (coarse, fine\n"
+         "or both).\n"
          "--cov-cells XxY: image cells per keyframe of the LiDAR-stereo covariance's sandwich\n"
          "estimator (LidarStereoSettings::cov_cells_x/y; default 8x3).\n"
          "--cov-model-scale K: scales the LiDAR-stereo covariance's model error (the common "
@@ -91,7 +95,8 @@ void usage() {
          "and yaw where they are estimated (co; LidarStereoSettings::\n"
          "coarse_estimates_stereo_nuisances; off by default: only the fine stage does).\n"
          "--coarse-gates M,M,...: the coarse stage's 6-D association gates, one stage each\n"
-         "(LidarStereoSettings::coarse_gates; default 2,1,0.5).\n"
+         "(LidarStereoSettings::coarse_gates; default 2,1,0.5; co and joint: their LiDAR-stereo "
+         "solves).\n"
          "--search-deg D: lidar_stereo mode (co: the LiDAR-first fallback's solve): a solve\n"
          "that does not converge is tried again from the start turned by +-D deg about the\n"
          "camera's x and y axes, 8 more starts\n"
@@ -112,16 +117,17 @@ bool parse(int argc, char** argv, Args* a) {
       a->method = v;
     else if (k == "--trials")
       a->trials = cli::toInt(v);
-    else if (k == "--first-trial")
+    else if (k == "--first-trial") {
       a->first_trial = cli::toInt(v);
-    else if (k == "--init-rot-deg")
-      a->init_rot_deg = cli::toDouble(v);
+      if (a->first_trial < 0) throw std::invalid_argument(v);
+    } else if (k == "--init-rot-deg")
+      a->init_rot_deg = cli::toNonNegative(v);
     else if (k == "--init-trans-m")
-      a->init_trans_m = cli::toDouble(v);
+      a->init_trans_m = cli::toNonNegative(v);
     else if (k == "--init-stereo-rot-deg")
-      a->init_stereo_rot_deg = cli::toDouble(v);
+      a->init_stereo_rot_deg = cli::toNonNegative(v);
     else if (k == "--init-stereo-trans-m")
-      a->init_stereo_trans_m = cli::toDouble(v);
+      a->init_stereo_trans_m = cli::toNonNegative(v);
     else if (k == "--seed")
       a->seed = cli::toSeed(v);
     else if (k == "--window")
@@ -131,54 +137,61 @@ bool parse(int argc, char** argv, Args* a) {
     else if (k == "--stages")
       a->stages = v;
     else if (k == "--lidar-rot-deg")
-      a->lidar_rot_deg = cli::toDouble(v);
+      a->lidar_rot_deg = cli::toNonNegative(v);
     else if (k == "--lidar-trans-m")
-      a->lidar_trans_m = cli::toDouble(v);
+      a->lidar_trans_m = cli::toNonNegative(v);
     else if (k == "--windows")
       a->windows = v;
     else if (k == "--cov-cells") {
       const auto x = v.find('x');
       if (x == std::string::npos) throw std::invalid_argument(v);
-      a->cov_cells_x = std::stoi(v.substr(0, x));
-      a->cov_cells_y = std::stoi(v.substr(x + 1));
+      a->cov_cells_x = cli::toInt(v.substr(0, x));
+      a->cov_cells_y = cli::toInt(v.substr(x + 1));
+      if (a->cov_cells_x < 1 || a->cov_cells_y < 1) throw std::invalid_argument(v);
     } else if (k == "--cov-model-scale")
-      a->cov_model_scale = cli::toDouble(v);
-    else if (k == "--smooth-keypoints")
+      a->cov_model_scale = cli::toNonNegative(v);
+    else if (k == "--smooth-keypoints") {
       a->smooth_keypoints_px = cli::toInt(v);
-    else if (k == "--depth-prior")
-      a->depth_prior = cli::toDouble(v);
-    else if (k == "--free-depth-rounds")
+      if (a->smooth_keypoints_px < 0) throw std::invalid_argument(v);
+    } else if (k == "--depth-prior")
+      a->depth_prior = cli::toNonNegative(v);
+    else if (k == "--free-depth-rounds") {
       a->free_depth_rounds = cli::toInt(v);
-    else if (k == "--lidar-first")
-      a->lidar_first = cli::toInt(v);
+      if (a->free_depth_rounds < 0) throw std::invalid_argument(v);
+    } else if (k == "--lidar-first")
+      a->lidar_first = cli::toSwitch(v);
     else if (k == "--features")
-      a->features = cli::toInt(v);
+      a->features = cli::toSwitch(v);
     else if (k == "--propagate-stereo")
-      a->propagate_stereo = cli::toInt(v);
+      a->propagate_stereo = cli::toSwitch(v);
     else if (k == "--rematch-deg")
       a->rematch_deg = cli::toDouble(v);
     else if (k == "--co-model-scale")
-      a->co_model_scale = cli::toDouble(v);
+      a->co_model_scale = cli::toNonNegative(v);
     else if (k == "--stereo-yaw")
-      a->stereo_yaw = cli::toInt(v);
+      a->stereo_yaw = cli::toSwitch(v);
     else if (k == "--stereo-scale")
-      a->stereo_scale = cli::toInt(v);
+      a->stereo_scale = cli::toSwitch(v);
     else if (k == "--deskew")
-      a->deskew = cli::toInt(v);
+      a->deskew = cli::toSwitch(v);
     else if (k == "--keep-rings") {
       a->keep_rings = cli::toInt(v);
       if (a->keep_rings < 1) throw std::invalid_argument(v);
     } else if (k == "--check-halves")
-      a->check_halves = cli::toInt(v);
+      a->check_halves = cli::toSwitch(v);
     else if (k == "--measure-offset")
-      a->measure_offset = cli::toInt(v);
+      a->measure_offset = cli::toSwitch(v);
     else if (k == "--coarse-nuisances")
-      a->coarse_nuisances = cli::toInt(v);
-    else if (k == "--search-deg")
-      a->search_deg = cli::toDouble(v);
-    else if (k == "--coarse-gates") {
+      a->coarse_nuisances = cli::toSwitch(v);
+    else if (k == "--search-deg") {
+      a->search_deg = cli::toNonNegative(v);
+      if (a->search_deg > LidarStereoSettings::kMaxSearchStepDeg) throw std::invalid_argument(v);
+    } else if (k == "--coarse-gates") {
       a->coarse_gates.clear();
-      for (const auto& g : cli::splitList(v)) a->coarse_gates.push_back(cli::toDouble(g));
+      for (const auto& g : cli::splitList(v)) {
+        a->coarse_gates.push_back(cli::toDouble(g));
+        if (!(a->coarse_gates.back() > 0)) throw std::invalid_argument(v);
+      }
       if (a->coarse_gates.empty()) throw std::invalid_argument(v);
     } else if (k == "--refine-smoothed-rounds") {
       a->refine_smoothed = cli::toInt(v);
@@ -189,9 +202,8 @@ bool parse(int argc, char** argv, Args* a) {
     } else if (k == "--lidar-sigma") {
       const auto parts = cli::splitList(v);
       if (parts.size() != 2) throw std::invalid_argument(v);
-      a->lidar_sigma_deg = std::stod(parts[0]);
-      a->lidar_sigma_m = std::stod(parts[1]);
-      if (!(a->lidar_sigma_deg >= 0 && a->lidar_sigma_m >= 0)) throw std::invalid_argument(v);
+      a->lidar_sigma_deg = cli::toNonNegative(parts[0]);
+      a->lidar_sigma_m = cli::toNonNegative(parts[1]);
     } else {
       return false;
     }
@@ -245,6 +257,30 @@ bool parse(int argc, char** argv, Args* a) {
   }
   if (a->trials < 1 || a->window < 1) {
     std::cerr << "tescalib_eval: --trials and --window must be positive\n";
+    return false;
+  }
+  // Trial t's seed is seed * 1000003 + t, written to the JSON: it must stay exact there (2^53).
+  const uint64_t last_trial = uint64_t(a->first_trial) + uint64_t(a->trials);
+  if (last_trial > uint64_t(std::numeric_limits<int>::max()) ||
+      a->seed > ((1ULL << 53) - last_trial) / 1000003ULL) {
+    std::cerr
+        << "tescalib_eval: --seed (at most about 9007170000), --first-trial and --trials are too "
+           "large: trial t's seed, seed * 1000003 + t, must stay below 2^53\n";
+    return false;
+  }
+  // Options of one mode only are refused elsewhere rather than silently ignored.
+  const bool lidar_options = a->lidar_rot_deg > 0 || a->lidar_trans_m > 0 ||
+                             a->lidar_sigma_deg > 0 || a->lidar_sigma_m > 0;
+  if (lidar_options && a->mode != "stereo") {
+    std::cerr << "tescalib_eval: --lidar-rot-deg, --lidar-trans-m and --lidar-sigma are options "
+                 "of --mode stereo (the LiDAR extrinsic the left-right solve is given), not of "
+              << a->mode << "\n";
+    return false;
+  }
+  if (a->stages != "coarse,fine" && a->mode != "lidar_stereo") {
+    std::cerr << "tescalib_eval: --stages is an option of --mode lidar_stereo (co and joint run "
+                 "their own stages), not of "
+              << a->mode << "\n";
     return false;
   }
   return true;

@@ -12,7 +12,10 @@
 namespace tescalib::eval {
 
 double median(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
+  // Not a number when any value is not one (std::sort has no order for NaN, and leaving it out
+  // would hide a trial that has no error).
+  if (v.empty() || std::any_of(v.begin(), v.end(), [](double x) { return std::isnan(x); }))
+    return std::nan("");
   std::sort(v.begin(), v.end());
   const size_t n = v.size();
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
@@ -223,8 +226,8 @@ std::string printExtrinsicSummaries(const Estimated& estimated, const std::vecto
     if (std::isfinite(stat_rot[0]))
       summary_json << ", \"median_sigma_statistical_rot_deg\": " << jsonArray(stat_rot, 3)
                    << ", \"median_sigma_statistical_trans_m\": " << jsonArray(stat_trans, 3);
-    summary_json << std::setprecision(10) << ", \"median_rot_err_norm_deg\": " << median(rn)
-                 << ", \"median_trans_err_norm_m\": " << median(tn) << "}, ";
+    summary_json << ", \"median_rot_err_norm_deg\": " << jsonNumber(median(rn))
+                 << ", \"median_trans_err_norm_m\": " << jsonNumber(median(tn)) << "}, ";
   }
   // The extrinsic the mode does not estimate: named, so that both keys are always there.
   for (const char* name : {"lidar", "stereo"})
@@ -246,7 +249,7 @@ std::string trialJson(const Args& args, const Estimated& estimated, const Trial&
   if (with_brightness) {
     js << ", \"brightness\": [";
     for (size_t b = 0; b < tr.brightness.size(); ++b)
-      js << (b ? ", " : "") << "[" << tr.brightness[b].x() << ", " << tr.brightness[b].y() << "]";
+      js << (b ? ", " : "") << jsonArray(tr.brightness[b].data(), 2);
     js << "]";
   }
   js << ", \"nees\": " << jsonNumber(tr.nees) << ", \"nees_model\": " << jsonNumber(tr.nees_model)
@@ -255,9 +258,10 @@ std::string trialJson(const Args& args, const Estimated& estimated, const Trial&
   if (tr.yaw_handovers >= 0) js << ", \"yaw_handovers\": " << tr.yaw_handovers;
   if (tr.lidar_first >= 0) js << ", \"lidar_first\": " << (tr.lidar_first ? "true" : "false");
   if (std::isfinite(tr.stereo_scale))
-    js << ", \"stereo_scale\": " << tr.stereo_scale
-       << ", \"stereo_scale_sigma\": " << tr.stereo_scale_sigma;
-  if (std::isfinite(tr.stereo_yaw_deg)) js << ", \"stereo_yaw_deg\": " << tr.stereo_yaw_deg;
+    js << ", \"stereo_scale\": " << jsonNumber(tr.stereo_scale)
+       << ", \"stereo_scale_sigma\": " << jsonNumber(tr.stereo_scale_sigma);
+  if (std::isfinite(tr.stereo_yaw_deg))
+    js << ", \"stereo_yaw_deg\": " << jsonNumber(tr.stereo_yaw_deg);
   // null where not measured (doc/evaluation.md); before session 32 the keys were left out.
   js << ", \"disparity_offset_px\": " << jsonNumber(tr.disparity_offset_px)
      << ", \"disparity_offset_sigma_px\": " << jsonNumber(tr.disparity_offset_sigma_px)
@@ -265,26 +269,27 @@ std::string trialJson(const Args& args, const Estimated& estimated, const Trial&
      << (std::isfinite(tr.disparity_offset_px) ? (tr.disparity_offset_used ? "true" : "false")
                                                : "null");
   if (std::isfinite(tr.lidar_error_found[0])) {
-    js << ", \"lidar_error_found\": [";
+    double found[6];
     for (int i = 0; i < 6; ++i)
-      js << (i ? ", " : "")
-         << (i < 3 ? tr.lidar_error_found[i] * kDegPerRad : tr.lidar_error_found[i]);
-    js << "]";
+      found[i] = i < 3 ? tr.lidar_error_found[i] * kDegPerRad : tr.lidar_error_found[i];
+    js << ", \"lidar_error_found\": " << jsonArray(found, 6);
   }
   for (const auto& [key, w] : {std::pair{"lidar_weakest_direction", &tr.lidar_weakest},
                                std::pair{"stereo_weakest_direction", &tr.stereo_weakest}}) {
     if (!(w->ratio > 0)) continue;
-    js << ", \"" << key << "\": {\"ratio\": " << w->ratio << ", \"direction\": [";
-    for (int i = 0; i < 6; ++i) js << (i ? ", " : "") << w->direction[i];
-    js << "], \"in_words\": \"" << describeDirection(w->direction) << "\"}";
+    js << ", \"" << key << "\": {\"ratio\": " << jsonNumber(w->ratio)
+       << ", \"direction\": " << jsonArray(w->direction.data(), 6) << ", \"in_words\": \""
+       << describeDirection(w->direction) << "\"}";
   }
   if (tr.halves.tested)
-    js << ", \"halves\": {\"chi2\": " << tr.halves.chi2
-       << ", \"covariance_scale\": " << tr.halves.covariance_scale
-       << ", \"seconds\": " << tr.halves.seconds << "}";
-  js << ", \"seconds\": {\"preprocess\": " << tr.preprocess << ", \"solve\": " << tr.solve
-     << ", \"total\": " << tr.preprocess + tr.solve;
-  for (const auto& [stage, sec] : tr.stage_seconds) js << ", \"" << stage << "\": " << sec;
+    js << ", \"halves\": {\"chi2\": " << jsonNumber(tr.halves.chi2)
+       << ", \"covariance_scale\": " << jsonNumber(tr.halves.covariance_scale)
+       << ", \"seconds\": " << jsonNumber(tr.halves.seconds) << "}";
+  js << ", \"seconds\": {\"preprocess\": " << jsonNumber(tr.preprocess)
+     << ", \"solve\": " << jsonNumber(tr.solve)
+     << ", \"total\": " << jsonNumber(tr.preprocess + tr.solve);
+  for (const auto& [stage, sec] : tr.stage_seconds)
+    js << ", \"" << stage << "\": " << jsonNumber(sec);
   js << "}}";
   return js.str();
 }
@@ -368,8 +373,8 @@ bool report(const Args& args, const EvalData& d, const LidarStereoSettings& solv
        << ", \"mean_nees\": " << jsonNumber(mean_nees)
        << ", \"mean_nees_converged\": " << jsonNumber(mean_nees_converged)
        << ", \"mean_nees_model\": " << jsonNumber(mean_nees_model)
-       << ", \"seconds\": {\"preprocess\": " << median(pre) << ", \"solve\": " << median(sol)
-       << "}}}\n";
+       << ", \"seconds\": {\"preprocess\": " << jsonNumber(median(pre))
+       << ", \"solve\": " << jsonNumber(median(sol)) << "}}}\n";
     std::cout << "wrote " << args.json << "\n";
   }
   return true;

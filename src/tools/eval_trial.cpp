@@ -185,6 +185,7 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
   if (args.features >= 0) cs.stereo_from_features = args.features > 0;
   if (args.propagate_stereo >= 0) cs.propagate_stereo_into_lidar = args.propagate_stereo > 0;
   cs.lidar.search_step_deg = solver_settings.search_step_deg;
+  if (!args.coarse_gates.empty()) cs.lidar.coarse_gates = args.coarse_gates;
   if (args.rematch_deg != 0) {
     cs.rematch_deg = args.rematch_deg;
     cs.rematch_direction_deg = 5 * args.rematch_deg;
@@ -230,7 +231,8 @@ Eigen::Isometry3d solveCo(const Args& args, const EvalData& d,
   tr.lidar.cov = r.lidar.covariance_known ? r.lidar.covariance : Matrix6d::Constant(std::nan(""));
   tr.lidar.cov_stat = r.lidar.covariance_known ? r.lidar.covariance_statistical : tr.lidar.cov;
   tr.lidar.bias = r.lidar.bias_sensitivity;
-  tr.stereo.cov = r.stereo.covariance;
+  tr.stereo.cov =
+      r.stereo.covariance_known ? r.stereo.covariance : Matrix6d::Constant(std::nan(""));
   tr.stereo.err = poseError(r.stereo.T_right_left, d.rig.T_right_left);
   tr.message = r.message;
   tr.brightness = r.stereo.brightness;
@@ -257,7 +259,9 @@ void solveStereo(const Args& args, const EvalData& d, const std::vector<const Ke
   }
   tr.converged = r.converged;
   tr.iterations = r.iterations;
-  tr.stereo.cov = r.covariance;
+  // A solve that ended before its covariance (too few key points, ...) has none: NaN, left out
+  // of the NEES, as on the LiDAR side.
+  tr.stereo.cov = r.covariance_known ? r.covariance : Matrix6d::Constant(std::nan(""));
   tr.stereo.err = poseError(r.T_right_left, d.rig.T_right_left);
   if (std::getenv("TESCALIB_DEBUG"))
     std::fprintf(stderr, "photo-consistency ratio %.3f over %d key points\n", r.consistency_ratio,
@@ -355,13 +359,22 @@ Trial runTrial(const Args& args, int t, const LidarStereoSettings& solver_settin
     mwin.push_back(&d.keyframes[k]);
     if (k < d.kf_stereo_seconds.size()) window_stereo_seconds += d.kf_stereo_seconds[k];
   }
+  // Co-calibration re-rectifies the keyframes' clouds in place and keeps its SGBM matches to
+  // re-triangulate them: each trial starts from none, as if it were the only one (otherwise a
+  // trial's start depended on the trials before it and --first-trial did not reproduce it).
+  if (co_mode)
+    for (Keyframe* kf : mwin) {
+      kf->stereo = StereoCloud{};
+      kf->stereo_matched = StereoCloud{};
+      kf->T_right_left_used = kf->T_right_left_matched = Eigen::Isometry3d::Identity();
+    }
   std::vector<const Keyframe*> window;
   LidarMeshSettings ms_one = ms;
   ms_one.threads = 1;  // one keyframe per core instead
   parallelFor(static_cast<int>(mwin.size()), resolveThreads(ms.threads),
               [&](int k) { mwin[k]->mesh = buildLidarMesh(mwin[k]->scan, ms_one); });
   for (Keyframe* kfp : mwin) {
-    if (t == 0)
+    if (t == args.first_trial)
       std::printf("  keyframe %zu: %zu LiDAR faces in view\n", window.size(),
                   kfp->mesh.faces.size());
     window.push_back(kfp);

@@ -97,7 +97,11 @@ struct PhotometricResult {
   /// off (mean of +-x, +-y): near 1 when the pose matched nothing but texture.
   double consistency_ratio = std::numeric_limits<double>::quiet_NaN();
   std::vector<Eigen::Vector2d> brightness;  ///< per keyframe (a, b): I_r = e^a I_l + b
+  /// Without `covariance_known` a placeholder (identity), not an uncertainty.
   Matrix6d covariance = Matrix6d::Identity();
+  /// The full-resolution problem's covariance was computed (false when the solve ended before
+  /// it: too few key points, a bad initial guess, ...).
+  bool covariance_known = false;
   /// How the LiDAR extrinsic that gave the key points' depth moves this estimate: d[phi; tau] of
   /// T_right_left per d[phi; tau] of T_cam_lidar (the brightness parameters marginalised; first
   /// order, from the full-resolution problem). `covariance` is conditional on T_cam_lidar being
