@@ -4,12 +4,14 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <memory>
 #include <sstream>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -145,9 +147,17 @@ TEST(CalibrationIo, UnwritableFolderIsNamed) {
   std::string msg;
   EXPECT_FALSE(writeCalibrationFiles("/nonexistent_folder/result", StereoRig{}, someEstimate(),
                                      CalibrationFrames{}, &msg));
-  EXPECT_NE(msg.find("/nonexistent_folder/result.yaml"), std::string::npos) << msg;
-  EXPECT_NE(msg.find("No such file or directory"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("the folder \"/nonexistent_folder\" does not exist (nothing written)"),
+            std::string::npos)
+      << msg;
   TempDir tmp;
+  // BASE.yaml is BASE (the ~save service's callers wrote result.yaml.yaml).
+  ASSERT_TRUE(writeCalibrationFiles(tmp.str() + "/named.yaml", StereoRig{}, someEstimate(),
+                                    CalibrationFrames{}, &msg))
+      << msg;
+  EXPECT_TRUE(std::filesystem::exists(tmp.path / "named.yaml")) << msg;
+  EXPECT_TRUE(std::filesystem::exists(tmp.path / "named_calib.txt")) << msg;
+  EXPECT_FALSE(std::filesystem::exists(tmp.path / "named.yaml.yaml")) << msg;
   EXPECT_FALSE(writeCalibrationFiles(tmp.str() + "/", StereoRig{}, someEstimate(),
                                      CalibrationFrames{}, &msg));
   EXPECT_NE(msg.find("names a folder"), std::string::npos) << msg;
@@ -355,6 +365,112 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
   r = runCalibrate("--sequences " + tmp.str() + "/seq --init " + tmp.str() + "/missing.txt");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("missing.txt"), std::string::npos) << r.output;
+  // An --init file is checked as a sequence's calib.txt is: an all-zero Tr is refused up front
+  // (before, it was re-orthonormalised into some rotation and every frame was then rejected).
+  KittiOdometryCalib zero = readKittiOdometryCalib(tmp.str() + "/seq/calib.txt");
+  zero.Tr.setZero();
+  writeKittiOdometryCalib(tmp.str() + "/zero.txt", zero);
+  r = runCalibrate("--sequences " + tmp.str() + "/seq --init " + tmp.str() + "/zero.txt");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(
+      r.output.find("zero.txt: the LiDAR extrinsic (Tr, or R_rect_00 R | T) is not a rotation"),
+      std::string::npos)
+      << r.output;
+}
+
+TEST(EvalTool, RefusesValuesItWouldMisreadOrIgnore) {
+  // Each was accepted before: NaN starts wrote invalid JSON, switches took any integer, "8.5x3"
+  // read as 8x3, the LiDAR options were ignored outside stereo mode, trial seeds went past what
+  // a JSON reader holds exactly.
+  const std::pair<const char*, const char*> usage_errors[] = {
+      {"--init-rot-deg nan", "bad value 'nan' for --init-rot-deg"},
+      {"--init-trans-m inf", "bad value 'inf' for --init-trans-m"},
+      {"--stereo-yaw 7", "bad value '7' for --stereo-yaw"},
+      {"--cov-cells 8.5x3", "bad value '8.5x3' for --cov-cells"},
+      {"--cov-cells 0x3", "bad value '0x3' for --cov-cells"},
+      {"--lidar-sigma 0.1deg,0.02m", "bad value '0.1deg,0.02m' for --lidar-sigma"},
+      {"--mode stereo --lidar-sigma 0.1,-1", "bad value '0.1,-1' for --lidar-sigma"},
+      {"--first-trial -3", "bad value '-3' for --first-trial"},
+      {"--search-deg 45", "bad value '45' for --search-deg"},
+      {"--co-model-scale -2", "bad value '-2' for --co-model-scale"},
+      {"--coarse-gates 2,0", "bad value '2,0' for --coarse-gates"},
+      {"--lidar-rot-deg 1", "options of --mode stereo"},
+      {"--mode co --stages fine", "--stages is an option of --mode lidar_stereo"},
+      {"--seed 10000000001", "must stay below 2^53"},
+      {"--first-trial 2147483647 --trials 2", "must stay below 2^53"}};
+  for (const auto& [args, why] : usage_errors) {
+    const ToolRun u = runTool(TESCALIB_EVAL_BIN, std::string(args) + " --sequences x");
+    EXPECT_EQ(u.status, 2) << args;
+    EXPECT_NE(u.output.find(why), std::string::npos) << args << ": " << u.output;
+  }
+}
+
+TEST(EvalTool, ASolveWithoutACovarianceIsLeftOutOfTheNees) {
+  // The LiDAR extrinsic 100 m off leaves the left-right solve no key point: it returns before
+  // its covariance. That placeholder (identity) gave a NEES of 0.09 and sigma 57 deg / 1 m.
+  TempDir tmp;
+  writeDrive(tmp, 3, 8);
+  const ToolRun r = runTool(TESCALIB_EVAL_BIN, "--sequences " + tmp.str() +
+                                                   "/drive --mode stereo --window 1 --trials 1 "
+                                                   "--lidar-trans-m 100 --json " +
+                                                   tmp.str() + "/s.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::string j = readAll(tmp.str() + "/s.json");
+  EXPECT_NE(j.find("\"stereo\": {\"estimated\": true"), std::string::npos) << j;
+  EXPECT_NE(j.find("\"sigma_rot_deg\": [null, null, null]"), std::string::npos) << j;
+  EXPECT_NE(j.find("\"nees\": null"), std::string::npos) << j;
+  EXPECT_NE(j.find("\"mean_nees\": null"), std::string::npos) << j;
+  EXPECT_EQ(j.find("57.29"), std::string::npos) << j;
+}
+
+TEST(EvalTool, ACoTrialDoesNotDependOnTheTrialsBeforeIt) {
+  // Co-calibration keeps its SGBM matches in the keyframes; the tool shared the keyframes
+  // between trials, so trial 1 re-triangulated trial 0's matches (0 matched again instead of 2;
+  // 12.8 cm apart with --rematch-deg 10) and --first-trial 1 did not reproduce it.
+  TempDir tmp;
+  SimOptions o;
+  o.frames = 6;
+  o.seed = 3;
+  o.width = 640, o.height = 300;
+  Simulator(o).writeSequence(tmp.str() + "/drive");
+  const std::string common =
+      "--sequences " + tmp.str() + "/drive --mode co --window 2 --rematch-deg 10 --seed 1 --json ";
+  const ToolRun both = runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/both.json --trials 2");
+  ASSERT_EQ(both.status, 0) << both.output;
+  const ToolRun one =
+      runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/one.json --trials 1 --first-trial 1");
+  ASSERT_EQ(one.status, 0) << one.output;
+  // Trial 1's object: the second of the two-trial run, the only one of the other.
+  auto trial = [](const std::string& j, int index) {
+    size_t at = j.find("\"trials\": [");
+    for (int i = 0; i <= index; ++i) at = j.find("{\"seed\": ", at + 1);
+    const size_t end = j.find("\"seconds\": {", at);
+    return j.substr(at, end - at);
+  };
+  const std::string a = trial(readAll(tmp.str() + "/both.json"), 1);
+  const std::string b = trial(readAll(tmp.str() + "/one.json"), 0);
+  ASSERT_NE(a.find("\"seed\": 1000004"), std::string::npos) << a;
+  ASSERT_NE(b.find("\"seed\": 1000004"), std::string::npos) << b;
+  // The same SGBM work and the same estimates (to the solvers' thread-order rounding).
+  auto rematches = [](const std::string& t) {
+    const size_t at = t.find("\"rematches\": ");
+    return at == std::string::npos ? -1 : std::atoi(t.c_str() + at + 13);
+  };
+  EXPECT_EQ(rematches(a), rematches(b)) << a << "\n" << b;
+  EXPECT_GE(rematches(a), 0) << a;
+  auto errors = [](const std::string& t) {
+    std::vector<double> v;
+    for (size_t at = t.find("_err_"); at != std::string::npos; at = t.find("_err_", at + 1)) {
+      double x[3];
+      if (std::sscanf(t.c_str() + t.find('[', at), "[%lf, %lf, %lf]", &x[0], &x[1], &x[2]) == 3)
+        v.insert(v.end(), x, x + 3);
+    }
+    return v;
+  };
+  const std::vector<double> ea = errors(a), eb = errors(b);
+  ASSERT_EQ(ea.size(), 12u) << a;  // rot and trans errors of both extrinsics
+  ASSERT_EQ(eb.size(), ea.size()) << b;
+  for (size_t i = 0; i < ea.size(); ++i) EXPECT_NEAR(ea[i], eb[i], 1e-6) << i;
 }
 
 TEST(EvalTool, WritesTheJsonOfTheContract) {

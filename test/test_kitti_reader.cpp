@@ -214,6 +214,8 @@ TEST(KittiReader, OdometryLayoutRoundTrip) {
   EXPECT_EQ(seq.frameId(3), 4);
   EXPECT_NEAR(seq.stamp(3), 0.4, 1e-9);
   EXPECT_EQ(seq.keyframes(0.5), (std::vector<size_t>{0, 4}));  // frame 5 is index 4
+  // ... and said (tescalib_check_data prints it).
+  EXPECT_EQ(seq.incompleteFrames(), "7 left images, 6 right images, 7 scans");
   EXPECT_EQ(seq.rig().left.width, 640);
   EXPECT_NEAR(seq.rig().T_cam_lidar.translation().x(), 0.02 + 0.06, 1e-9);
   EXPECT_NEAR(seq.rig().T_right_left.translation().x(), -0.54, 1e-9);
@@ -357,6 +359,28 @@ TEST(KittiReaderErrors, WrongImageSize) {
               cv::Mat(200, 600, CV_8UC3, cv::Scalar::all(0)));
   const KittiSequence seq(tmp.str());
   expectDataError([&] { seq.load(1); }, {"image_3/000001.png", "600x200", "expected 640x240"});
+}
+
+TEST(KittiReaderErrors, AWindowOfFoldersMustShareOneCamera) {
+  // The same calibration, images of another size: the keyframes would be used with the first
+  // folder's intrinsics and size.
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str() + "/a", 2);
+  tescalib_test::writeSyntheticSequence(tmp.str() + "/b", 2, 320, 240);
+  tescalib_test::writeSyntheticSequence(tmp.str() + "/c", 2);
+  EXPECT_EQ(openSequences({tmp.str() + "/a", tmp.str() + "/c"}).size(), 2u);
+  expectDataError(
+      [&] {
+        openSequences({tmp.str() + "/a", tmp.str() + "/b"});
+      },
+      {"/b: images of 320x240", "640x240", "one camera"});
+  // A stamp file shorter than the frames: those frames are left out, and said.
+  std::ofstream(tmp.str() + "/c/times.txt") << "0.0\n";
+  const KittiSequence c(tmp.str() + "/c");
+  EXPECT_EQ(c.size(), 1u);
+  EXPECT_EQ(c.incompleteFrames(),
+            "2 left images, 2 right images, 2 scans; 1 frame without a stamp");
+  EXPECT_EQ(KittiSequence(tmp.str() + "/a").incompleteFrames(), "");
 }
 
 TEST(KittiReaderErrors, FolderWithoutFrames) {

@@ -104,11 +104,21 @@ std::string calibrationBaseProblem(const std::string& base) {
   return "";
 }
 
-bool writeCalibrationFiles(const std::string& base, const StereoRig& rig, const OnlineEstimate& e,
+bool writeCalibrationFiles(const std::string& path, const StereoRig& rig, const OnlineEstimate& e,
                            const CalibrationFrames& frames, std::string* message) {
   namespace fs = std::filesystem;
-  if (const std::string problem = calibrationBaseProblem(base); !problem.empty()) {
+  if (const std::string problem = calibrationBaseProblem(path); !problem.empty()) {
     *message = problem;
+    return false;
+  }
+  // "result.yaml" means BASE "result" (not result.yaml.yaml).
+  const std::string yaml = ".yaml";
+  std::string base = path;
+  if (base.size() > yaml.size() && base.compare(base.size() - yaml.size(), yaml.size(), yaml) == 0)
+    base.resize(base.size() - yaml.size());
+  const fs::path folder = fs::path(base).parent_path();
+  if (!folder.empty() && !fs::is_directory(folder)) {
+    *message = "the folder \"" + folder.string() + "\" does not exist (nothing written)";
     return false;
   }
   const std::pair<std::string, std::string> files[3] = {

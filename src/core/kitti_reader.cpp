@@ -221,6 +221,13 @@ void checkRig(const StereoRig& rig, const KittiOdometryCalib& calib, const std::
 }
 }  // namespace
 
+StereoRig readCheckedOdometryRig(const std::string& path) {
+  const KittiOdometryCalib calib = readKittiOdometryCalib(path);
+  const StereoRig rig = rigFromOdometryCalib(calib);
+  checkRig(rig, calib, path);
+  return rig;
+}
+
 LidarScan readVelodyneBin(const std::string& path) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw DataError(path + ": cannot open LiDAR scan");
@@ -335,9 +342,10 @@ void KittiSequence::openOdometry() {
   rig_ = rigFromOdometryCalib(calib_);
   checkRig(rig_, calib_, (d / "calib.txt").string());
   int digits = 6;
-  const auto ids = intersect(intersect(listNumbered(d / "image_2", ".png", &digits),
-                                       listNumbered(d / "image_3", ".png", nullptr)),
-                             listNumbered(d / "velodyne", ".bin", nullptr));
+  const auto left = listNumbered(d / "image_2", ".png", &digits);
+  const auto right = listNumbered(d / "image_3", ".png", nullptr);
+  const auto scans = listNumbered(d / "velodyne", ".bin", nullptr);
+  const auto ids = intersect(intersect(left, right), scans);
   name_digits_ = digits;
   const std::string times_path = (d / "times.txt").string();
   std::ifstream times(times_path);
@@ -360,6 +368,7 @@ void KittiSequence::openOdometry() {
     frame_ids_.push_back(id);
     stamps_.push_back(all[id]);
   }
+  noteIncomplete(left.size(), right.size(), scans.size(), ids.size());
 }
 
 void KittiSequence::openRaw() {
@@ -409,9 +418,10 @@ void KittiSequence::openRaw() {
     rig_.left.height = rig_.right.height = static_cast<int>(size->second[1]);
   }
   int digits = 10;
-  const auto ids = intersect(intersect(listNumbered(d / "image_02" / "data", ".png", &digits),
-                                       listNumbered(d / "image_03" / "data", ".png", nullptr)),
-                             listNumbered(d / "velodyne_points" / "data", ".bin", nullptr));
+  const auto left = listNumbered(d / "image_02" / "data", ".png", &digits);
+  const auto right = listNumbered(d / "image_03" / "data", ".png", nullptr);
+  const auto scans = listNumbered(d / "velodyne_points" / "data", ".bin", nullptr);
+  const auto ids = intersect(intersect(left, right), scans);
   name_digits_ = digits;
   // Prefer the camera stamps (the images define the frame); fall back to the LiDAR's.
   std::string ts_path = (d / "image_02" / "timestamps.txt").string();
@@ -431,6 +441,17 @@ void KittiSequence::openRaw() {
     frame_ids_.push_back(id);
     stamps_.push_back(all[id]);
   }
+  noteIncomplete(left.size(), right.size(), scans.size(), ids.size());
+}
+
+void KittiSequence::noteIncomplete(size_t left, size_t right, size_t scans, size_t complete) {
+  const size_t unstamped = complete - frame_ids_.size();
+  if (left == complete && right == complete && scans == complete && unstamped == 0) return;
+  incomplete_ = std::to_string(left) + " left images, " + std::to_string(right) +
+                " right images, " + std::to_string(scans) + " scans";
+  if (unstamped)
+    incomplete_ += "; " + std::to_string(unstamped) + (unstamped == 1 ? " frame" : " frames") +
+                   " without a stamp";
 }
 
 void KittiSequence::checkImageSizes() {
@@ -515,11 +536,20 @@ std::vector<std::unique_ptr<KittiSequence>> openSequences(const std::vector<std:
     seqs.push_back(std::make_unique<KittiSequence>(dir));
     const StereoRig& a = seqs.front()->rig();
     const StereoRig& b = seqs.back()->rig();
+    auto same = [](const CameraIntrinsics& p, const CameraIntrinsics& q) {
+      return std::fabs(p.fx - q.fx) <= 1e-3 && std::fabs(p.fy - q.fy) <= 1e-3 &&
+             std::fabs(p.cx - q.cx) <= 1e-3 && std::fabs(p.cy - q.cy) <= 1e-3;
+    };
     if (poseError(a.T_cam_lidar, b.T_cam_lidar).norm() > 1e-4 ||
-        poseError(a.T_right_left, b.T_right_left).norm() > 1e-4 ||
-        std::fabs(a.left.fx - b.left.fx) > 1e-3)
+        poseError(a.T_right_left, b.T_right_left).norm() > 1e-4 || !same(a.left, b.left) ||
+        !same(a.right, b.right))
       throw DataError(dir + ": calibration differs from " + dirs.front() +
                       " (a window must share one calibration)");
+    if (a.left.width != b.left.width || a.left.height != b.left.height)
+      throw DataError(dir + ": images of " + std::to_string(b.left.width) + "x" +
+                      std::to_string(b.left.height) + ", " + dirs.front() + "'s are " +
+                      std::to_string(a.left.width) + "x" + std::to_string(a.left.height) +
+                      " (a window must share one camera)");
   }
   return seqs;
 }

@@ -289,7 +289,11 @@ void Simulator::writeSequence(const std::string& dir) const {
          << "sun_direction_world: [" << world_->sun.x() << ", " << world_->sun.y() << ", "
          << world_->sun.z() << "]\n"
          << "poses: cam0 pose of each frame in the cam0 frame of frame 0 (KITTI convention)\n"
-         << "lidar_motion: none (each scan is taken at its frame's pose)\n";
+         << "lidar_motion: "
+         << (options_.lidar_sweep
+                 ? "swept (each scan over its 0.1 s revolution, clockwise, facing forward at the "
+                   "camera trigger: a raw, motion-skewed scan)\n"
+                 : "none (each scan is taken at its frame's pose)\n");
   }
   std::mutex error_mutex;
   std::string error;

@@ -84,12 +84,15 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
   // (both cameras' positions measured from cam0; stereoFromCameraInfo takes their difference).
   const Eigen::Vector3d p3_left = seq.calib().P[2].col(3), p3_right = seq.calib().P[3].col(3);
   size_t written = 0;
+  double last_written = 0;  // the previous folder's last written stamp, before the offset
   for (size_t si = 0; si < seqs.size(); ++si) {
     const KittiSequence& cur = *seqs[si];
-    if (si > 0 && cur.layout() == KittiLayout::kOdometry)
-      offset = seqs[si - 1]->stamp(seqs[si - 1]->size() - 1) + offset + 1.0 - cur.stamp(0);
+    // Every folder after the first starts 1 s after the last frame written (whatever the
+    // layout: raw drives' own epoch stamps would otherwise overlap or go backwards).
+    if (si > 0) offset += last_written + 1.0 - cur.stamp(0);
     const size_t n =
         o.max_frames < 0 ? cur.size() : std::min(cur.size(), static_cast<size_t>(o.max_frames));
+    if (n > 0) last_written = cur.stamp(n - 1);
     for (size_t i = 0; i < n; ++i) {
       const Frame f = cur.load(i);
       const ros::Time stamp = bagStamp(offset, f.stamp, o.stamp_offset_nsec);

@@ -44,7 +44,7 @@ struct Args {
   int window = 0;  // 0: 20 keyframes (lidar_stereo), 10 (co, the paper's batch)
   std::string init;
   double perturb_rot_deg = 0, perturb_trans_m = 0;
-  unsigned seed = 1;
+  uint64_t seed = 1;
   int deskew = -1;  // -1: as the data say (KittiSequence::sweptScans)
   std::string out;
   std::string lidar_frame;  // empty: the bag's cloud frame, velo_link for folders
@@ -94,8 +94,8 @@ void usage() {
          "--overlay FILE.png: the last keyframe's left image twice, the scan drawn with the\n"
          "  initial T_cam_lidar (top) and with the estimate (bottom; without one, the last\n"
          "  solve's, labelled NOT TRUSTED), to look at the alignment without ROS.\n"
-         "Exit status: 0 when an estimate converged, 1 when none did or the data are unusable,\n"
-         "2 on a usage error.\n";
+         "Exit status: 0 when an estimate converged, 1 when none did, the data are unusable or\n"
+         "--overlay could not be written, 2 on a usage error.\n";
 }
 
 bool parse(int argc, char** argv, Args* a) {
@@ -113,7 +113,7 @@ bool parse(int argc, char** argv, Args* a) {
     else if (k == "--perturb-trans-m")
       a->perturb_trans_m = cli::toDouble(v);
     else if (k == "--seed")
-      a->seed = static_cast<unsigned>(cli::toSeed(v));
+      a->seed = cli::toSeed(v);
     else if (k == "--deskew") {
       a->deskew = cli::toInt(v);
       if (a->deskew != 0 && a->deskew != 1) throw std::invalid_argument(v);
@@ -177,6 +177,10 @@ bool parse(int argc, char** argv, Args* a) {
       return false;
     }
   }
+  if (const std::string folder = cli::missingFolder(a->overlay); !folder.empty()) {
+    std::cerr << "tescalib_calibrate: --overlay: the folder \"" << folder << "\" does not exist\n";
+    return false;
+  }
   return true;
 }
 
@@ -225,6 +229,7 @@ struct Session {
   OnlineSettings settings;
   std::unique_ptr<OnlineCalibrator> calibrator;  // made once the initial guess is known
   Eigen::Isometry3d T_initial, T_reference, T_reference_stereo;
+  std::string reference = "the data's calibration";  // what T_reference is, for the printouts
   bool perturbed = false;
   int keyframes = 0, rejected = 0, solves = 0, published = 0;
   std::vector<std::pair<int, double>> published_nees;  ///< (keyframes used, NEES), --perturb-*
@@ -239,6 +244,7 @@ struct Session {
   void start(StereoRig rig, const Args& args, const std::string& source) {
     T_reference = rig.T_cam_lidar;
     T_reference_stereo = rig.T_right_left;
+    if (!args.init.empty()) reference = "the --init calibration";
     perturbed = args.perturb_rot_deg > 0 || args.perturb_trans_m > 0;
     if (perturbed) {
       std::mt19937_64 rng(args.seed);
@@ -252,8 +258,8 @@ struct Session {
                 rig.left.height, rig.left.fx, rig.baseline(),
                 settings.deskew ? ", scans de-skewed" : "");
     if (perturbed)
-      std::printf("initial T_cam_lidar %s from the data's calibration\n",
-                  pose6(poseError(rig.T_cam_lidar, T_reference)).c_str());
+      std::printf("initial T_cam_lidar %s from %s\n",
+                  pose6(poseError(rig.T_cam_lidar, T_reference)).c_str(), reference.c_str());
     calibrator = std::make_unique<OnlineCalibrator>(rig, settings);
   }
 
@@ -332,11 +338,12 @@ struct Session {
 
   /// --overlay: the last keyframe's left image with the scan drawn with the initial guess (top)
   /// and with `T` (bottom), `label` saying which estimate that is.
-  void writeOverlay(const std::string& path, const Eigen::Isometry3d& T,
+  /// False when the file could not be written.
+  bool writeOverlay(const std::string& path, const Eigen::Isometry3d& T,
                     const std::string& label) const {
     if (last_keyframe.left.empty()) {
       std::printf("no keyframe: no overlay written\n");
-      return;
+      return true;
     }
     const CameraIntrinsics& cam = calibrator->rig().left;
     cv::Mat before = last_keyframe.left.clone(), after = last_keyframe.left.clone();
@@ -346,10 +353,16 @@ struct Session {
     drawStatusText({label}, &after);
     cv::Mat both;
     cv::vconcat(before, after, both);
-    if (cv::imwrite(path, both))
+    bool written = false;
+    try {
+      written = cv::imwrite(path, both);
+    } catch (const cv::Exception&) {  // an unknown extension
+    }
+    if (written)
       std::printf("overlay written to %s\n", path.c_str());
     else
       std::cerr << "tescalib_calibrate: cannot write " << path << "\n";
+    return written;
   }
 
   /// --perturb-*: the published estimates' NEES (LiDAR extrinsic) against the data's
@@ -367,9 +380,9 @@ struct Session {
         full += n, ++n_full;
     }
     std::printf(
-        "NEES of the %zu published T_cam_lidar against the data's calibration (6 DoF, "
+        "NEES of the %zu published T_cam_lidar against %s (6 DoF, "
         "ideal mean 6; successive estimates share keyframes): mean %.2f",
-        published_nees.size(), all / published_nees.size());
+        published_nees.size(), reference.c_str(), all / published_nees.size());
     if (n_part)
       std::printf("; from fewer than %d keyframes %.2f (%d)", settings.window_size, part / n_part,
                   n_part);
@@ -422,15 +435,16 @@ struct Session {
     std::printf("change from the initial guess: %s\n",
                 pose6(poseError(e->T_cam_lidar, T_initial)).c_str());
     if (perturbed) {
-      std::printf("error against the data's calibration: %s\n",
+      std::printf("error against %s: %s\n", reference.c_str(),
                   pose6(poseError(e->T_cam_lidar, T_reference)).c_str());
       if (e->stereo_estimated)
-        std::printf("T_right_left against the data's calibration: %s\n",
+        std::printf("T_right_left against %s: %s\n", reference.c_str(),
                     pose6(poseError(e->T_right_left, T_reference_stereo)).c_str());
     }
-    if (!args.overlay.empty())
-      writeOverlay(args.overlay, e->T_cam_lidar,
-                   "estimate from " + std::to_string(e->keyframes_used) + " keyframes");
+    if (!args.overlay.empty() &&
+        !writeOverlay(args.overlay, e->T_cam_lidar,
+                      "estimate from " + std::to_string(e->keyframes_used) + " keyframes"))
+      return 1;
     if (!args.out.empty()) {
       std::string msg;
       CalibrationFrames frames;
@@ -447,7 +461,7 @@ struct Session {
 
 /// The extrinsics of a KITTI calib.txt (--init) over the rig's; its intrinsics are not used.
 void applyInit(const std::string& path, StereoRig* rig) {
-  const StereoRig init = rigFromOdometryCalib(readKittiOdometryCalib(path));
+  const StereoRig init = readCheckedOdometryRig(path);
   if (std::fabs(init.left.fx - rig->left.fx) > 1e-3)
     std::printf("note: %s has fx %.3f, the data %.3f: only its extrinsics are used\n", path.c_str(),
                 init.left.fx, rig->left.fx);

@@ -22,10 +22,15 @@ int main(int argc, char** argv) {
       "  predicts the stereo disparity (SGBM minus the LiDAR-predicted disparity by depth) and\n"
       "  whether the right image's rows are where that calibration puts them, and the pair's\n"
       "  contrast, clipped pixels and sharpness as the online node's image check sees them.\n";
-  if (argc < 2 || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help") {
+  if (argc < 2) {
     std::cout << usage;
-    return argc < 2 ? 2 : 0;
+    return 2;
   }
+  for (int a = 1; a < argc; ++a)
+    if (std::string(argv[a]) == "-h" || std::string(argv[a]) == "--help") {
+      std::cout << usage;
+      return 0;
+    }
   for (int a = 1; a < argc; ++a)
     if (std::string(argv[a]).rfind("--", 0) == 0) {
       std::cerr << "tescalib_check_data: unknown option " << argv[a] << " (give folders only)\n"
@@ -50,6 +55,10 @@ int main(int argc, char** argv) {
                 << seq.size() << " frames, " << kf.size() << " keyframes (>= 0.5 s apart), "
                 << rig.left.width << "x" << rig.left.height << ", fx " << rig.left.fx
                 << ", baseline " << rig.baseline() << " m\n"
+                << (seq.incompleteFrames().empty()
+                        ? ""
+                        : "  note: frames left out, their files or stamp incomplete (" +
+                              seq.incompleteFrames() + ")\n")
                 << "  T_cam_lidar: rotation vector [" << rpy.transpose() << "] deg, translation ["
                 << rig.T_cam_lidar.translation().transpose() << "] m\n"
                 << "  frame " << f.index << ": " << f.scan.size() << " LiDAR points, "

@@ -9,10 +9,13 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "cli.h"
+#include "tescalib/core/error.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/keyframe.h"
 #include "tescalib/core/lidar_stereo_solver.h"
@@ -83,10 +86,17 @@ int main(int argc, char** argv) {
       if (a == "--scenario") {
         if (!sim::parseScenario(v, &o.scenario)) throw std::invalid_argument("--scenario " + v);
       } else if (a == "--seed") {
-        o.seed = number([](const std::string& t, size_t* used) { return std::stoull(t, used); });
+        try {
+          o.seed = cli::toSeed(v);
+        } catch (const std::exception&) {
+          throw std::invalid_argument("--seed needs a whole number from 0 to 2^53, not '" + v +
+                                      "'");
+        }
       } else if (a == "--keyframes") {
         keyframes = number(to_int);
-        if (keyframes < 1) throw std::invalid_argument("--keyframes " + v);
+        // The drive is 5 frames a keyframe; the simulator takes at most 1e6 frames.
+        if (keyframes < 1 || keyframes > 200000)
+          throw std::invalid_argument("--keyframes must be 1 to 200000, not " + v);
       } else if (a == "--keep-rings") {
         keep_rings = number(to_int);
         if (keep_rings < 1) throw std::invalid_argument("--keep-rings " + v);
@@ -108,7 +118,14 @@ int main(int argc, char** argv) {
     return 2;
   }
   o.frames = 5 * (keyframes - 1) + 1;
-  const Simulator sim(o);
+  std::unique_ptr<Simulator> sim_ptr;
+  try {
+    sim_ptr = std::make_unique<Simulator>(o);
+  } catch (const DataError& e) {
+    std::cerr << "tescalib_error_budget: " << e.what() << "\n";
+    return 1;
+  }
+  const Simulator& sim = *sim_ptr;
   const StereoRig& rig = sim.rig();
   const Eigen::Isometry3d T = rig.T_cam_lidar;
   const double fb = rig.left.fx * rig.baseline();

@@ -10,6 +10,7 @@
 #include <ros/time.h>
 #include <rosbag/exceptions.h>
 
+#include "cli.h"
 #include "tescalib/core/error.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/ros/kitti_bag_writer.h"
@@ -22,8 +23,10 @@ void usage() {
          "  DIR: a KITTI odometry sequence (calib.txt, times.txt, image_2/, image_3/,\n"
          "       velodyne/) or a KITTI raw drive folder (image_02/data, image_03/data,\n"
          "       velodyne_points/data; calib_*.txt in it or in its parent).\n"
-         "  Several DIRs (one rig) are written one after the other, 1 s apart. Odometry\n"
-         "  stamps (from 0 s) are shifted to start at 1317384000 s (ROS times must be positive).\n"
+         "  Several DIRs (one rig: the same calibration and image size) are written one after\n"
+         "  the other, each starting 1 s after the last frame written of the one before. The\n"
+         "  first DIR's stamps are kept (a raw drive's) or, odometry stamps (from 0 s), shifted\n"
+         "  to start at 1317384000 s (ROS times must be positive).\n"
          "  Topics: /kitti/velo/pointcloud (velo_link; x y z intensity ring),\n"
          "          /kitti/camera_color_{left,right}/{image_raw,camera_info} (P = the data's\n"
          "          P2 / P3), /tf_static (base_link -> velo_link -> cameras)\n"
@@ -99,21 +102,19 @@ int main(int argc, char** argv) {
   }
   ros::Time::init();
   try {
-    std::vector<std::unique_ptr<tescalib::KittiSequence>> seqs;
+    const std::vector<std::string> dirs = tescalib::cli::splitList(in);
+    if (dirs.empty()) {
+      std::cerr << "kitti_to_bag: --in names no folder\n";
+      return 2;
+    }
+    // One bag holds one rig: openSequences refuses folders of different calibrations or sizes.
+    const auto seqs = tescalib::openSequences(dirs);
     std::vector<const tescalib::KittiSequence*> ptrs;
-    std::stringstream list(in);
-    std::string dir;
-    while (std::getline(list, dir, ',')) {
-      if (dir.empty()) continue;
-      seqs.push_back(std::make_unique<tescalib::KittiSequence>(dir));
-      ptrs.push_back(seqs.back().get());
-      const auto& seq = *seqs.back();
-      std::cout << "kitti_to_bag: " << seq.size() << " frames from " << dir << " ("
-                << (seq.layout() == tescalib::KittiLayout::kOdometry ? "odometry" : "raw")
-                << " layout, " << seq.rig().left.width << "x" << seq.rig().left.height << ")\n";
-      if (tescalib::poseError(seq.rig().T_cam_lidar, ptrs.front()->rig().T_cam_lidar).norm() > 1e-4)
-        throw tescalib::DataError(dir + ": calibration differs from " + ptrs.front()->dir() +
-                                  " (one bag holds one rig)");
+    for (const auto& seq : seqs) {
+      ptrs.push_back(seq.get());
+      std::cout << "kitti_to_bag: " << seq->size() << " frames from " << seq->dir() << " ("
+                << (seq->layout() == tescalib::KittiLayout::kOdometry ? "odometry" : "raw")
+                << " layout, " << seq->rig().left.width << "x" << seq->rig().left.height << ")\n";
     }
     tescalib::writeKittiBag(ptrs, out, options, [](size_t i, size_t n) {
       if (i == n || i % 50 == 0) std::cout << "  " << i << "/" << n << " frames\n";

@@ -2,6 +2,7 @@
 // odometry layout (see include/tescalib/core/simulator.h and --help).
 #include <chrono>
 #include <iostream>
+#include <limits>
 #include <string>
 
 #include "tescalib/core/error.h"
@@ -44,10 +45,18 @@ int main(int argc, char** argv) {
         if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
         return argv[++i];
       };
-      auto integer = [&](const std::string& v) -> long long {
+      // A whole number; `max_int` keeps it within an int (the options that are ints).
+      auto integer = [&](const std::string& v, bool max_int = true) -> long long {
         size_t used = 0;
-        const long long x = std::stoll(v, &used);
+        long long x = 0;
+        try {
+          x = std::stoll(v, &used);
+        } catch (const std::out_of_range&) {
+          throw std::invalid_argument(a + ": '" + v + "' is out of range");
+        }
         if (used != v.size()) throw std::invalid_argument(a + ": '" + v + "' is not an integer");
+        if (max_int && (x > std::numeric_limits<int>::max() || x < std::numeric_limits<int>::min()))
+          throw std::invalid_argument(a + ": '" + v + "' is out of range");
         return x;
       };
       if (a == "--scenario") {
@@ -60,7 +69,7 @@ int main(int argc, char** argv) {
         options.frames = static_cast<int>(integer(next()));
         have_frames = true;
       } else if (a == "--seed") {
-        const long long s = integer(next());
+        const long long s = integer(next(), false);
         if (s < 0) throw std::invalid_argument("--seed must be non-negative");
         options.seed = static_cast<uint64_t>(s);
         have_seed = true;

@@ -33,8 +33,9 @@ KittiOdometryCalib calibrationAsKitti(const StereoRig& rig, const OnlineEstimate
 std::string calibrationBaseProblem(const std::string& base);
 
 /// Writes the three files BASE.yaml, BASE_calib.txt and BASE_static_tf.launch, as a set: each to
-/// a temporary file beside it first, renamed only when all three were written. `message`: the
-/// files written, or what went wrong (with the system's reason).
+/// a temporary file beside it first, renamed only when all three were written. A trailing
+/// ".yaml" of `base` is dropped (result.yaml: BASE result). `message`: the files written, or what
+/// went wrong (a folder that does not exist, or the system's reason).
 bool writeCalibrationFiles(const std::string& base, const StereoRig& rig, const OnlineEstimate& e,
                            const CalibrationFrames& frames, std::string* message);
 

@@ -47,6 +47,11 @@ void writeKittiOdometryCalib(const std::string& path, const KittiOdometryCalib& 
 /// Image sizes are left 0 here; the reader fills them from the images.
 StereoRig rigFromOdometryCalib(const KittiOdometryCalib& calib);
 
+/// readKittiOdometryCalib + rigFromOdometryCalib, checked as a sequence's calibration is
+/// (positive focal lengths, a rotation in Tr, a rigid left->right transform with a baseline):
+/// throws DataError naming what is wrong. For a calibration given on its own (an initial guess).
+StereoRig readCheckedOdometryRig(const std::string& path);
+
 /// Reads a KITTI velodyne .bin (float32 x y z reflectance). Throws DataError on a missing or
 /// truncated file. Rings are recovered with recoverRings().
 LidarScan readVelodyneBin(const std::string& path);
@@ -87,6 +92,11 @@ class KittiSequence {
   /// readme), nor the generator's default output (every beam from the pose at the stamp).
   bool sweptScans() const;
 
+  /// Frames left out because one of their files or their stamp is missing: "" when every
+  /// left image, right image and scan has the other two and a stamp, otherwise what each source
+  /// holds ("12 left images, 10 right images, 12 scans; 2 frames without a stamp").
+  const std::string& incompleteFrames() const { return incomplete_; }
+
   /// Indices of keyframes at least `min_dt` seconds apart (first frame always taken).
   std::vector<size_t> keyframes(double min_dt = 0.5) const;
 
@@ -99,6 +109,7 @@ class KittiSequence {
   void openOdometry();
   void openRaw();
   void checkImageSizes();
+  void noteIncomplete(size_t left, size_t right, size_t scans, size_t complete);
 
   std::string dir_;
   KittiLayout layout_ = KittiLayout::kOdometry;
@@ -107,11 +118,12 @@ class KittiSequence {
   std::vector<int> frame_ids_;
   std::vector<double> stamps_;
   int name_digits_ = 6;
+  std::string incomplete_;
 };
 
 /// Opens sequences that form one calibration window: throws DataError when one cannot be opened
-/// or its calibration differs from the first one's (extrinsics by more than 1e-4, focal length by
-/// more than 1e-3 px).
+/// or its rig differs from the first one's (extrinsics by more than 1e-4, either camera's
+/// intrinsics by more than 1e-3 px, or the image size).
 std::vector<std::unique_ptr<KittiSequence>> openSequences(const std::vector<std::string>& dirs);
 
 }  // namespace tescalib
