@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <set>
+#include <vector>
 
 #include <cstring>
 
@@ -163,6 +164,28 @@ TEST(KittiToBag, ConvertsGeneratedSequences) {
   EXPECT_LT(poseError(back.T_right_left, sim.rig().T_right_left).norm(), 1e-9);
 }
 
+TEST(KittiToBag, EachFolderStartsASecondAfterTheLastFrameWritten) {
+  // Two folders of 4 frames (0.1 s apart), 2 written of each: the second starts 1 s after the
+  // first's last written frame (it counted from the folder's last frame: 1.2 s).
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str() + "/a", 4);
+  tescalib_test::writeSyntheticSequence(tmp.str() + "/b", 4);
+  const KittiSequence a(tmp.str() + "/a"), b(tmp.str() + "/b");
+  KittiBagOptions o;
+  o.max_frames = 2;
+  writeKittiBag({&a, &b}, tmp.str() + "/ab.bag", o);
+  rosbag::Bag bag(tmp.str() + "/ab.bag", rosbag::bagmode::Read);
+  std::vector<double> stamps;
+  for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery(o.velo_topic)))
+    stamps.push_back(m.instantiate<sensor_msgs::PointCloud2>()->header.stamp.toSec() -
+                     o.odometry_start_stamp);
+  ASSERT_EQ(stamps.size(), 4u);
+  EXPECT_NEAR(stamps[0], 0.0, 1e-6);
+  EXPECT_NEAR(stamps[1], 0.1, 1e-6);
+  EXPECT_NEAR(stamps[2], 1.1, 1e-6);
+  EXPECT_NEAR(stamps[3], 1.2, 1e-6);
+}
+
 TEST(Conversions, BaselineFromKitti2bagCameraInfos) {
   // kitti2bag writes KITTI's P_rect_02 / P_rect_03 (2011_09_26 here) into camera_info: both
   // measured from cam0. The pair's translation is K^-1 (P3[:,3] - P2[:,3]), 0.5327 m with 2.8 mm
@@ -210,6 +233,14 @@ TEST(Conversions, BaselineFromKitti2bagCameraInfos) {
   // Left and right swapped: the "right" camera sits to the left.
   EXPECT_FALSE(ros_conv::stereoFromCameraInfo(right, left, true, &rig, &err));
   EXPECT_NE(err.find("must sit to the right of the left one"), std::string::npos) << err;
+  // A right camera_info without its baseline next to a KITTI-style left one (P[3] of its offset
+  // from the reference camera): not a 6 cm baseline.
+  {
+    sensor_msgs::CameraInfo l = left, r = right;
+    l.P[3] = 7.215377e+02 * 0.06, r.P[3] = 0;
+    EXPECT_FALSE(ros_conv::stereoFromCameraInfo(l, r, true, &rig, &err));
+    EXPECT_NE(err.find("the right camera_info holds no baseline"), std::string::npos) << err;
+  }
   // A vertical pair (KITTI-style P: both measured from a reference camera, the right one 0.5 m
   // below and 6 cm beside the left one) cannot be matched along rows.
   left.P[3] = 7.215377e+02 * 0.2;

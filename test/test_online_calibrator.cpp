@@ -833,6 +833,33 @@ TEST(OnlineCalibratorGenerated, AKeyframeWithoutAStereoCloudIsRejected) {
   EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
 }
 
+TEST(OnlineCalibratorGenerated, AnInitialGuessInABodyFrameIsNamedNotCalledARingProblem) {
+  // Session 33 audit: with camera_frame set to an x-forward frame (a URDF camera_link, not the
+  // optical frame) every keyframe was refused as "no ring structure?".
+  SimOptions o;
+  o.frames = 1;
+  o.seed = 4;
+  const Simulator sim(o);
+  StereoRig rig = sim.rig();
+  // The optical frame's T_cam_lidar seen from a body frame (x forward, y left, z up).
+  Eigen::Matrix3d body_from_optical;
+  body_from_optical << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  rig.T_cam_lidar.linear() = body_from_optical * rig.T_cam_lidar.linear();
+  rig.T_cam_lidar.translation() = body_from_optical * rig.T_cam_lidar.translation();
+  OnlineCalibrator cal(rig, OnlineSettings{});
+  const Frame f = sim.renderFrame(0);
+  std::string msg;
+  EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kRejected);
+  EXPECT_NE(msg.find("points are in the left image under the initial T_cam_lidar (is the camera "
+                     "frame the optical one"),
+            std::string::npos)
+      << msg;
+  EXPECT_EQ(msg.find("ring"), std::string::npos) << msg;
+  // The optical frame's guess gives a keyframe.
+  OnlineCalibrator right(sim.rig(), OnlineSettings{});
+  EXPECT_EQ(right.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+}
+
 // Session 24: a camera gone dark, blinded or out of focus is named, with the measured value,
 // before its keyframe is built (a 1 px blur of the right image moved a generated urban window's
 // LiDAR-stereo estimate by 1.6 cm). Each degraded pair is refused for its own reason, naming the

@@ -137,8 +137,24 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
     return rejectAfterSelection(previous_keyframe_stamp);
   }
   if (kf->mesh.faces.size() < 100) {
+    // Which of the two it is: a scan without rings, or an initial guess that puts the scan
+    // behind or beside the camera (a camera frame that is not the optical one, z forward).
+    size_t in_view = 0;
+    const CameraIntrinsics& cam = rig_.left;
+    for (const auto& p : frame.scan) {
+      const Eigen::Vector3d c = T_cl * Eigen::Vector3d(p.x, p.y, p.z);
+      if (c.z() < 1.0) continue;
+      const double u = cam.fx * c.x() / c.z() + cam.cx, v = cam.fy * c.y() / c.z() + cam.cy;
+      in_view += u >= 0 && v >= 0 && u < cam.width && v < cam.height;
+    }
     *msg = "LiDAR scan gives only " + std::to_string(kf->mesh.faces.size()) +
-           " mesh faces in the cameras' view (no ring structure?)";
+           " mesh faces in the cameras' view";
+    if (in_view * 50 < frame.scan.size())
+      *msg += ": only " + std::to_string(in_view) + " of its " + std::to_string(frame.scan.size()) +
+              " points are in the left image under the initial T_cam_lidar (is the camera frame "
+              "the optical one, z forward, x right, y down, and T_cam_lidar camera <- LiDAR?)";
+    else
+      *msg += " (no ring structure?)";
     return rejectAfterSelection(previous_keyframe_stamp);
   }
   if (static_cast<int>(kf->stereo.points.size()) < settings_.min_stereo_points) {

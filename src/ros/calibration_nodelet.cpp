@@ -576,6 +576,9 @@ bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
                       ? "no converged estimate since the last ~reset (the latched topics and tf "
                         "still hold the one before it, which the reset discarded)"
                       : "no converged estimate yet";
+    // Why not: the last solve's reason (~candidate/* has its result).
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!last_solve_message_.empty()) res.message += "; the last solve: " + last_solve_message_;
     return true;
   }
   CalibrationFrames frames;

@@ -378,6 +378,15 @@ bool stereoFromCameraInfo(const sensor_msgs::CameraInfo& left, const sensor_msgs
              "relative to the left camera's); set initial/T_right_left";
     return false;
   }
+  // KITTI-style P measure both cameras from a reference one, so the left P[3] may be non-zero;
+  // the right one's is never 0 in a calibrated pair. A right P without it put the "baseline" at
+  // the left camera's offset from that reference (0.06 m on KITTI, 0.54 m true).
+  if (right.P[3] == 0) {
+    *error = "right camera_info P[3] = 0 (with the left one's " + std::to_string(left.P[3]) +
+             "): the right camera_info holds no baseline (its P must be K [I | t], P[3] = "
+             "-fx*baseline relative to the left camera's); set initial/T_right_left";
+    return false;
+  }
   rig->T_right_left = Eigen::Isometry3d::Identity();
   rig->T_right_left.translation() = t;
   return true;
