@@ -119,8 +119,10 @@ CameraIntrinsics scaled(const CameraIntrinsics& c, int level, int w, int h) {
   const double s = std::ldexp(1.0, -level);
   CameraIntrinsics o = c;
   o.fx = c.fx * s, o.fy = c.fy * s;
-  // cv::pyrDown centres level-L pixel i on level-0 pixel 2^L i, so coordinates scale as is.
-  o.cx = c.cx * s, o.cy = c.cy * s;
+  // The area-average convention (pixel centres at +0.5): cv::pyrDown's is level-L pixel i on
+  // level-0 pixel 2^L i, 0.25-0.375 level px off. Both images shift alike, so it cancels to first
+  // order; session 33 tried pyrDown's and reverted it (doc/co_calibration.md).
+  o.cx = (c.cx + 0.5) * s - 0.5, o.cy = (c.cy + 0.5) * s - 0.5;
   o.width = w, o.height = h;
   return o;
 }
@@ -290,7 +292,7 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
         const Visibility vis = visibility(T * X, rig.right, right_md, s.occlusion_tolerance);
         occluded += vis == Visibility::kOccluded;
         if (vis != Visibility::kVisible) continue;
-        const double ul = kp.u * scale, vl = kp.v * scale;
+        const double ul = (kp.u + 0.5) * scale - 0.5, vl = (kp.v + 0.5) * scale - 0.5;
         std::array<Eigen::Vector3d, kPatternSize> q;
         std::array<double, kPatternSize> left_value;
         bool ok = true;
