@@ -609,6 +609,14 @@ TEST(Conversions, AGivenExtrinsicIsNotCalledObservableOrExact) {
   EXPECT_EQ(
       ros_conv::toEstimateMsg(h, "r", "l", T, cov, all, true, 3, 0, 0, "", false, w).weakest_ratio,
       0.0);  // a given extrinsic has no weak direction of its own
+  // A solve that ended before its covariance: its placeholder (identity, 57 deg / 1 m) is
+  // marked unknown, not sent as an uncertainty.
+  const ExtrinsicEstimate early = ros_conv::toEstimateMsg(
+      h, "left", "lidar", T, Matrix6d::Identity(), all, false, 3, 0, 0, "", true, w, false);
+  EXPECT_EQ(early.covariance[0], -1.0);
+  EXPECT_EQ(early.covariance[7], 0.0);
+  EXPECT_EQ(early.sigma_rot_deg[0], -1.0);
+  EXPECT_EQ(early.sigma_trans_m[2], -1.0);
   const auto unknown = ros_conv::toPoseMsg(h, T, Matrix6d::Zero(), false);
   EXPECT_EQ(unknown.pose.covariance[0], -1.0);
   EXPECT_EQ(unknown.pose.covariance[7], 0.0);

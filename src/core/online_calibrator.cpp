@@ -344,6 +344,8 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
       e.T_cam_lidar = r.lidar.T_cam_lidar;
       e.T_right_left = r.stereo.T_right_left;
       e.cov_lidar = r.lidar.covariance;
+      e.cov_lidar_known = r.lidar.covariance_known;
+      e.cov_stereo_known = r.stereo.covariance_known;
       e.cov_lidar_given_stereo = r.lidar_covariance_given_stereo;
       e.cov_stereo = r.stereo.covariance;
       std::copy(r.lidar.observable, r.lidar.observable + 6, e.observable_lidar);
@@ -377,12 +379,14 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
       e.T_cam_lidar = r.T_cam_lidar;
       e.T_right_left = T_rl;
       e.cov_lidar = e.cov_lidar_given_stereo = r.covariance;
+      e.cov_lidar_known = r.covariance_known;
       e.cov_stereo = Matrix6d::Zero();
       std::copy(r.observable, r.observable + 6, e.observable_lidar);
       e.weakest_lidar = r.weakest();
       std::fill(e.observable_stereo, e.observable_stereo + 6, true);
       if (current && current->stereo_estimated) {  // keep a co-calibrated stereo pair as it is
         e.cov_stereo = current->cov_stereo;
+        e.cov_stereo_known = current->cov_stereo_known;
         std::copy(current->observable_stereo, current->observable_stereo + 6, e.observable_stereo);
         e.weakest_stereo = current->weakest_stereo;
         e.stereo_estimated = true;

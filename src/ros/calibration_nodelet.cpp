@@ -452,10 +452,10 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
   h.stamp = stamp;
   publishEstimateMsgs(e, h, lidar_pub_, stereo_pub_);
   h.frame_id = params_.left_frame;
-  lidar_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_cam_lidar, e.cov_lidar));
+  lidar_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_cam_lidar, e.cov_lidar, e.cov_lidar_known));
   h.frame_id = params_.right_frame;
-  stereo_pose_pub_.publish(
-      ros_conv::toPoseMsg(h, e.T_right_left, e.cov_stereo, e.stereo_estimated));
+  stereo_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_right_left, e.cov_stereo,
+                                               e.stereo_estimated && e.cov_stereo_known));
   publishTf(e, stamp);
 }
 
@@ -465,11 +465,11 @@ void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_
   lidar.publish(ros_conv::toEstimateMsg(h, params_.left_frame, lidar_frame_, e.T_cam_lidar,
                                         e.cov_lidar, e.observable_lidar, e.converged,
                                         e.keyframes_used, e.cost_lidar, e.iterations_lidar,
-                                        e.message, true, e.weakest_lidar));
-  stereo.publish(ros_conv::toEstimateMsg(h, params_.right_frame, params_.left_frame, e.T_right_left,
-                                         e.cov_stereo, e.observable_stereo, e.converged,
-                                         e.keyframes_used, e.cost_stereo, e.iterations_stereo,
-                                         e.message, e.stereo_estimated, e.weakest_stereo));
+                                        e.message, true, e.weakest_lidar, e.cov_lidar_known));
+  stereo.publish(ros_conv::toEstimateMsg(
+      h, params_.right_frame, params_.left_frame, e.T_right_left, e.cov_stereo, e.observable_stereo,
+      e.converged, e.keyframes_used, e.cost_stereo, e.iterations_stereo, e.message,
+      e.stereo_estimated, e.weakest_stereo, e.cov_stereo_known));
 }
 
 ros::Time CalibrationNodelet::rosStamp(double stamp) {

@@ -506,7 +506,7 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
                                 const Matrix6d& cov, const bool observable[6], bool converged,
                                 int keyframes, double cost, int iterations,
                                 const std::string& status, bool estimated,
-                                const WeakDirection& weakest) {
+                                const WeakDirection& weakest, bool covariance_known) {
   ExtrinsicEstimate m;
   m.header = header;
   m.header.frame_id = parent;
@@ -529,6 +529,12 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
   if (estimated && weakest.ratio > 0) {
     for (int i = 0; i < 6; ++i) m.weakest_direction[i] = weakest.direction[i];
     m.weakest_ratio = weakest.ratio;
+  }
+  if (estimated && !covariance_known) {  // a placeholder is no uncertainty: unknown, not exact
+    m.covariance.fill(0.0);
+    m.covariance[0] = -1.0;
+    m.sigma_rot_deg.fill(-1.0);
+    m.sigma_trans_m.fill(-1.0);
   }
   return m;
 }

@@ -208,12 +208,15 @@ std::string trusted(const bool observable[6]) {
 }
 
 void printExtrinsic(const char* name, const Eigen::Isometry3d& T, const Matrix6d& cov,
-                    const bool observable[6]) {
+                    const bool observable[6], bool covariance_known = true) {
   const Eigen::Vector3d r = logSO3(T.linear()) * kDegPerRad;
   const Eigen::Vector3d& t = T.translation();
   std::printf("%s: rotation vector [%+.4f %+.4f %+.4f] deg, translation [%+.4f %+.4f %+.4f] m\n",
               name, r.x(), r.y(), r.z(), t.x(), t.y(), t.z());
-  std::printf("  sigma %s; %s\n", sigma6(cov).c_str(), trusted(observable).c_str());
+  if (covariance_known)
+    std::printf("  sigma %s; %s\n", sigma6(cov).c_str(), trusted(observable).c_str());
+  else
+    std::printf("  no covariance (the solve ended before it); %s\n", trusted(observable).c_str());
 }
 
 /// A solve's weakest direction, against the trust limits.
@@ -406,10 +409,12 @@ struct Session {
       if (const auto c = calibrator ? calibrator->lastSolve() : std::nullopt) {
         // What the window gives, untrusted: for a look, not for use (nothing is written).
         std::printf("the last solve's result, not trusted (%d keyframes):\n", c->keyframes_used);
-        printExtrinsic("T_cam_lidar", c->T_cam_lidar, c->cov_lidar, c->observable_lidar);
+        printExtrinsic("T_cam_lidar", c->T_cam_lidar, c->cov_lidar, c->observable_lidar,
+                       c->cov_lidar_known);
         printWeakest(c->weakest_lidar);
         if (c->stereo_estimated) {
-          printExtrinsic("T_right_left", c->T_right_left, c->cov_stereo, c->observable_stereo);
+          printExtrinsic("T_right_left", c->T_right_left, c->cov_stereo, c->observable_stereo,
+                         c->cov_stereo_known);
           printWeakest(c->weakest_stereo);
         }
         std::printf("change from the initial guess: %s\n",

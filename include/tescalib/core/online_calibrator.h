@@ -123,6 +123,9 @@ struct OnlineEstimate {
   /// cov_lidar with the left-right pair taken as exact (a LiDAR-first estimate's cov_lidar; a
   /// co-calibrated one's before the pair's uncertainty was propagated into it).
   Matrix6d cov_lidar_given_stereo = Matrix6d::Identity();
+  /// false: the solve ended before computing that covariance (a ~candidate whose LiDAR-stereo or
+  /// left-right solve stopped early); cov_* then hold placeholders, not uncertainties.
+  bool cov_lidar_known = true, cov_stereo_known = true;
   bool observable_lidar[6] = {false, false, false, false, false, false};
   bool observable_stereo[6] = {false, false, false, false, false, false};
   /// The LiDAR-stereo solve's weakest direction (LidarStereoResult::weakest: what the window

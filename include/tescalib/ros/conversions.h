@@ -100,13 +100,16 @@ namespace ros_conv {
 /// [phi; tau] in the parent frame (our convention), copied as is. `status`: empty for a
 /// published estimate, why it was not published for a candidate. `estimated` false: `T` is the
 /// given extrinsic (left_to_right without co-calibration), not an estimate, and no axis is
-/// `observable`. `weakest`: the window's weakest direction (ratio 0: none).
+/// `observable`. `weakest`: the window's weakest direction (ratio 0: none). `covariance_known`
+/// false (a solve that ended before its covariance): covariance unknown as sensor_msgs/Imu marks
+/// it (-1 in the first element, 0 else), sigma_* -1.
 ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::string& parent,
                                 const std::string& child, const Eigen::Isometry3d& T,
                                 const Matrix6d& cov, const bool observable[6], bool converged,
                                 int keyframes, double cost, int iterations,
                                 const std::string& status = "", bool estimated = true,
-                                const WeakDirection& weakest = WeakDirection());
+                                const WeakDirection& weakest = WeakDirection(),
+                                bool covariance_known = true);
 
 /// The same as a PoseWithCovarianceStamped (header.frame_id = parent). ROS orders the pose
 /// covariance [x y z rx ry rz]; ours is [phi; tau]: the blocks are swapped. `estimated` false:
