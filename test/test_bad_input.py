@@ -91,6 +91,9 @@ class BadInput(unittest.TestCase):
             rospy.Subscriber(tf_topic, TFMessage, cls.on_tf)
         cls.overlays = []
         rospy.Subscriber('/tescalib_overlay/left/overlay', Image, cls.on_overlay)
+        cls.right_overlays = []
+        rospy.Subscriber('/tescalib_overlay/right/overlay', Image,
+                         lambda m: cls.right_overlays.append((m.width, m.height, m.encoding)))
         cls.candidate_pub = rospy.Publisher('/tescalib/candidate/lidar_to_left', ExtrinsicEstimate,
                                             queue_size=1, latch=True)
         cls.pub = {
@@ -308,6 +311,9 @@ class BadInput(unittest.TestCase):
         self.assertTrue(overlays, 'no overlay image')
         self.assertEqual(overlays[-1][1:4], (W, H, 'bgr8'))
         self.assertEqual(overlays[-1][4], 0, 'LiDAR points drawn without any estimate')
+        # The right pane is not left empty before the first estimate: the image with the status.
+        self.assertTrue(self.right_overlays, 'no right overlay image before an estimate')
+        self.assertEqual(self.right_overlays[-1], (W, H, 'bgr8'))
         save = rospy.ServiceProxy('/tescalib/save', Save)
         res = save(path='/tmp/tescalib_bad_input_never_written')
         self.assertFalse(res.success)

@@ -115,6 +115,12 @@ void OverlayNodelet::onSet(const Cloud::ConstPtr& cloud, const Image::ConstPtr& 
     }
     drawStatusText(status, &l);
     left_pub_.publish(ros_conv::toImageMsg(l, left->header, "bgr8"));
+    // The right pane says the same instead of staying empty (the whole run on data the node
+    // never trusts, real KITTI).
+    if (ros_conv::toBgr8(*right, &r, &error)) {
+      drawStatusText({status.front(), "the right image's overlay needs it (and left->right)"}, &r);
+      right_pub_.publish(ros_conv::toImageMsg(r, right->header, "bgr8"));
+    }
     return;
   }
   if (!have_scan) return;
