@@ -211,7 +211,8 @@ class BadInput(unittest.TestCase):
         # It names the topics that have had nothing (the cloud and both camera_infos here).
         self.assertIn('nothing on /bad/points, /bad/left/camera_info, /bad/right/camera_info',
                       values['last problem'])
-        self.assertEqual(message, 'waiting for synchronized data')
+        self.assertTrue(message.startswith('waiting for synchronized data: '), message)
+        self.assertIn('nothing on /bad/points', message)
         self.assertEqual(values['synchronized sets'], '0')
 
     def test_2_unusable_camera_info(self):

@@ -175,7 +175,13 @@ TEST(Params, ValuesOfTheWrongTypeAreNamed) {
                                "window/size must be an integer"})
     EXPECT_NE(error.find(expected), std::string::npos) << error;
   EXPECT_EQ(error.find("deskew/max_dt"), std::string::npos) << error;
-  EXPECT_DOUBLE_EQ(p.online.deskew_max_dt, 1.0);
+  EXPECT_DOUBLE_EQ(p.online.deskew_max_dt,
+                   1.0);  // 10.0 for an integer says it is a decimal (it read "got the number 10").
+  pnh.setParam("window/size", 10.0);
+  EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
+  EXPECT_NE(error.find("window/size must be an integer (got the number 10.0 (a decimal))"),
+            std::string::npos)
+      << error;
 }
 
 int main(int argc, char** argv) {

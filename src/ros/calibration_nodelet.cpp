@@ -627,9 +627,9 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   if (!calibrator() && sync_sets_ > 0 && !problem.empty())
     // Sets come but the node cannot start from them (no initial extrinsic, a frame clash, ...).
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "not started: " + problem);
-  else if (!calibrator())
+  else if (!calibrator())  // with what is missing when that is known (the topics silent so far)
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN,
-                 "waiting for synchronized data");
+                 "waiting for synchronized data" + (problem.empty() ? "" : ": " + problem));
   else if (since_last_set > kStaleSeconds)
     // The estimate stays on tf and on the latched topics, but nothing is being calibrated.
     stat.summaryf(diagnostic_updater::DiagnosticStatusWrapper::WARN,

@@ -46,9 +46,12 @@ std::string describe(XmlRpc::XmlRpcValue& v) {
     case XmlRpc::XmlRpcValue::TypeString:
       o << "the string \"" << static_cast<std::string&>(v) << "\"";
       break;
-    case XmlRpc::XmlRpcValue::TypeDouble:
-      o << "the number " << static_cast<double&>(v);
+    case XmlRpc::XmlRpcValue::TypeDouble: {
+      // 10.0 printed as "10" hid why an integer parameter refused it.
+      const double d = static_cast<double&>(v);
+      o << "the number " << d << (std::isfinite(d) && d == std::floor(d) ? ".0 (a decimal)" : "");
       break;
+    }
     case XmlRpc::XmlRpcValue::TypeInt:
       o << "the integer " << static_cast<int&>(v);
       break;
