@@ -107,8 +107,11 @@ def print_estimate(title, msg, ref):
         msg.iterations, '' if msg.estimated else ' (not estimated: the given value)'))
     print('    translation [%s] m, rotation vector [%s] deg' % (
         fmt(t), fmt(ex.rotvec(q), 57.29577951308232)))
-    print('    sigma rot [%s] deg, sigma trans [%s] cm' % (
-        fmt(msg.sigma_rot_deg), fmt(msg.sigma_trans_m, 100, 2)))
+    if min(msg.sigma_rot_deg) < 0 or min(msg.sigma_trans_m) < 0:  # -1: unknown
+        print('    no covariance (the solve ended before it)')
+    else:
+        print('    sigma rot [%s] deg, sigma trans [%s] cm' % (
+            fmt(msg.sigma_rot_deg), fmt(msg.sigma_trans_m, 100, 2)))
     print('    observable: %s' % ' '.join(
         '%s=%s' % (a, 'yes' if o else 'NO') for a, o in zip(AXES, msg.observable)))
     if msg.weakest_ratio > 0:
@@ -123,7 +126,8 @@ def print_estimate(title, msg, ref):
         print('    error vs reference: rotation [%s] deg (norm %.4f deg), translation [%s] cm '
               '(norm %.2f cm)' % (fmt(phi, 57.29577951308232), ex.norm(phi) * 57.29577951308232,
                                   fmt(tau, 100, 2), 100 * ex.norm(tau)))
-        n = ex.nees(phi, tau, list(msg.covariance)) if msg.estimated else None
+        n = (ex.nees(phi, tau, list(msg.covariance))
+             if msg.estimated and msg.covariance[0] >= 0 else None)
         if n is not None:
             print('    NEES against it %.1f (e^T P^-1 e over 6 DoF: mean 6 when the covariance '
                   'tells the truth)' % n)

@@ -227,33 +227,9 @@ TEST(KittiReader, RawLayoutGivesTheSameRigAsOdometry) {
   TempDir tmp;
   const auto calib = tescalib_test::syntheticCalib();
   const fs::path drive = tmp.path / "2011_09_26_drive_0001_sync";
-  for (const char* sub : {"image_02/data", "image_03/data", "velodyne_points/data"})
-    fs::create_directories(drive / sub);
-  {
-    std::ofstream c2c(tmp.path / "calib_cam_to_cam.txt");
-    c2c << "calib_time: 09-Jan-2012 13:57:47\n";
-    c2c << "R_rect_00: 1 0 0 0 1 0 0 0 1\n";
-    for (int i = 0; i < 4; ++i) {
-      c2c << "S_rect_0" << i << ": 640 240\nP_rect_0" << i << ":";
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 4; ++c) c2c << " " << calib.P[i](r, c);
-      c2c << "\n";
-    }
-    std::ofstream v2c(tmp.path / "calib_velo_to_cam.txt");
-    v2c << "calib_time: 15-Mar-2012 11:37:16\nR:";
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) v2c << " " << calib.Tr(r, c);
-    v2c << "\nT: " << calib.Tr(0, 3) << " " << calib.Tr(1, 3) << " " << calib.Tr(2, 3) << "\n";
-    std::ofstream ts(drive / "image_02" / "timestamps.txt");
-    ts << "2011-09-26 13:02:25.964389445\n2011-09-26 13:02:26.074807654\n";
-  }
-  cv::Mat img(240, 640, CV_8UC3, cv::Scalar(40, 90, 200));
-  for (const char* id : {"0000000000", "0000000001"}) {
-    cv::imwrite((drive / "image_02" / "data" / (std::string(id) + ".png")).string(), img);
-    cv::imwrite((drive / "image_03" / "data" / (std::string(id) + ".png")).string(), img);
-    writeVelodyneBin((drive / "velodyne_points" / "data" / (std::string(id) + ".bin")).string(),
-                     tescalib_test::syntheticScan());
-  }
+  tescalib_test::writeSyntheticRawDrive(
+      tmp.path, drive.filename().string(),
+      {"2011-09-26 13:02:25.964389445", "2011-09-26 13:02:26.074807654"});
   const KittiSequence raw(drive.string());
   EXPECT_EQ(raw.layout(), KittiLayout::kRaw);
   ASSERT_EQ(raw.size(), 2u);

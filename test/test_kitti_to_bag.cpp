@@ -186,6 +186,37 @@ TEST(KittiToBag, EachFolderStartsASecondAfterTheLastFrameWritten) {
   EXPECT_NEAR(stamps[3], 1.2, 1e-6);
 }
 
+TEST(KittiToBag, RawDrivesKeepTheirStampsUnlessTheyWouldGoBackwards) {
+  // Two raw drives 5 min apart. In recording order the second keeps its epoch stamps; given
+  // first, the later drive makes the earlier one start 1 s after it (a negative offset aborted
+  // kitti_to_bag: ros::Time below 0).
+  TempDir tmp;
+  tescalib_test::writeSyntheticRawDrive(tmp.path, "a",
+                                        {"2011-09-26 13:02:25.5", "2011-09-26 13:02:25.6"});
+  tescalib_test::writeSyntheticRawDrive(tmp.path, "b",
+                                        {"2011-09-26 13:07:25.5", "2011-09-26 13:07:25.6"});
+  const KittiSequence a(tmp.str() + "/a"), b(tmp.str() + "/b");
+  auto stamps = [&](const std::vector<const KittiSequence*>& seqs) {
+    writeKittiBag(seqs, tmp.str() + "/raw.bag");
+    rosbag::Bag bag(tmp.str() + "/raw.bag", rosbag::bagmode::Read);
+    std::vector<double> out;
+    for (const rosbag::MessageInstance& m :
+         rosbag::View(bag, rosbag::TopicQuery(KittiBagOptions().velo_topic)))
+      out.push_back(m.instantiate<sensor_msgs::PointCloud2>()->header.stamp.toSec());
+    return out;
+  };
+  const std::vector<double> in_order = stamps({&a, &b});
+  ASSERT_EQ(in_order.size(), 4u);
+  EXPECT_NEAR(in_order[0], a.stamp(0), 1e-6);
+  EXPECT_NEAR(in_order[2], b.stamp(0), 1e-6);  // its own epoch stamp, 300 s later
+  EXPECT_NEAR(in_order[2] - in_order[1], 299.9, 1e-5);
+  const std::vector<double> reversed = stamps({&b, &a});
+  ASSERT_EQ(reversed.size(), 4u);
+  EXPECT_NEAR(reversed[0], b.stamp(0), 1e-6);
+  EXPECT_NEAR(reversed[2] - reversed[1], 1.0, 1e-5);  // not 300 s back
+  EXPECT_NEAR(reversed[3] - reversed[2], 0.1, 1e-5);
+}
+
 TEST(Conversions, BaselineFromKitti2bagCameraInfos) {
   // kitti2bag writes KITTI's P_rect_02 / P_rect_03 (2011_09_26 here) into camera_info: both
   // measured from cam0. The pair's translation is K^-1 (P3[:,3] - P2[:,3]), 0.5327 m with 2.8 mm

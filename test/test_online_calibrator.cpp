@@ -850,8 +850,8 @@ TEST(OnlineCalibratorGenerated, AnInitialGuessInABodyFrameIsNamedNotCalledARingP
   const Frame f = sim.renderFrame(0);
   std::string msg;
   EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kRejected);
-  EXPECT_NE(msg.find("points are in the left image under the initial T_cam_lidar (is the camera "
-                     "frame the optical one"),
+  EXPECT_NE(msg.find("points are in the left image under the current T_cam_lidar (the initial "
+                     "one until an estimate: is the camera frame the optical one"),
             std::string::npos)
       << msg;
   EXPECT_EQ(msg.find("ring"), std::string::npos) << msg;

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <random>
 #include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -88,6 +89,45 @@ inline void writeSyntheticSequence(const std::string& dir, int frames, int width
     cv::imwrite(dir + "/image_2/" + name + ".png", img);
     cv::imwrite(dir + "/image_3/" + name + ".png", img);
     tescalib::writeVelodyneBin(dir + "/velodyne/" + name + ".bin", syntheticScan());
+  }
+}
+
+/// Writes a tiny KITTI raw drive `parent/name` (image_02/03 data, velodyne_points, 640x240, the
+/// synthetic calibration as calib_cam_to_cam.txt and calib_velo_to_cam.txt in `parent`) with one
+/// frame per line of `stamps` ("2011-09-26 13:02:25.964389445").
+inline void writeSyntheticRawDrive(const fs::path& parent, const std::string& name,
+                                   const std::vector<std::string>& stamps) {
+  const auto calib = syntheticCalib();
+  const fs::path drive = parent / name;
+  for (const char* sub : {"image_02/data", "image_03/data", "velodyne_points/data"})
+    fs::create_directories(drive / sub);
+  {
+    std::ofstream c2c(parent / "calib_cam_to_cam.txt");
+    c2c << "calib_time: 09-Jan-2012 13:57:47\n";
+    c2c << "R_rect_00: 1 0 0 0 1 0 0 0 1\n";
+    for (int i = 0; i < 4; ++i) {
+      c2c << "S_rect_0" << i << ": 640 240\nP_rect_0" << i << ":";
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c) c2c << " " << calib.P[i](r, c);
+      c2c << "\n";
+    }
+    std::ofstream v2c(parent / "calib_velo_to_cam.txt");
+    v2c << "calib_time: 15-Mar-2012 11:37:16\nR:";
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) v2c << " " << calib.Tr(r, c);
+    v2c << "\nT: " << calib.Tr(0, 3) << " " << calib.Tr(1, 3) << " " << calib.Tr(2, 3) << "\n";
+    std::ofstream ts(drive / "image_02" / "timestamps.txt");
+    for (const auto& stamp : stamps) ts << stamp << "\n";
+  }
+  cv::Mat img(240, 640, CV_8UC3, cv::Scalar(40, 90, 200));
+  for (size_t i = 0; i < stamps.size(); ++i) {
+    char id[16];
+    std::snprintf(id, sizeof(id), "%010zu", i);
+    cv::imwrite((drive / "image_02" / "data" / (std::string(id) + ".png")).string(), img);
+    cv::imwrite((drive / "image_03" / "data" / (std::string(id) + ".png")).string(), img);
+    tescalib::writeVelodyneBin(
+        (drive / "velodyne_points" / "data" / (std::string(id) + ".bin")).string(),
+        syntheticScan());
   }
 }
 

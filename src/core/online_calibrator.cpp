@@ -151,8 +151,9 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
            " mesh faces in the cameras' view";
     if (in_view * 50 < frame.scan.size())
       *msg += ": only " + std::to_string(in_view) + " of its " + std::to_string(frame.scan.size()) +
-              " points are in the left image under the initial T_cam_lidar (is the camera frame "
-              "the optical one, z forward, x right, y down, and T_cam_lidar camera <- LiDAR?)";
+              " points are in the left image under the current T_cam_lidar (the initial one until "
+              "an estimate: is the camera frame the optical one, z forward, x right, y down, and "
+              "T_cam_lidar camera <- LiDAR?)";
     else
       *msg += " (no ring structure?)";
     return rejectAfterSelection(previous_keyframe_stamp);

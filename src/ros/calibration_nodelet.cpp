@@ -558,6 +558,7 @@ bool CalibrationNodelet::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger:
     std::lock_guard<std::mutex> lock(mutex_);
     queue_.clear();
     unsolved_arrivals_.clear();
+    last_solve_message_.clear();  // it was the cleared window's (~save and /diagnostics show it)
   }
   last_enqueued_stamp_ = -1e300;
   ++resets_;

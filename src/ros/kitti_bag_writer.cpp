@@ -3,6 +3,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <rosbag/bag.h>
 #include <tf2_msgs/TFMessage.h>
+#include <algorithm>
 #include <boost/make_shared.hpp>
 #include <cmath>
 
@@ -84,15 +85,20 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
   // (both cameras' positions measured from cam0; stereoFromCameraInfo takes their difference).
   const Eigen::Vector3d p3_left = seq.calib().P[2].col(3), p3_right = seq.calib().P[3].col(3);
   size_t written = 0;
-  double last_written = 0;  // the previous folder's last written stamp, before the offset
+  double last_written = 0;  // the last written frame's stamp in the bag (offset included)
   for (size_t si = 0; si < seqs.size(); ++si) {
     const KittiSequence& cur = *seqs[si];
-    // Every folder after the first starts 1 s after the last frame written (whatever the
-    // layout: raw drives' own epoch stamps would otherwise overlap or go backwards).
-    if (si > 0) offset += last_written + 1.0 - cur.stamp(0);
+    // A folder keeps its own stamps (a raw drive's epoch stamps; odometry ones shifted to start
+    // at odometry_start_stamp) when they start at least 1 s after the last frame written;
+    // otherwise (odometry sequences, a drive given out of order) it starts 1 s after it. The
+    // offset never goes below the natural one, so it is never negative.
+    if (si > 0) {
+      const double natural = cur.layout() == KittiLayout::kOdometry ? o.odometry_start_stamp : 0.0;
+      offset = std::max(natural, last_written + 1.0 - cur.stamp(0));
+    }
     const size_t n =
         o.max_frames < 0 ? cur.size() : std::min(cur.size(), static_cast<size_t>(o.max_frames));
-    if (n > 0) last_written = cur.stamp(n - 1);
+    if (n > 0) last_written = offset + cur.stamp(n - 1);
     for (size_t i = 0; i < n; ++i) {
       const Frame f = cur.load(i);
       const ros::Time stamp = bagStamp(offset, f.stamp, o.stamp_offset_nsec);

@@ -27,9 +27,14 @@ std::string statusLine(const char* name, const ExtrinsicEstimate& e) {
   std::copy(e.observable.begin(), e.observable.end(), observable);
   const std::string weak = untrustedAxes(observable);
   char buf[256];
-  std::snprintf(buf, sizeof(buf), "%s: %s, %u kf, sigma <= %.3f deg / %.2f cm, weak: %s", name,
-                e.converged ? "converged" : "not converged", e.keyframes_used, rot, 100 * trans,
-                weak.empty() ? "none" : weak.c_str());
+  if (rot < 0 || trans < 0)  // the solve ended before its covariance (sigma -1: unknown)
+    std::snprintf(buf, sizeof(buf), "%s: %s, %u kf, no covariance, weak: %s", name,
+                  e.converged ? "converged" : "not converged", e.keyframes_used,
+                  weak.empty() ? "none" : weak.c_str());
+  else
+    std::snprintf(buf, sizeof(buf), "%s: %s, %u kf, sigma <= %.3f deg / %.2f cm, weak: %s", name,
+                  e.converged ? "converged" : "not converged", e.keyframes_used, rot, 100 * trans,
+                  weak.empty() ? "none" : weak.c_str());
   return buf;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <set>
 #include <sstream>
 
@@ -49,7 +50,10 @@ std::string describe(XmlRpc::XmlRpcValue& v) {
     case XmlRpc::XmlRpcValue::TypeDouble: {
       // 10.0 printed as "10" hid why an integer parameter refused it.
       const double d = static_cast<double&>(v);
-      o << "the number " << d << (std::isfinite(d) && d == std::floor(d) ? ".0 (a decimal)" : "");
+      if (std::isfinite(d) && d == std::floor(d) && std::fabs(d) < 1e15)
+        o << "the number " << std::fixed << std::setprecision(1) << d << " (a decimal)";
+      else
+        o << "the number " << d;
       break;
     }
     case XmlRpc::XmlRpcValue::TypeInt:

@@ -181,6 +181,11 @@ bool parse(int argc, char** argv, Args* a) {
     std::cerr << "tescalib_calibrate: --overlay: the folder \"" << folder << "\" does not exist\n";
     return false;
   }
+  if (!a->overlay.empty() && !cv::haveImageWriter(a->overlay)) {
+    std::cerr << "tescalib_calibrate: --overlay: OpenCV cannot write \"" << a->overlay
+              << "\" (give a .png file name)\n";
+    return false;
+  }
   return true;
 }
 
@@ -446,10 +451,7 @@ struct Session {
         std::printf("T_right_left against %s: %s\n", reference.c_str(),
                     pose6(poseError(e->T_right_left, T_reference_stereo)).c_str());
     }
-    if (!args.overlay.empty() &&
-        !writeOverlay(args.overlay, e->T_cam_lidar,
-                      "estimate from " + std::to_string(e->keyframes_used) + " keyframes"))
-      return 1;
+    // The result files first: an overlay that cannot be written must not cost them.
     if (!args.out.empty()) {
       std::string msg;
       CalibrationFrames frames;
@@ -460,6 +462,10 @@ struct Session {
       }
       std::printf("%s\n", msg.c_str());
     }
+    if (!args.overlay.empty() &&
+        !writeOverlay(args.overlay, e->T_cam_lidar,
+                      "estimate from " + std::to_string(e->keyframes_used) + " keyframes"))
+      return 1;
     return 0;
   }
 };

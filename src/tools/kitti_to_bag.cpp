@@ -24,9 +24,9 @@ void usage() {
          "       velodyne/) or a KITTI raw drive folder (image_02/data, image_03/data,\n"
          "       velodyne_points/data; calib_*.txt in it or in its parent).\n"
          "  Several DIRs (one rig: the same calibration and image size) are written one after\n"
-         "  the other, each starting 1 s after the last frame written of the one before. The\n"
-         "  first DIR's stamps are kept (a raw drive's) or, odometry stamps (from 0 s), shifted\n"
-         "  to start at 1317384000 s (ROS times must be positive).\n"
+         "  the other. A raw drive keeps its stamps and odometry stamps (from 0 s) are shifted\n"
+         "  to start at 1317384000 s (ROS times must be positive), unless that would not start\n"
+         "  at least 1 s after the last frame written: then the DIR starts 1 s after it.\n"
          "  Topics: /kitti/velo/pointcloud (velo_link; x y z intensity ring),\n"
          "          /kitti/camera_color_{left,right}/{image_raw,camera_info} (P = the data's\n"
          "          P2 / P3), /tf_static (base_link -> velo_link -> cameras)\n"
@@ -125,6 +125,9 @@ int main(int argc, char** argv) {
     return 1;
   } catch (const rosbag::BagException& e) {
     std::cerr << "kitti_to_bag: cannot write bag " << out << ": " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {  // anything else (OpenCV, ros::Time): a message, not abort
+    std::cerr << "kitti_to_bag: " << e.what() << "\n";
     return 1;
   }
   return 0;
