@@ -351,7 +351,10 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
       {"--max-skew -1", "--max-skew must be > 0 s"},
       {"--out /tmp/", "names a folder"},
       {"--out /nonexistent_folder/result", "the folder \"/nonexistent_folder\" does not exist"},
-      {"--search-deg 45", "--search-deg must be between 0 (off) and 20"}};
+      {"--search-deg 45", "--search-deg must be between 0 (off) and 20"},
+      {"--max-skew 0.1", "--max-skew is an option of --bag, not of --sequences"},
+      {"--points /p", "--points is an option of --bag, not of --sequences"},
+      {"--lidar-frame velo", "--lidar-frame names the LiDAR frame in --out's files"}};
   for (const auto& [args, why] : usage_errors) {
     const ToolRun u = runCalibrate(std::string(args) + " --sequences x");
     EXPECT_EQ(u.status, 2) << args;

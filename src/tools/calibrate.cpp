@@ -166,6 +166,20 @@ bool parse(int argc, char** argv, Args* a) {
     std::cerr << "tescalib_calibrate: --max-skew must be > 0 s\n";
     return false;
   }
+  // Options that would be silently ignored are refused (bag topics for folders, a frame name
+  // without files to write it into).
+  for (const char* opt : {"--points", "--left", "--right", "--max-skew"})
+    for (int i = 1; i < argc; ++i)
+      if (!a->sequences.empty() && std::string(argv[i]) == opt) {
+        std::cerr << "tescalib_calibrate: " << opt
+                  << " is an option of --bag, not of --sequences\n";
+        return false;
+      }
+  if (!a->lidar_frame.empty() && a->out.empty()) {
+    std::cerr << "tescalib_calibrate: --lidar-frame names the LiDAR frame in --out's files: give "
+                 "--out\n";
+    return false;
+  }
   // Where the result goes is checked before the work, not after it.
   if (!a->out.empty()) {
     if (const std::string problem = calibrationBaseProblem(a->out); !problem.empty()) {
