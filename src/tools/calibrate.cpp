@@ -50,6 +50,7 @@ struct Args {
   std::string lidar_frame;  // empty: the bag's cloud frame, velo_link for folders
   std::string overlay;      // PNG: the last keyframe with the scan drawn, initial guess vs result
   double search_deg = -1;   // LidarStereoSettings::search_step_deg; < 0: the default (10)
+  std::string bag_option;   // the last option of --bag only given (refused with --sequences)
 };
 
 void usage() {
@@ -100,6 +101,7 @@ void usage() {
 
 bool parse(int argc, char** argv, Args* a) {
   auto option = [a](const std::string& k, const std::string& v) {
+    if (k == "--points" || k == "--left" || k == "--right" || k == "--max-skew") a->bag_option = k;
     if (k == "--sequences")
       a->sequences = cli::splitList(v);
     else if (k == "--mode")
@@ -168,13 +170,11 @@ bool parse(int argc, char** argv, Args* a) {
   }
   // Options that would be silently ignored are refused (bag topics for folders, a frame name
   // without files to write it into).
-  for (const char* opt : {"--points", "--left", "--right", "--max-skew"})
-    for (int i = 1; i < argc; ++i)
-      if (!a->sequences.empty() && std::string(argv[i]) == opt) {
-        std::cerr << "tescalib_calibrate: " << opt
-                  << " is an option of --bag, not of --sequences\n";
-        return false;
-      }
+  if (!a->sequences.empty() && !a->bag_option.empty()) {
+    std::cerr << "tescalib_calibrate: " << a->bag_option
+              << " is an option of --bag, not of --sequences\n";
+    return false;
+  }
   if (!a->lidar_frame.empty() && a->out.empty()) {
     std::cerr << "tescalib_calibrate: --lidar-frame names the LiDAR frame in --out's files: give "
                  "--out\n";

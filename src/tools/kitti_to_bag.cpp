@@ -58,9 +58,8 @@ int main(int argc, char** argv) {
     else if (a == "--max-frames") {
       const std::string v = next();
       try {
-        size_t used = 0;
-        options.max_frames = std::stoi(v, &used);
-        if (used != v.size() || options.max_frames < 1) throw std::invalid_argument(v);
+        options.max_frames = tescalib::cli::toInt(v);
+        if (options.max_frames < 1) throw std::invalid_argument(v);
       } catch (const std::exception&) {
         std::cerr << "kitti_to_bag: --max-frames needs a whole number >= 1, not '" << v << "'\n";
         return 2;
@@ -68,9 +67,8 @@ int main(int argc, char** argv) {
     } else if (a == "--stamp-offset-ns") {
       const std::string v = next();
       try {
-        size_t used = 0;
-        const long ns = std::stol(v, &used);
-        if (used != v.size() || ns < 0 || ns > 999999999) throw std::invalid_argument(v);
+        const int ns = tescalib::cli::toInt(v);
+        if (ns < 0 || ns > 999999999) throw std::invalid_argument(v);
         options.stamp_offset_nsec = static_cast<uint32_t>(ns);
       } catch (const std::exception&) {
         std::cerr << "kitti_to_bag: --stamp-offset-ns needs a whole number 0-999999999, not '" << v
