@@ -3,10 +3,13 @@
 # install rules (as a release or a Debian package would) and checks the install space on its own,
 # without the devel space: the package is found, the nodelets are registered and load, the tools
 # run, the message and service modules import, launch files and config are there.
-# Usage: scripts/check_install.sh [WORKDIR] (default build/install_check; about 4 min on 2 cores).
+# Usage: scripts/check_install.sh [WORKDIR] (default build/.install_check; about 4 min on 2 cores).
+# The default is a dot folder: roslaunch finds a launch file by walking the package's folder and
+# skips only dot folders, so an install space under build/install_check made `roslaunch tescalib
+# demo.launch` (and `make demo`) fail with "multiple files named [demo.launch]".
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
-WORK=${1:-$ROOT/build/install_check}
+WORK=${1:-$ROOT/build/.install_check}
 mkdir -p "$WORK/build"
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin
 echo "[install-check] building into $WORK/install"
