@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <random>
@@ -351,4 +352,57 @@ TEST(LidarMesh, KeepEveryNthRingRenumbersTheKeptRings) {
   EXPECT_EQ(scan[0].ring, 0);
   EXPECT_EQ(scan[1].ring, 1);
   EXPECT_EQ(scan[1].x, 4.f);  // ring 4 is the second kept
+}
+
+TEST(LidarMesh, AScanCroppedToTheCamerasViewIsMeshedAsFinelyAsAFullTurn) {
+  // A driver can crop its scans to a sector (velodyne_pointcloud's view_width): then the densest
+  // ring's returns cover that sector only. Counted over the whole turn they made bins 3.6 beams
+  // wide for a 100 deg sector, each keeping one return of three or four (review, session 34).
+  const LidarScan full = stepScene(0.0, 1);
+  LidarScan cropped;
+  for (const auto& p : full)
+    if (std::fabs(std::atan2(p.y, p.x)) < 50.0 / kDegPerRad) cropped.push_back(p);
+  auto facesAhead = [](const LidarMesh& mesh) {
+    int n = 0;
+    for (const auto& f : mesh.faces)
+      n += std::fabs(std::atan2(f.centroid.y(), f.centroid.x())) < 45.0 / kDegPerRad;
+    return n;
+  };
+  LidarMeshSettings s;
+  s.sampled_faces = 0;
+  const int from_full = facesAhead(tescalib::buildLidarMesh(full, s));
+  const int from_cropped = facesAhead(tescalib::buildLidarMesh(cropped, s));
+  std::printf("faces within 45 deg ahead: full turn %d, scan cropped to 100 deg %d\n", from_full,
+              from_cropped);
+  ASSERT_GT(from_full, 10000);
+  EXPECT_GT(from_cropped, 0.95 * from_full);
+  EXPECT_LT(from_cropped, 1.05 * from_full);
+}
+
+TEST(LidarMesh, AWideNormalWindowOnASparseRingReadsEachPointOnce) {
+  // 4 rings of 16 returns: a 16-column range image; smooth_cols 40 (allowed by azimuth_bins / 4)
+  // made the fit's window wrap past the row and read before the grid (review, session 34).
+  LidarScan scan;
+  for (int r = 0; r < 4; ++r)
+    for (int k = 0; k < 16; ++k) {
+      const double az = 2 * M_PI * (k + 0.5) / 16 - M_PI, elev = (-20.0 + 2.0 * r) / kDegPerRad;
+      const double t = kHeight / std::sin(-elev);  // the road
+      tescalib::LidarPoint p;
+      p.x = float(t * std::cos(elev) * std::cos(az));
+      p.y = float(t * std::cos(elev) * std::sin(az));
+      p.z = float(-kHeight);
+      p.ring = uint16_t(r);
+      scan.push_back(p);
+    }
+  LidarMeshSettings s;
+  s.smooth_cols = 40;
+  s.sampled_faces = 0;
+  s.max_edge_ratio = 1.0;  // sparse: keep the faces
+  s.max_edge_abs = 10.0;
+  const LidarMesh mesh = tescalib::buildLidarMesh(scan, s);
+  ASSERT_FALSE(mesh.faces.empty());
+  for (const auto& f : mesh.faces) {
+    ASSERT_TRUE(f.normal.allFinite());
+    EXPECT_NEAR(std::fabs(f.normal.z()), 1.f, 1e-3f);  // the road's normal
+  }
 }

@@ -8,13 +8,16 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "tescalib/core/co_calibration.h"
+#include "tescalib/core/consistency.h"
 #include "tescalib/core/error.h"
 #include "tescalib/core/geometry.h"
 #include "tescalib/core/keyframe.h"
 #include "tescalib/core/lidar_mesh.h"
 #include "tescalib/core/lidar_stereo_solver.h"
+#include "tescalib/core/mesh_depth.h"
 #include "tescalib/core/online_calibrator.h"
 #include "tescalib/core/photometric_solver.h"
 #include "tescalib/core/simulator.h"
@@ -103,6 +106,87 @@ TEST(Robustness, SolversRefuseSettingsTheyCannotRun) {
   }
   const LidarStereoResult good = solveLidarStereo(w.window, rig.T_cam_lidar, {});
   EXPECT_EQ(good.message.find("must be at least 1"), std::string::npos) << good.message;
+}
+
+TEST(Robustness, ThePhotometricSolverSaysWhatItCannotConstrain) {
+  // Review, session 34: each of these was accepted or aborted the process.
+  SmallWindow w;
+  const StereoRig& rig = w.sim->rig();
+  // A covered right camera (uniform image): the pose's Jacobian is zero. Ceres' truncated
+  // pseudo-inverse gave those directions variance 0, "known", every axis trusted.
+  {
+    SmallWindow covered;
+    for (Keyframe& kf : covered.keyframes) kf.right_gray.setTo(90);
+    const PhotometricResult r =
+        solvePhotometric(covered.window, rig, rig.T_cam_lidar, rig.T_right_left);
+    EXPECT_FALSE(r.converged);
+    EXPECT_FALSE(r.covariance_known) << r.message;
+    for (bool o : r.observable) EXPECT_FALSE(o);
+    EXPECT_TRUE(r.weak_directions.empty());
+  }
+  // min_keypoints 0 let a level with no key point reach Ceres' covariance (a glog CHECK abort).
+  PhotometricSettings none;
+  none.min_keypoints = 0;
+  const PhotometricResult r0 =
+      solvePhotometric(w.window, rig, rig.T_cam_lidar, rig.T_right_left, none);
+  EXPECT_FALSE(r0.converged);
+  EXPECT_NE(r0.message.find("min_keypoints must be at least 1"), std::string::npos) << r0.message;
+  // A right image of another size than the rig's right camera was read with the wrong layout.
+  SmallWindow small;
+  cv::resize(small.keyframes[1].right_gray, small.keyframes[1].right_gray, cv::Size(), 0.5, 0.5);
+  const PhotometricResult rs =
+      solvePhotometric(small.window, rig, rig.T_cam_lidar, rig.T_right_left);
+  EXPECT_FALSE(rs.converged);
+  EXPECT_NE(rs.message.find("not of the rig's sizes"), std::string::npos) << rs.message;
+  // The key point cap is exact (an accumulated floating-point step kept one more now and then).
+  const MeshDepth md = renderMeshDepth(w.keyframes[0].mesh, rig.T_cam_lidar, rig.left);
+  PhotometricSettings all;
+  all.max_keypoints_per_keyframe = 1 << 20;
+  const size_t n = selectKeyPoints(w.keyframes[0], md, all).size();
+  ASSERT_GT(n, 400u);
+  for (int cap : {6, 13, 97, 250, static_cast<int>(n) - 1}) {
+    PhotometricSettings s;
+    s.max_keypoints_per_keyframe = cap;
+    EXPECT_EQ(selectKeyPoints(w.keyframes[0], md, s).size(), static_cast<size_t>(cap));
+  }
+}
+
+TEST(Robustness, ReTriangulatingWithTheSameExtrinsicKeepsEveryMatch) {
+  // Review, session 34: the bilinear lookup wanted all four neighbours matched even at a
+  // pixel's own position (weight 0 for the others), so each matched region lost its right and
+  // bottom edge; and a NaN extrinsic reached cv::stereoRectify's assertion.
+  const SmallWindow w;
+  const Keyframe& kf = w.keyframes[0];
+  const StereoRig& rig = w.sim->rig();
+  const StereoCloud again = retriangulateStereoCloud(kf.stereo, rig, kf.T_right_left_used);
+  const cv::Mat valid_before = kf.stereo.disparity == kf.stereo.disparity;  // not NaN
+  const cv::Mat valid_after = again.disparity == again.disparity;
+  EXPECT_GT(cv::countNonZero(valid_before), 10000);
+  EXPECT_EQ(cv::countNonZero(valid_after), cv::countNonZero(valid_before));
+  double d = 0;
+  EXPECT_FALSE(kf.stereo.disparityAt(std::nan(""), 10.0, &d));
+  EXPECT_THROW(retriangulateStereoCloud(kf.stereo, rig, withNaN(kf.T_right_left_used)), DataError);
+}
+
+TEST(Robustness, TheLidarDisparityCheckStaysInsideTheRightImage) {
+  // Review, session 34: a point whose disparity is under the search's shift, near the right
+  // edge, read past the right image's last column (past the buffer on the last rows).
+  StereoRig rig;
+  rig.left = {100, 100, 32, 16, 64, 32};
+  rig.right = rig.left;
+  rig.T_right_left.translation() = Eigen::Vector3d(-0.1, 0, 0);  // f b = 10 px m
+  cv::Mat img(32, 64, CV_8UC1);
+  for (int u = 0; u < 64; ++u) img.col(u).setTo(u % 4 < 2 ? 0 : 255);  // texture everywhere
+  auto pointAt = [](double u, double v, double z) {
+    LidarPoint p;
+    p.x = float((u - 32) * z / 100), p.y = float((v - 16) * z / 100), p.z = float(z);
+    return p;
+  };
+  const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
+  // Disparity 1 px at 10 m: u = 61 searches columns up to 61 - 1 + 8 + 2 = 70 of 64.
+  EXPECT_EQ(lidarDisparityAgreement({pointAt(61, 29, 10.0)}, img, img, rig, I).points, 0);
+  EXPECT_EQ(lidarDisparityAgreement({pointAt(32, 16, 10.0)}, img, img, rig, I).points, 1);
+  EXPECT_THROW(lidarDisparityAgreement({}, img, img(cv::Rect(0, 0, 32, 32)), rig, I), DataError);
 }
 
 TEST(Robustness, TheLidarMeshRefusesRingsAndSettingsItCannotGrid) {

@@ -145,6 +145,28 @@ TEST(ScanMotion, ARoadBetweenGuardRailsIsNotAValidMotion) {
   EXPECT_GT(u.translation_constraint, 2 * kMinTranslationConstraint);
 }
 
+TEST(ScanMotion, AStrayFarPointDoesNotTurnTheVoxelFilterOff) {
+  // Review, session 34: one return 7 km away made PCL's voxel grid index overflow, and PCL then
+  // returned the cloud unfiltered: six times the inliers, five times the time, another velocity.
+  SimOptions o;
+  o.frames = 12;
+  o.seed = 2;
+  o.lidar_sweep = true;
+  const Simulator urban(o);
+  const LidarScan a = urban.renderScan(9), b = urban.renderScan(10);
+  LidarScan a_far = a, b_far = b;
+  LidarPoint far;
+  far.x = far.y = 5000.f;
+  a_far.push_back(far);
+  b_far.push_back(far);
+  const ScanMotion m = estimateScanMotion(a, b, 0.1);
+  const ScanMotion f = estimateScanMotion(a_far, b_far, 0.1);
+  ASSERT_TRUE(m.valid) << m.message;
+  EXPECT_TRUE(f.valid) << f.message;
+  EXPECT_EQ(f.inliers, m.inliers);
+  EXPECT_LT((f.velocity - m.velocity).norm(), 1e-6);
+}
+
 TEST(ScanMotion, BadInputIsRefusedWithAMessage) {
   const LidarScan empty;
   LidarScan few(50);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,11 @@ double medianOf(std::vector<double> v) {
 DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat& left_bgr,
                                            const cv::Mat& right_bgr, const StereoRig& rig,
                                            const Eigen::Isometry3d& T_cam_lidar, int max_shift) {
+  if (left_bgr.size() != right_bgr.size() || left_bgr.depth() != CV_8U ||
+      right_bgr.depth() != CV_8U)
+    throw DataError("lidarDisparityAgreement: the pair must be two 8-bit images of one size (" +
+                    std::to_string(left_bgr.cols) + "x" + std::to_string(left_bgr.rows) + " and " +
+                    std::to_string(right_bgr.cols) + "x" + std::to_string(right_bgr.rows) + ")");
   const cv::Mat gl = grey(left_bgr), gr = grey(right_bgr);
   const int r = 2;  // 5x5 patch
   const double fb = rig.left.fx * rig.baseline();
@@ -46,7 +52,11 @@ DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat&
     const int u = static_cast<int>(std::lround(rig.left.fx * c.x() / c.z() + rig.left.cx));
     const int v = static_cast<int>(std::lround(rig.left.fy * c.y() / c.z() + rig.left.cy));
     const int d = static_cast<int>(std::lround(fb / c.z()));
-    if (v - r < 0 || v + r >= gl.rows || u + r >= gl.cols || u - d - max_shift - r < 0) continue;
+    // The left patch and the gradient's neighbours, and every right patch searched (a disparity
+    // under max_shift searches to the right of u, beyond the image's last column near its edge).
+    if (v - r < 0 || v + r >= gl.rows || u - r < 1 || u + r + 1 >= gl.cols ||
+        u - d - max_shift - r < 0 || u - d + max_shift + r >= gr.cols)
+      continue;
     const int gx = std::abs(int(gl.at<uint8_t>(v, u + 1)) - int(gl.at<uint8_t>(v, u - 1)));
     if (gx < 12) continue;  // horizontal texture is what disparity can be measured on
     double best = 1e18;
@@ -149,7 +159,12 @@ VerticalAlignment verticalAlignment(const cv::Mat& left, const cv::Mat& right,
     dv.push_back(dy);
   }
   out.points = static_cast<int>(dv.size());
-  if (out.points < 10) return out;
+  if (out.points < 10) {
+    // Too few to fit: no figure, rather than zeros that read as a perfectly aligned pair.
+    out.median_px = out.offset_px = out.slope_x_px = out.slope_y_px = out.spread_px =
+        std::numeric_limits<double>::quiet_NaN();
+    return out;
+  }
   out.median_px = medianOf(dv);
   // Affine fit, iteratively reweighted with a Huber weight (0.2 px).
   Eigen::Vector3d c(out.median_px, 0, 0);

@@ -50,8 +50,29 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   // No finer azimuth bins than the densest ring has returns: neighbours must be adjacent bins.
   std::vector<int> per_ring(rings, 0);
   for (const auto& p : scan) ++per_ring[p.ring];
+  const int densest =
+      static_cast<int>(std::max_element(per_ring.begin(), per_ring.end()) - per_ring.begin());
+  // The bins span the whole turn. A scan its driver cropped to a sector (a camera's view) has
+  // that many returns in the sector only: counted over the turn, its bins would be several beams
+  // wide and keep one return in three. Scaled up by the densest ring's coverage when it covers
+  // less than 5/6 of the turn (a full turn with a few gaps is taken as it is).
+  double per_turn = per_ring[densest];
+  {
+    std::vector<double> az;
+    az.reserve(per_ring[densest]);
+    for (const auto& p : scan)
+      if (p.ring == densest && std::isfinite(p.x) && std::isfinite(p.y))
+        az.push_back(std::atan2(p.y, p.x));
+    if (az.size() >= 2) {
+      std::sort(az.begin(), az.end());
+      double gap = az.front() + 2 * M_PI - az.back();
+      for (size_t i = 1; i < az.size(); ++i) gap = std::max(gap, az[i] - az[i - 1]);
+      const double coverage = (2 * M_PI - gap) / (2 * M_PI);
+      if (coverage > 0 && coverage < 5.0 / 6.0) per_turn = az.size() / coverage;
+    }
+  }
   const int cols =
-      std::max(16, std::min(s.azimuth_bins, *std::max_element(per_ring.begin(), per_ring.end())));
+      std::max(16, static_cast<int>(std::min<double>(s.azimuth_bins, std::floor(per_turn))));
   // Range image: the closest return per (ring, azimuth bin).
   std::vector<int> grid(static_cast<size_t>(rings) * cols, -1);
   std::vector<float> grid_range(grid.size(), 0.f);
@@ -67,7 +88,7 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   }
   // Fill single-bin gaps inside a ring (bins are slightly finer than the beam spacing).
   auto at = [&](int ring, int col) {
-    return grid[static_cast<size_t>(ring) * cols + ((col + cols) % cols)];
+    return grid[static_cast<size_t>(ring) * cols + ((col % cols) + cols) % cols];
   };
   const double cos_max_inc = std::cos(s.max_incidence_deg * M_PI / 180.0);
   const double cos_view = std::cos(s.view_half_angle_deg * M_PI / 180.0);
@@ -172,6 +193,9 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
     // of range noise tilts it by degrees (lidar_mesh.h); averaging neighbouring faces barely helps
     // (they share vertices).
     const float cos_max = static_cast<float>(std::cos(s.smooth_max_angle_deg * M_PI / 180.0));
+    // A range image of few columns (a sparse ring) must not wrap the window onto itself: every
+    // point at most once.
+    const int smooth_cols = std::min(s.smooth_cols, std::max(0, (cols - 2) / 2));
     std::vector<Eigen::Vector3f> fitted(sample.size());
     const int n_sample = static_cast<int>(sample.size());
     auto fit = [&](int j) {
@@ -183,7 +207,7 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       Eigen::Matrix3f second = Eigen::Matrix3f::Zero();
       int n = 0;
       for (int r = std::max(0, r0 - 1); r <= std::min(rings - 1, r0 + 2); ++r)
-        for (int dc = -s.smooth_cols; dc <= s.smooth_cols + 1; ++dc) {
+        for (int dc = -smooth_cols; dc <= smooth_cols + 1; ++dc) {
           const int i = at(r, c0 + dc);
           if (i < 0) continue;
           const Eigen::Vector3f p = vec(i);

@@ -164,8 +164,11 @@ std::vector<KeyPoint> selectKeyPoints(const Keyframe& kf, const MeshDepth& md,
   }
   if (static_cast<int>(out.size()) > s.max_keypoints_per_keyframe) {
     std::vector<KeyPoint> kept;
-    const double step = double(out.size()) / s.max_keypoints_per_keyframe;
-    for (double x = 0; x < out.size(); x += step) kept.push_back(out[size_t(x)]);
+    // Evenly over the list, exactly max_keypoints_per_keyframe of them (an accumulated
+    // floating-point step kept one more now and then).
+    const size_t n = out.size(), m = static_cast<size_t>(s.max_keypoints_per_keyframe);
+    kept.reserve(m);
+    for (size_t k = 0; k < m; ++k) kept.push_back(out[k * n / m]);
     out.swap(kept);
   }
   return out;
@@ -191,16 +194,20 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
   }
   for (const Keyframe* kf : window)
     if (kf->left_gray.empty() || kf->right_gray.empty() || kf->left_gray.cols != rig.left.width ||
-        kf->left_gray.rows != rig.left.height) {
-      res.message = "a keyframe's images are empty or not of the rig's size (" +
-                    std::to_string(rig.left.width) + "x" + std::to_string(rig.left.height) + ")";
+        kf->left_gray.rows != rig.left.height || kf->right_gray.cols != rig.right.width ||
+        kf->right_gray.rows != rig.right.height || kf->left_gray.type() != CV_8UC1 ||
+        kf->right_gray.type() != CV_8UC1) {
+      res.message =
+          "a keyframe's images are empty, not 8-bit grey or not of the rig's sizes (left " +
+          std::to_string(rig.left.width) + "x" + std::to_string(rig.left.height) + ", right " +
+          std::to_string(rig.right.width) + "x" + std::to_string(rig.right.height) + ")";
       return res;
     }
   if (s.cell_size < 1 || s.max_keypoints_per_keyframe < 1 || s.pyramid_levels < 1 ||
-      s.iterations_per_level < 1 || s.threads < 1) {
+      s.iterations_per_level < 1 || s.threads < 1 || s.min_keypoints < 1) {
     res.message =
-        "cell_size, max_keypoints_per_keyframe, pyramid_levels, iterations_per_level and threads "
-        "must be at least 1";
+        "cell_size, max_keypoints_per_keyframe, pyramid_levels, iterations_per_level, threads and "
+        "min_keypoints must be at least 1";
     return res;
   }
   // Key points with LiDAR depth (left z-buffer of the mesh), chosen once at full resolution.
@@ -401,8 +408,11 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
       if (free_depth) {
         co.algorithm_type = ceres::SPARSE_QR;  // thousands of depth corrections
       } else {
+        // Rank-deficient (a direction no key point constrains, e.g. a uniform right image: the
+        // pose's Jacobian is zero) fails rather than giving that direction variance 0, as a
+        // truncated pseudo-inverse (null_space_rank -1) did.
         co.algorithm_type = ceres::DENSE_SVD;
-        co.null_space_rank = -1;
+        co.null_space_rank = 0;
       }
       ceres::Covariance cov(co);
       std::vector<std::pair<const double*, const double*>> blocks{{delta, delta}};
@@ -422,6 +432,14 @@ PhotometricResult solvePhotometric(const std::vector<const Keyframe*>& window, c
   }
   res.T_right_left = T;
   for (size_t k = 0; k < window.size(); ++k) res.brightness[k] = {ab[k][0], ab[k][1]};
+  if (!res.covariance_known) {
+    // The placeholder stays an identity with no flags and no directions (the header's promise).
+    res.message =
+        "the covariance could not be computed: the key points leave a direction of the pose "
+        "unconstrained (a uniform or covered right image?)";
+    res.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return res;
+  }
   const bool all = trustFlags(res.covariance, s, res.observable);
   res.weak_directions = weakDirections(res.covariance, s.max_sigma_rot_deg, s.max_sigma_trans_m);
   // Ceres' covariance assumes independent pixels; neighbouring key points share interpolation,

@@ -34,7 +34,11 @@ struct Rectification {
 
 Rectification rectificationFor(const StereoRig& rig, const Eigen::Isometry3d& T, cv::Size size) {
   Rectification r;
-  if (isRectified(T)) {
+  // Rectified as delivered only with one focal length for both cameras: the identity path
+  // shifts the right image to the left's principal point but does not scale it.
+  const bool same_focal = std::fabs(rig.right.fx - rig.left.fx) <= 1e-9 * rig.left.fx &&
+                          std::fabs(rig.right.fy - rig.left.fy) <= 1e-9 * rig.left.fy;
+  if (isRectified(T) && same_focal) {
     r.fx = rig.left.fx, r.fy = rig.left.fy, r.cx = rig.left.cx, r.cy = rig.left.cy;
     r.baseline = -T.translation().x();
     return r;
@@ -117,13 +121,23 @@ bool isRectified(const Eigen::Isometry3d& T, double tol) {
 }
 
 bool StereoCloud::disparityAt(double u, double v, double* d) const {
+  if (!std::isfinite(u) || !std::isfinite(v)) return false;
+  // Within 1e-6 px of a pixel is that pixel (a pixel map's round-off must not make it need its
+  // neighbour).
+  const double us = std::round(u), vs = std::round(v);
+  if (std::fabs(u - us) < 1e-6) u = us;
+  if (std::fabs(v - vs) < 1e-6) v = vs;
+  if (u < 0 || v < 0 || u > disparity.cols - 1 || v > disparity.rows - 1) return false;
   const int u0 = static_cast<int>(std::floor(u)), v0 = static_cast<int>(std::floor(v));
-  if (u0 < 0 || v0 < 0 || u0 + 1 >= disparity.cols || v0 + 1 >= disparity.rows) return false;
-  const float* r0 = disparity.ptr<float>(v0);
-  const float* r1 = disparity.ptr<float>(v0 + 1);
-  const float a = r0[u0], b = r0[u0 + 1], c = r1[u0], e = r1[u0 + 1];
-  if (std::isnan(a) || std::isnan(b) || std::isnan(c) || std::isnan(e)) return false;
   const double fu = u - u0, fv = v - v0;
+  // A neighbour of weight 0 (an integer coordinate) need be neither valid nor inside: a pixel's
+  // own disparity is returned exactly, also at a valid region's right and bottom edges.
+  const int u1 = fu > 0 ? u0 + 1 : u0, v1 = fv > 0 ? v0 + 1 : v0;
+  if (u1 >= disparity.cols || v1 >= disparity.rows) return false;
+  const float* r0 = disparity.ptr<float>(v0);
+  const float* r1 = disparity.ptr<float>(v1);
+  const float a = r0[u0], b = r0[u1], c = r1[u0], e = r1[u1];
+  if (std::isnan(a) || std::isnan(b) || std::isnan(c) || std::isnan(e)) return false;
   *d = (1 - fv) * ((1 - fu) * a + fu * b) + fv * ((1 - fu) * c + fu * e);
   return true;
 }
@@ -273,6 +287,8 @@ StereoCloud retriangulateStereoCloud(const StereoCloud& matched, const StereoRig
   const auto t0 = std::chrono::steady_clock::now();
   const cv::Mat& in = matched.disparity;
   if (in.empty()) throw DataError("stereo cloud: no disparity to re-triangulate");
+  const std::string pair_problem = stereoExtrinsicProblem(T_right_left);
+  if (!pair_problem.empty()) throw DataError("stereo pair: " + pair_problem);
   StereoCloud out;
   out.exposure_equalized = matched.exposure_equalized;
   const Rectification rect = rectificationFor(rig, T_right_left, in.size());

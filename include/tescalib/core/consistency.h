@@ -24,7 +24,8 @@ struct DisparityAgreement {
 /// For every LiDAR point projected into the left image with `T_cam_lidar`, the predicted
 /// disparity is fx * baseline / Z. The right image is searched at that disparity plus an extra
 /// shift in [-max_shift, max_shift] (5x5 SAD on grey values); returns where the best shift lies.
-/// Only points on textured pixels (gradient above a threshold) are used.
+/// Only points on textured pixels (gradient above a threshold) whose every searched patch lies in
+/// the image are used. Throws DataError unless both images are 8-bit and of one size.
 DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat& left_bgr,
                                            const cv::Mat& right_bgr, const StereoRig& rig,
                                            const Eigen::Isometry3d& T_cam_lidar, int max_shift = 8);
@@ -66,7 +67,8 @@ struct VerticalAlignment {
 
 /// The vertical alignment of a pair (8-bit BGR or grey, as delivered) under `rig`'s intrinsics and
 /// `T_right_left`, with `cloud` the stereo cloud computed from them (its disparity gives each
-/// corner's depth). Corners without a disparity are skipped; points = 0 when nothing matched.
+/// corner's depth). Corners without a disparity are skipped; points = 0 when nothing matched, and
+/// with fewer than 10 followed corners the other figures are NaN (not fitted).
 VerticalAlignment verticalAlignment(const cv::Mat& left, const cv::Mat& right,
                                     const StereoCloud& cloud, const StereoRig& rig,
                                     const Eigen::Isometry3d& T_right_left, int max_corners = 3000);

@@ -14,8 +14,10 @@
 namespace tescalib {
 
 struct LidarMeshSettings {
-  int azimuth_bins = 2000;  ///< max columns of the range image (HDL-64E: ~2000 per
-                            ///< turn); fewer when the densest ring has fewer returns
+  /// Max columns of the range image (HDL-64E: ~2000 per turn); fewer when the densest ring has
+  /// fewer returns per turn (a scan cropped to a sector, under 5/6 of the turn, counts its
+  /// returns as if the ring went all the way round at their spacing).
+  int azimuth_bins = 2000;
   double max_range = 80.0;  ///< m; farther returns are not meshed
   double min_range = 2.0;   ///< m; closer returns (the vehicle itself) are ignored
   /// Reject when any edge is longer than this times range, unless its rays are so far apart

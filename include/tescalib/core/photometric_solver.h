@@ -20,8 +20,11 @@ struct PhotometricSettings {
   double min_gradient = 12.0;  ///< grey levels per pixel (Scharr / 32)
   int max_keypoints_per_keyframe = 900;
   double gradient_weight_c = 50.0;  ///< c of w_p = c^2 / (c^2 + |grad I|^2)
-  double huber = 9.0;               ///< grey levels
-  int pyramid_levels = 3;           ///< coarse-to-fine: 1/4, 1/2, 1
+  /// Grey levels, on the norm of a key point's whole pattern (8 pixels) residual, as Ceres applies
+  /// a loss to a residual block: about 9 / sqrt(8) = 3.2 grey levels per pixel when all deviate
+  /// alike (Stereo DSO applies its Huber per pixel).
+  double huber = 9.0;
+  int pyramid_levels = 3;  ///< coarse-to-fine: 1/4, 1/2, 1
   int iterations_per_level = 25;
   double occlusion_tolerance = 0.05;  ///< relative depth difference tolerated in the right view
   double min_depth = 2.0, max_depth = 60.0;  ///< m, key point depth
@@ -100,7 +103,8 @@ struct PhotometricResult {
   /// Without `covariance_known` a placeholder (identity), not an uncertainty.
   Matrix6d covariance = Matrix6d::Identity();
   /// The full-resolution problem's covariance was computed (false when the solve ended before
-  /// it: too few key points, a bad initial guess, ...).
+  /// it: too few key points, a bad initial guess, ...; or when the problem was rank-deficient,
+  /// a direction of the pose constrained by no key point: then not converged either).
   bool covariance_known = false;
   /// How the LiDAR extrinsic that gave the key points' depth moves this estimate: d[phi; tau] of
   /// T_right_left per d[phi; tau] of T_cam_lidar (the brightness parameters marginalised; first

@@ -88,16 +88,19 @@ bool isRectified(const Eigen::Isometry3d& T_right_left, double tol = 1e-9);
 double rectifiedBaseline(const StereoRig& rig, const Eigen::Isometry3d& T_right_left);
 
 /// Computes the stereo cloud of a pair with the left->right estimate `T_right_left` (the rig's
-/// intrinsics are used; the pair is re-rectified when the estimate is not a pure x translation).
+/// intrinsics are used; the pair is re-rectified when the estimate is not a pure x translation
+/// or the two cameras' focal lengths differ).
 StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
                                const StereoRig& rig, const Eigen::Isometry3d& T_right_left,
                                const StereoSettings& settings = {});
 
 /// The cloud of the same matches with another left->right estimate, without matching again:
 /// every pixel pair SGBM matched in `matched`'s rectification is triangulated with
-/// `T_right_left` (its disparity in the new rectification, then the points). Exact for the
-/// matches; the matches themselves are as good as `matched`'s rectification was (a vertical
-/// misalignment of the images SGBM saw stays), so it serves small changes of the estimate.
+/// `T_right_left` (its disparity in the new rectification, then the points), where the new
+/// pixel's bilinear neighbours in the old disparity are all matched (every pixel when the
+/// rectification is unchanged). Exact for the matches; the matches themselves are as good as
+/// `matched`'s rectification was (a vertical misalignment of the images SGBM saw stays), so it
+/// serves small changes of the estimate.
 StereoCloud retriangulateStereoCloud(const StereoCloud& matched, const StereoRig& rig,
                                      const Eigen::Isometry3d& T_right_left,
                                      const StereoSettings& settings = {});
