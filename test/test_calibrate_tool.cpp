@@ -171,6 +171,38 @@ TEST(CalibrationIo, UnwritableFolderIsNamed) {
   EXPECT_NE(msg.find("result_static_tf.launch.tmp: Is a directory"), std::string::npos) << msg;
 }
 
+TEST(CalibrationIo, AnUnknownCovarianceIsNullAndNotANumberIsYamls) {
+  // Review, session 34: the YAML wrote a placeholder covariance as sigmas (57 deg, 1 m) and NaN
+  // as "nan", which YAML reads as a string.
+  OnlineEstimate e = someEstimate();
+  e.cov_stereo_known = false;
+  e.cov_lidar(0, 0) = std::nan("");
+  const std::string y = calibrationYaml(e, CalibrationFrames{});
+  const std::string lidar = y.substr(0, y.find("T_right_left:"));
+  const std::string stereo = y.substr(y.find("T_right_left:"));
+  EXPECT_NE(lidar.find("covariance_known: true"), std::string::npos) << y;
+  EXPECT_NE(lidar.find("sigma_rot_deg: [.nan, "), std::string::npos) << y;
+  EXPECT_NE(lidar.find("covariance_phi_tau: [.nan, 0, "), std::string::npos) << y;
+  EXPECT_EQ(y.find("nan,"), y.find(".nan,") + 1) << y;  // every NaN spelt .nan
+  EXPECT_NE(stereo.find("covariance_known: false"), std::string::npos) << y;
+  EXPECT_NE(stereo.find("sigma_rot_deg: null"), std::string::npos) << y;
+  EXPECT_NE(stereo.find("covariance_phi_tau: null"), std::string::npos) << y;
+  EXPECT_NE(stereo.find("trusted_axes: [false, false, false, false, false, false]"),
+            std::string::npos)
+      << y;
+  EXPECT_EQ(stereo.find("weakest_direction"), std::string::npos) << y;
+  // "dir/.yaml" is the folder once ".yaml" is taken off; "." and ".." name folders too.
+  TempDir tmp;
+  std::string msg;
+  for (const char* name : {"/.yaml", "/.", "/.."}) {
+    EXPECT_FALSE(writeCalibrationFiles(tmp.str() + name, StereoRig{}, someEstimate(),
+                                       CalibrationFrames{}, &msg))
+        << name;
+    EXPECT_NE(msg.find("names a folder"), std::string::npos) << msg;
+  }
+  EXPECT_TRUE(std::filesystem::is_empty(tmp.path));
+}
+
 TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
   TempDir tmp;
   const auto sim = writeDrive(tmp, 36, 7);  // 8 keyframes

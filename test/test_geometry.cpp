@@ -77,6 +77,21 @@ TEST(Geometry, WeakDirectionsFindACoupledDirectionNoAxisShows) {
   EXPECT_EQ(weakestClause({w}), "; weakest direction 1.00 tz, 2.00x the trust limit");
 }
 
+TEST(Geometry, WeakDirectionsNeedPositiveLimitsAndLongRatiosAreWhole) {
+  // Review, session 34: a limit of 0 gave six directions of ratio 0 ("none computed" read as
+  // computed), and a ratio of 1e16 was cut off in the message.
+  const Matrix6d cov = Matrix6d::Identity() * 1e-4;
+  EXPECT_TRUE(weakDirections(cov, 0.0, 0.01).empty());
+  EXPECT_TRUE(weakDirections(cov, 0.05, -1.0).empty());
+  EXPECT_EQ(weakDirections(cov, 0.05, 0.01).size(), 6u);
+  WeakDirection w;
+  w.ratio = 1e20;
+  w.direction(5) = 1.0;
+  EXPECT_EQ(describeWeakest(w), "1.00 tz, 1e+20x the trust limit");
+  w.ratio = 1.744;
+  EXPECT_EQ(describeWeakest(w), "1.00 tz, 1.74x the trust limit");
+}
+
 TEST(Overlay, StatusTextOnADarkBand) {
   cv::Mat img(120, 400, CV_8UC3, cv::Scalar(200, 200, 200));
   drawStatusText({"LiDAR->left: converged", "left->right: converged"}, &img);

@@ -59,7 +59,7 @@ bool axesWithin(const Matrix6d& covariance, double max_sigma_rot_deg, double max
 
 std::vector<WeakDirection> weakDirections(const Matrix6d& covariance, double max_sigma_rot_deg,
                                           double max_sigma_trans_m) {
-  if (!covariance.allFinite()) return {};
+  if (!covariance.allFinite() || !(max_sigma_rot_deg > 0) || !(max_sigma_trans_m > 0)) return {};
   Vector6d scale;
   scale << Eigen::Vector3d::Constant(kDegPerRad / max_sigma_rot_deg),
       Eigen::Vector3d::Constant(1.0 / max_sigma_trans_m);
@@ -100,8 +100,11 @@ std::string describeDirection(const Vector6d& direction) {
 
 std::string describeWeakest(const WeakDirection& weakest) {
   if (!(weakest.ratio > 0)) return "";
-  char buf[40];
-  std::snprintf(buf, sizeof buf, ", %.2fx the trust limit", weakest.ratio);
+  char buf[48];
+  // %.2f up to a million; beyond, %.3g (a near-singular covariance's ratio would not fit).
+  std::snprintf(buf, sizeof buf,
+                weakest.ratio < 1e6 ? ", %.2fx the trust limit" : ", %.3gx the trust limit",
+                weakest.ratio);
   return describeDirection(weakest.direction) + buf;
 }
 

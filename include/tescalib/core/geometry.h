@@ -57,7 +57,7 @@ struct WeakDirection {
 
 /// The six eigen-directions of `covariance` in units of the limits, the weakest first (the
 /// degeneracy of the paper's uncertainty analysis, in directions rather than axes). Empty when
-/// the covariance is not finite.
+/// the covariance is not finite or a limit is not positive.
 std::vector<WeakDirection> weakDirections(const Matrix6d& covariance, double max_sigma_rot_deg,
                                           double max_sigma_trans_m);
 
