@@ -617,6 +617,13 @@ TEST(OnlineCalibratorGenerated, CoCalibrationContinuesWarmAfterTheFirstEstimate)
   ASSERT_TRUE(cal.solve(&msg)) << msg;
   check("warm update, 6 keyframes");
   EXPECT_EQ(cal.estimate()->co_rounds, settings.warm_co_rounds);
+  // The warm update's LiDAR covariance holds the pair's uncertainty, as the full run's does
+  // (review, session 34: it was the covariance given the pair, rz sigma 42 % smaller, compared
+  // against the full run's with it).
+  const OnlineEstimate warm = *cal.estimate();
+  EXPECT_GT(warm.cov_lidar(2, 2), 1.2 * warm.cov_lidar_given_stereo(2, 2))
+      << "rz variance " << warm.cov_lidar(2, 2) << " vs given the pair "
+      << warm.cov_lidar_given_stereo(2, 2);
 }
 
 /// A generated drive of raw (swept) scans at 8-14 m/s.

@@ -643,11 +643,13 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
                    s.model_sigma_lidar_trans_m);
   // The left-right pair's uncertainty in the LiDAR covariance, through the LiDAR estimate's
   // sensitivity to the pair and the alternation's gain at its fixed point.
-  if (s.propagate_stereo_into_lidar && res.stable && res.lidar.converged &&
-      res.stereo.covariance.allFinite()) {
+  // A warm update that cannot be stable takes an earlier full run's sensitivity.
+  if (s.propagate_stereo_into_lidar && (res.stable || s.reuse_lidar_sensitivity) &&
+      res.lidar.converged && res.stereo.covariance.allFinite()) {
     double seconds = 0;
     const Matrix6d& J_ls = res.lidar_stereo_sensitivity =
-        lidarSensitivityToStereo(window, rig, res.lidar, ls_last, s, &seconds);
+        res.stable ? lidarSensitivityToStereo(window, rig, res.lidar, ls_last, s, &seconds)
+                   : s.lidar_sensitivity_to_stereo;
     res.seconds_lidar += seconds;
     const Matrix6d loop = J_ls * res.stereo.lidar_sensitivity;
     res.coupling = loop.eigenvalues().cwiseAbs().maxCoeff();

@@ -67,6 +67,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
       window_.clear();
       keyframe_information_.clear();
       previous_scan_.reset();
+      last_solve_.reset();  // it described the window just cleared
       ++generation_;
       last_stamp_ = frame.stamp;
       last_keyframe_stamp_ = -1e300;
@@ -196,7 +197,8 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   if (generation_ != generation) {
     // Built from the extrinsics (and, de-skewed, the scans) of a window that is gone: a reset
     // would otherwise find a keyframe of the estimate it cleared in its fresh window (session 32
-    // review).
+    // review). Its row check, if it had the one, is another keyframe's to do.
+    if (check_rows) rows_checked_ = false;
     *msg =
         "the window was cleared while this keyframe was built (reset, or time went backwards): "
         "dropped";
@@ -275,6 +277,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
   std::vector<std::shared_ptr<Keyframe>> snapshot;
   Eigen::Isometry3d T_cl, T_rl;
   std::optional<OnlineEstimate> current;
+  std::optional<Matrix6d> sensitivity, new_sensitivity;  // co_sensitivity_ before and after
   bool co = false;
   uint64_t generation = 0;
   if (cancel_) {
@@ -302,6 +305,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
     for (const auto& k : window_) snapshot.push_back(co ? std::make_shared<Keyframe>(*k) : k);
     new_keyframes_ = 0;
     current = estimate_;
+    sensitivity = co_sensitivity_;
     T_cl = current ? current->T_cam_lidar : rig_.T_cam_lidar;
     T_rl = current ? current->T_right_left : rig_.T_right_left;
   }
@@ -329,8 +333,15 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
       if (warm) {
         cs.warm_first_round = true;
         cs.max_rounds = std::min(cs.max_rounds, settings_.warm_co_rounds);
+        // Its LiDAR covariance must hold the pair's uncertainty as the published one does.
+        if (sensitivity) {
+          cs.reuse_lidar_sensitivity = true;
+          cs.lidar_sensitivity_to_stereo = *sensitivity;
+        }
       }
       const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, cs);
+      if (!warm && r.stable && !r.lidar_stereo_sensitivity.isZero())
+        new_sensitivity = r.lidar_stereo_sensitivity;
       {
         // Keep the re-rectified or rescaled clouds: swap those keyframes into the window (the
         // window's keyframes are shared and never modified in place).
@@ -444,6 +455,15 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
   if (!e.converged)
     return notPublished("not converged (" + *msg + "): " +
                         (estimate_ ? "keeping the previous estimate" : "nothing published yet"));
+  // A covariance with NaN would pass every later "less certain" comparison (NaN compares false):
+  // not published, the first estimate included.
+  if ((e.cov_lidar_known && !e.cov_lidar.allFinite()) ||
+      (e.stereo_estimated && e.cov_stereo_known && !e.cov_stereo.allFinite()))
+    return notPublished("its covariance is not finite: " + std::string(estimate_
+                                                                           ? "keeping the previous "
+                                                                             "estimate"
+                                                                           : "nothing published "
+                                                                             "yet"));
   if (estimate_) {
     // After the window restarted (a reset of the window by a bag's loop; the estimate is kept),
     // its first solves come from a few keyframes, and their covariances hardly show it (the
@@ -489,6 +509,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
     }
   }
   estimate_ = last_solve_ = e;
+  if (new_sensitivity) co_sensitivity_ = new_sensitivity;
   if (published) *published = e;
   return true;
 }
@@ -510,6 +531,8 @@ void OnlineCalibrator::reset() {
   keyframe_information_.clear();
   estimate_.reset();
   last_solve_.reset();
+  co_sensitivity_.reset();
+  rows_checked_ = false;  // a recalibration checks the rows again
   previous_scan_.reset();
   last_stamp_ = -1e300;
   last_keyframe_stamp_ = -1e300;

@@ -124,6 +124,14 @@ struct CoCalibrationSettings {
   /// window of six held the LiDAR 3 sigma off about the optical axis through it
   /// (doc/co_calibration.md).
   bool propagate_stereo_into_lidar = true;
+  /// A warm update (one round, OnlineSettings::warm_co_rounds, which cannot be called stable)
+  /// propagates the pair's uncertainty with this sensitivity of an earlier full run's
+  /// (`lidar_stereo_sensitivity`) instead of none: without it the online node compared and
+  /// published a LiDAR covariance without the pair's uncertainty against one with it (review,
+  /// session 34: rz sigma 42 % smaller after one more keyframe). Used only when the run is not
+  /// stable; a stable run computes its own.
+  bool reuse_lidar_sensitivity = false;
+  Matrix6d lidar_sensitivity_to_stereo = Matrix6d::Zero();
   double sensitivity_step_rot_deg = 0.01;
   double sensitivity_step_trans_m = 0.002;
   /// Second opinion (secondOpinion) on a converged LiDAR estimate at least `confirm_beyond_deg`

@@ -206,7 +206,8 @@ class OnlineCalibrator {
   std::optional<OnlineEstimate> estimate() const;  ///< the current published estimate
   /// The last solve's result, published or not: `converged` and `message` say which and why.
   /// What the window gives when nothing is trusted (a user's first question on their data);
-  /// never the published estimate unless it was published.
+  /// never the published estimate unless it was published. Cleared by reset() and when time
+  /// goes backwards (it described the window then cleared).
   std::optional<OnlineEstimate> lastSolve() const;
   size_t windowFill() const;
   bool readyToSolve() const;
@@ -236,6 +237,9 @@ class OnlineCalibrator {
   std::shared_ptr<const LidarScan> previous_scan_;  ///< GUARDED_BY(mutex_)
   double previous_scan_stamp_ = -1e300;             ///< GUARDED_BY(mutex_)
   bool rows_checked_ = false;  ///< GUARDED_BY(mutex_) OnlineSettings::max_row_offset_px done
+  /// GUARDED_BY(mutex_): the published full co-calibration's LiDAR sensitivity to the pair, for
+  /// the warm updates after it (CoCalibrationSettings::reuse_lidar_sensitivity).
+  std::optional<Matrix6d> co_sensitivity_;
   /// Per-keyframe LiDAR-stereo information from the last solve that used it, by stamp.
   std::map<double, Matrix6d> keyframe_information_;  ///< GUARDED_BY(mutex_)
   /// Index in window_ of the keyframe to drop when the window is over-full.
