@@ -105,3 +105,23 @@ TEST(Overlay, StatusTextOnADarkBand) {
   EXPECT_EQ(lo, 200.0);  // untouched
   EXPECT_EQ(hi, 200.0);
 }
+
+TEST(Overlay, NonFinitePointsTransformsAndDepthsDrawNothing) {
+  // Review, session 34: a NaN point passed the depth test (NaN compares false), rounded to pixel
+  // (0, 0) and indexed the colour map with INT_MIN (a segfault in the optimised build).
+  CameraIntrinsics cam;
+  cam.fx = cam.fy = 100, cam.cx = 50, cam.cy = 40, cam.width = 100, cam.height = 80;
+  LidarPoint in_view, nan_point;
+  in_view.z = 10.f;
+  nan_point.x = nan_point.y = nan_point.z = std::nanf("");
+  const Eigen::Isometry3d I = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d bad = I;
+  bad.translation().x() = std::nan("");
+  cv::Mat img(80, 100, CV_8UC3, cv::Scalar::all(0));
+  EXPECT_EQ(drawLidarOverlay({nan_point, in_view}, I, cam, &img, 80.0), 1);
+  EXPECT_EQ(drawLidarOverlay({in_view}, bad, cam, &img, 80.0), 0);
+  EXPECT_EQ(drawLidarOverlay({in_view}, I, cam, &img, std::nan("")), 0);
+  LidarPoint far_off;  // projects to about x = 1e9: outside, not an int overflow
+  far_off.x = 1e8f, far_off.z = 1.5f;
+  EXPECT_EQ(drawLidarOverlay({far_off}, I, cam, &img, 80.0), 0);
+}

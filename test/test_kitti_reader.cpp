@@ -302,6 +302,56 @@ TEST(KittiReaderErrors, CalibrationsTheSolversCannotStartFromAreRefused) {
   EXPECT_NO_THROW(KittiSequence s(tmp.str()));
 }
 
+TEST(KittiReaderErrors, TimesAndCalibrationsAreReadStrictly) {
+  // Review, session 34: each of these was accepted. A blank line in times.txt gave every later
+  // frame the next one's stamp; "0.1abc", "nan" and decreasing stamps were taken; a sheared Tr
+  // of determinant 1 became some other rotation; a P with skew was read as if it had none.
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str(), 3);
+  auto times = [&](const std::string& text) { std::ofstream(tmp.path / "times.txt") << text; };
+  times("0\n\n0.1\n0.2\n");
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"times.txt:3", "blank line 2"});
+  times("0\n0.1abc\n0.2\n");
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"times.txt:2", "malformed"});
+  times("0\nnan\n0.2\n");
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"times.txt:2", "malformed"});
+  times("0\n0.2\n0.1\n");
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"times.txt:3", "do not increase"});
+  times("0\n0.1\n0.2\n\n\n");  // blank lines at the end are fine
+  EXPECT_EQ(KittiSequence(tmp.str()).size(), 3u);
+  auto calib = [&](const std::string& tr, const std::string& p2) {
+    std::ofstream(tmp.path / "calib.txt")
+        << "P2: " << p2 << "\nP3: 700 0 320 -308 0 700 120 0 0 0 1 0\nTr: " << tr << "\n";
+  };
+  const std::string p2 = "700 0 320 42 0 700 120 0 0 0 1 0";
+  calib("1 0.5 0 0 0 1 0 0 0 0 1 0", p2);  // determinant 1, not a rotation
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"calib.txt", "not a rotation"});
+  calib("0 -1 0 0.1 0 0 -1 -0.2 1 0 0 -0.3", "700 100 320 42 0 700 120 0 0 0 1 0");
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"calib.txt", "P2", "skew"});
+  calib("0 -1 0 0.1 0 0 -1 -0.2 1 0 0 -0.3", "700 0 320 42 0 700 120 0 0 0 2 0");
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"calib.txt", "P2", "last row"});
+  calib("0 -1 0 0.1 0 0 -1 -0.2 1 0 0 -0.3", p2);
+  EXPECT_NO_THROW(KittiSequence s(tmp.str()));
+}
+
+TEST(KittiReader, ARawDriveOpensWithATrailingSlashAndRefusesJunkAfterItsSeconds) {
+  // Review, session 34: "drive/" (tab completion) looked for the calibration in the drive folder
+  // itself; "13:02:25garbage" was read as 13:02:25.
+  TempDir tmp;
+  const fs::path drive = tmp.path / "2011_09_26_drive_0001_sync";
+  tescalib_test::writeSyntheticRawDrive(
+      tmp.path, drive.filename().string(),
+      {"2011-09-26 13:02:25.964389445", "2011-09-26 13:02:26.074807654"});
+  EXPECT_EQ(KittiSequence(drive.string() + "/").size(), 2u);
+  EXPECT_EQ(KittiSequence(drive.string() + "/.").size(), 2u);
+  std::ofstream(drive / "image_02" / "timestamps.txt")
+      << "2011-09-26 13:02:25\n2011-09-26 13:02:26garbage\n";
+  expectDataError([&] { KittiSequence s(drive.string()); }, {"timestamps.txt:2", "malformed"});
+  std::ofstream(drive / "image_02" / "timestamps.txt")
+      << "2011-09-26 13:02:25\n2011-09-26 13:02:26 \n";  // whole seconds, a trailing blank
+  EXPECT_EQ(KittiSequence(drive.string()).size(), 2u);
+}
+
 TEST(KittiReader, CalibWithoutTheGreyCamerasIsRead) {
   // tescalib_calibrate --init reads a hand-written file with only what it uses: P2, P3, Tr.
   TempDir tmp;

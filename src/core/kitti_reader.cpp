@@ -116,7 +116,10 @@ double parseRawTimestamp(const std::string& s, const std::string& path, int line
   const auto dot = s.find('.');
   std::istringstream in(s.substr(0, dot));
   in >> std::get_time(&tm, "%Y-%m-%d %H:%M:%S");
-  if (in.fail())
+  const bool parsed = !in.fail();
+  std::string rest;
+  if (parsed) std::getline(in, rest);  // nothing but blanks may follow the seconds
+  if (!parsed || rest.find_first_not_of(" \t\r") != std::string::npos)
     throw DataError(path + ":" + std::to_string(line) + ": malformed timestamp '" + s + "'");
   if (dot != std::string::npos) {
     std::string f = s.substr(dot + 1);
@@ -213,9 +216,22 @@ namespace {
 void checkRig(const StereoRig& rig, const KittiOdometryCalib& calib, const std::string& path) {
   if (!(rig.left.fx > 0 && rig.left.fy > 0 && rig.right.fx > 0 && rig.right.fy > 0))
     throw DataError(path + ": P2/P3 need positive focal lengths fx and fy");
-  if (!calib.Tr.allFinite() || std::fabs(calib.Tr.leftCols<3>().determinant() - 1.0) > 0.01 ||
-      !isRigidTransform(rig.T_cam_lidar))
+  // Orthonormal within the files' 6-7 digits (a shear of determinant 1 was re-orthonormalised
+  // into some other rotation).
+  const Eigen::Matrix3d R = calib.Tr.leftCols<3>();
+  if (!calib.Tr.allFinite() || (R.transpose() * R - Eigen::Matrix3d::Identity()).norm() > 1e-3 ||
+      std::fabs(R.determinant() - 1.0) > 0.01 || !isRigidTransform(rig.T_cam_lidar))
     throw DataError(path + ": the LiDAR extrinsic (Tr, or R_rect_00 R | T) is not a rotation");
+  // P = K [I | t] with K upper triangular, no skew, and a last row (0 0 1 tz): anything else
+  // would be ignored by the intrinsics read from it.
+  for (int c : {2, 3}) {
+    const auto& P = calib.P[c];
+    if (std::fabs(P(0, 1)) > 1e-6 * std::fabs(P(0, 0)) || P(1, 0) != 0.0 || P(2, 0) != 0.0 ||
+        P(2, 1) != 0.0 || std::fabs(P(2, 2) - 1.0) > 1e-9)
+      throw DataError(path + ": P" + std::to_string(c) +
+                      " is not a rectified camera's K [I | t] (skew, or a last row other than "
+                      "0 0 1 tz)");
+  }
   const std::string pair = stereoExtrinsicProblem(rig.T_right_left);
   if (!pair.empty()) throw DataError(path + ": P2/P3: " + pair);
 }
@@ -317,7 +333,16 @@ int recoverRings(LidarScan& scan) {
   return n;
 }
 
-KittiSequence::KittiSequence(const std::string& dir) : dir_(dir) {
+namespace {
+/// "a/b/" and "a/b/." -> "a/b": the raw layout looks for its calibration in the parent folder.
+std::string withoutTrailingSeparator(const std::string& dir) {
+  fs::path p = fs::path(dir).lexically_normal();
+  if (p.filename().empty() && p.has_parent_path() && p != p.root_path()) p = p.parent_path();
+  return p.string();
+}
+}  // namespace
+
+KittiSequence::KittiSequence(const std::string& dir) : dir_(withoutTrailingSeparator(dir)) {
   if (!fs::is_directory(dir)) throw DataError(dir + ": sequence folder not found");
   if (fs::exists(fs::path(dir) / "calib.txt") || fs::is_directory(fs::path(dir) / "image_2")) {
     layout_ = KittiLayout::kOdometry;
@@ -350,18 +375,34 @@ void KittiSequence::openOdometry() {
   const std::string times_path = (d / "times.txt").string();
   std::ifstream times(times_path);
   if (!times) throw DataError(times_path + ": cannot open timestamps");
+  // One finite stamp per line, increasing; blank lines only at the end (a blank line in the
+  // middle would give every later frame the next frame's stamp).
   std::vector<double> all;
   std::string line;
-  int line_no = 0;
+  int line_no = 0, blank_at = 0;
   while (std::getline(times, line)) {
     ++line_no;
-    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    try {
-      all.push_back(std::stod(line));
-    } catch (const std::exception&) {
-      throw DataError(times_path + ":" + std::to_string(line_no) + ": malformed timestamp '" +
-                      line + "'");
+    const std::string where = times_path + ":" + std::to_string(line_no) + ": ";
+    if (line.find_first_not_of(" \t\r") == std::string::npos) {
+      if (!blank_at) blank_at = line_no;
+      continue;
     }
+    if (blank_at)
+      throw DataError(where + "a stamp after the blank line " + std::to_string(blank_at) +
+                      " (one stamp per frame, frame n on line n + 1)");
+    double t = 0;
+    size_t used = 0;
+    try {
+      t = std::stod(line, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (!used || line.find_first_not_of(" \t\r", used) != std::string::npos || !std::isfinite(t))
+      throw DataError(where + "malformed timestamp '" + line + "'");
+    if (!all.empty() && !(t > all.back()))
+      throw DataError(where + "the stamps do not increase (" + line + " after " +
+                      std::to_string(all.back()) + ")");
+    all.push_back(t);
   }
   for (int id : ids) {
     if (id >= static_cast<int>(all.size())) continue;  // a frame without a stamp is not usable

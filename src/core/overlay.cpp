@@ -14,11 +14,16 @@ int drawLidarOverlay(const LidarScan& scan, const Eigen::Isometry3d& T, const Ca
   cv::Mat colors;
   cv::applyColorMap(lut, colors, cv::COLORMAP_JET);
   int drawn = 0;
+  // A NaN point, transform or depth limit would pass the comparisons below (NaN compares false)
+  // and index the colour map with INT_MIN (review, session 34: a segfault).
+  if (!(max_depth > 0) || !std::isfinite(max_depth) || !T.matrix().allFinite()) return 0;
   for (const auto& p : scan) {
     const Eigen::Vector3d c = T * Eigen::Vector3d(p.x, p.y, p.z);
-    if (c.z() < 1.0 || c.z() > max_depth) continue;
-    const int u = static_cast<int>(std::lround(cam.fx * c.x() / c.z() + cam.cx));
-    const int v = static_cast<int>(std::lround(cam.fy * c.y() / c.z() + cam.cy));
+    if (!c.allFinite() || c.z() < 1.0 || c.z() > max_depth) continue;
+    const double uf = cam.fx * c.x() / c.z() + cam.cx, vf = cam.fy * c.y() / c.z() + cam.cy;
+    if (!(uf > -1.0 && vf > -1.0 && uf < image->cols && vf < image->rows)) continue;
+    const int u = static_cast<int>(std::lround(uf));
+    const int v = static_cast<int>(std::lround(vf));
     if (u < 0 || v < 0 || u >= image->cols || v >= image->rows) continue;
     const int k = 255 - std::min(255, static_cast<int>(255.0 * c.z() / max_depth));
     cv::circle(*image, {u, v}, 1, cv::Scalar(colors.at<cv::Vec3b>(0, k)), cv::FILLED);
