@@ -278,7 +278,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
   Eigen::Isometry3d T_cl, T_rl;
   std::optional<OnlineEstimate> current;
   std::optional<Matrix6d> sensitivity, new_sensitivity;  // co_sensitivity_ before and after
-  bool co = false;
+  bool co = false, keep_clouds = false;
   uint64_t generation = 0;
   if (cancel_) {
     *msg = "cancelled";
@@ -342,16 +342,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
       const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, cs);
       if (!warm && r.stable && !r.lidar_stereo_sensitivity.isZero())
         new_sensitivity = r.lidar_stereo_sensitivity;
-      {
-        // Keep the re-rectified or rescaled clouds: swap those keyframes into the window (the
-        // window's keyframes are shared and never modified in place).
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (generation_ == generation)
-          for (const auto& k : snapshot)
-            for (auto& w : window_)
-              if (w->stamp == k->stamp && !w->T_right_left_used.isApprox(k->T_right_left_used))
-                w = k;
-      }
+      keep_clouds = true;  // swapped into the window if the estimate is published (below)
       keyframe_info = r.lidar.keyframe_information;
       e.T_cam_lidar = r.lidar.T_cam_lidar;
       e.T_right_left = r.stereo.T_right_left;
@@ -510,6 +501,14 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
   }
   estimate_ = last_solve_ = e;
   if (new_sensitivity) co_sensitivity_ = new_sensitivity;
+  // Keep the co-calibration's re-rectified or rescaled clouds: swap those keyframes into the
+  // window (its keyframes are shared and never modified in place). Only with the estimate they
+  // were rectified for: an unpublished one's would leave the window on a stereo extrinsic
+  // nothing else uses (review, session 34), to be re-rectified back by the next solve.
+  if (keep_clouds)
+    for (const auto& k : snapshot)
+      for (auto& w : window_)
+        if (w->stamp == k->stamp && !w->T_right_left_used.isApprox(k->T_right_left_used)) w = k;
   if (published) *published = e;
   return true;
 }
