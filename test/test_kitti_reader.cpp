@@ -352,6 +352,21 @@ TEST(KittiReader, ARawDriveOpensWithATrailingSlashAndRefusesJunkAfterItsSeconds)
   EXPECT_EQ(KittiSequence(drive.string()).size(), 2u);
 }
 
+TEST(KittiReaderErrors, FrameNumbersOfMixedWidthsAreNamed) {
+  // Review, session 34: the width of the last file listed was applied to all three folders, so
+  // a frame whose scan was named 1.bin beside 000000.bin was listed and failed to load.
+  TempDir tmp;
+  tescalib_test::writeSyntheticSequence(tmp.str(), 3);
+  fs::rename(tmp.path / "velodyne" / "000001.bin", tmp.path / "velodyne" / "1.bin");
+  expectDataError([&] { KittiSequence s(tmp.str()); }, {"velodyne", "different widths"});
+  fs::rename(tmp.path / "velodyne" / "1.bin", tmp.path / "velodyne" / "000001.bin");
+  for (int i = 0; i < 3; ++i)
+    fs::rename(tmp.path / "velodyne" / ("00000" + std::to_string(i) + ".bin"),
+               tmp.path / "velodyne" / ("000000000" + std::to_string(i) + ".bin"));
+  expectDataError([&] { KittiSequence s(tmp.str()); },
+                  {"velodyne", "10 digits wide", "image_2's 6"});
+}
+
 TEST(KittiReader, CalibWithoutTheGreyCamerasIsRead) {
   // tescalib_calibrate --init reads a hand-written file with only what it uses: P2, P3, Tr.
   TempDir tmp;

@@ -1,6 +1,7 @@
 #include "tescalib/core/kitti_reader.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
@@ -81,10 +82,14 @@ std::string numbered(const fs::path& folder, int id, int digits, const std::stri
   return (folder / name.str()).string();
 }
 
-/// Frame numbers of files named NNNN<ext> in a folder.
+/// Frame numbers of files named NNNN<ext> in a folder, all of one width (`*digits`, kept when
+/// the folder has none); a DataError for names of mixed widths (1.png beside 000002.png), which
+/// the frames' paths, rebuilt from the number and one width, would miss.
 std::vector<int> listNumbered(const fs::path& folder, const std::string& ext, int* digits) {
   std::vector<int> ids;
   if (!fs::is_directory(folder)) return ids;
+  int width = 0;
+  std::string first;
   for (const auto& e : fs::directory_iterator(folder)) {
     const std::string stem = e.path().stem().string();
     if (e.path().extension() != ext || stem.empty() ||
@@ -95,9 +100,14 @@ std::vector<int> listNumbered(const fs::path& folder, const std::string& ext, in
       throw DataError(e.path().string() +
                       ": frame number out of range (KITTI numbers frames from 0 with 6 or 10 "
                       "zero-padded digits)");
+    if (width && static_cast<int>(stem.size()) != width)
+      throw DataError(folder.string() + ": frame numbers of different widths (" + first + " and " +
+                      e.path().filename().string() +
+                      "): KITTI pads every frame number to one width (6 or 10 digits)");
+    if (!width) width = static_cast<int>(stem.size()), first = e.path().filename().string();
     ids.push_back(std::stoi(stem));
-    if (digits) *digits = static_cast<int>(stem.size());
   }
+  if (width) *digits = width;
   std::sort(ids.begin(), ids.end());
   return ids;
 }
@@ -106,6 +116,31 @@ std::vector<int> intersect(const std::vector<int>& a, const std::vector<int>& b)
   std::vector<int> out;
   std::set_intersection(a.begin(), a.end(), b.begin(), b.end(), std::back_inserter(out));
   return out;
+}
+
+/// listNumbered for the three folders of a sequence, which must share one width.
+/// `counts`: the files found in each.
+std::vector<int> listFrames(const std::array<fs::path, 3>& folders,
+                            const std::array<std::string, 3>& exts, int* digits,
+                            std::array<size_t, 3>* counts) {
+  std::vector<int> ids[3];
+  int widths[3];
+  for (int k = 0; k < 3; ++k) {
+    widths[k] = 0;
+    ids[k] = listNumbered(folders[k], exts[k], &widths[k]);
+    (*counts)[k] = ids[k].size();
+  }
+  int width = 0, from = 0;
+  for (int k = 0; k < 3; ++k) {
+    if (!widths[k]) continue;
+    if (width && widths[k] != width)
+      throw DataError(folders[k].string() + ": its frame numbers are " + std::to_string(widths[k]) +
+                      " digits wide, " + folders[from].string() + "'s " + std::to_string(width) +
+                      ": one width for all three folders");
+    if (!width) width = widths[k], from = k;
+  }
+  if (width) *digits = width;
+  return intersect(intersect(ids[0], ids[1]), ids[2]);
 }
 
 /// "2011-09-26 13:02:25.964389445" -> seconds since the epoch (UTC).
@@ -367,10 +402,9 @@ void KittiSequence::openOdometry() {
   rig_ = rigFromOdometryCalib(calib_);
   checkRig(rig_, calib_, (d / "calib.txt").string());
   int digits = 6;
-  const auto left = listNumbered(d / "image_2", ".png", &digits);
-  const auto right = listNumbered(d / "image_3", ".png", nullptr);
-  const auto scans = listNumbered(d / "velodyne", ".bin", nullptr);
-  const auto ids = intersect(intersect(left, right), scans);
+  std::array<size_t, 3> found;
+  const auto ids = listFrames({d / "image_2", d / "image_3", d / "velodyne"},
+                              {".png", ".png", ".bin"}, &digits, &found);
   name_digits_ = digits;
   const std::string times_path = (d / "times.txt").string();
   std::ifstream times(times_path);
@@ -409,7 +443,7 @@ void KittiSequence::openOdometry() {
     frame_ids_.push_back(id);
     stamps_.push_back(all[id]);
   }
-  noteIncomplete(left.size(), right.size(), scans.size(), ids.size());
+  noteIncomplete(found[0], found[1], found[2], ids.size());
 }
 
 void KittiSequence::openRaw() {
@@ -459,10 +493,10 @@ void KittiSequence::openRaw() {
     rig_.left.height = rig_.right.height = static_cast<int>(size->second[1]);
   }
   int digits = 10;
-  const auto left = listNumbered(d / "image_02" / "data", ".png", &digits);
-  const auto right = listNumbered(d / "image_03" / "data", ".png", nullptr);
-  const auto scans = listNumbered(d / "velodyne_points" / "data", ".bin", nullptr);
-  const auto ids = intersect(intersect(left, right), scans);
+  std::array<size_t, 3> found;
+  const auto ids =
+      listFrames({d / "image_02" / "data", d / "image_03" / "data", d / "velodyne_points" / "data"},
+                 {".png", ".png", ".bin"}, &digits, &found);
   name_digits_ = digits;
   // Prefer the camera stamps (the images define the frame); fall back to the LiDAR's.
   std::string ts_path = (d / "image_02" / "timestamps.txt").string();
@@ -482,7 +516,7 @@ void KittiSequence::openRaw() {
     frame_ids_.push_back(id);
     stamps_.push_back(all[id]);
   }
-  noteIncomplete(left.size(), right.size(), scans.size(), ids.size());
+  noteIncomplete(found[0], found[1], found[2], ids.size());
 }
 
 void KittiSequence::noteIncomplete(size_t left, size_t right, size_t scans, size_t complete) {
