@@ -1,6 +1,7 @@
 // LiDAR-stereo solver: exact-ground-truth recovery on a ray-cast plane scene (independent of SGBM
 // and of the scene generator), an honest failure on a scene without structure, and a real KITTI
 // window (skipped without ../shared).
+#include <atomic>
 #include <cmath>
 #include <iostream>
 #include <limits>
@@ -236,6 +237,55 @@ TEST(LidarStereoSolver, EstimatesTheRightCameraYawOfTheClouds) {
   // A free yaw takes information from the pose: its covariance is the marginal one, larger
   // along the optical axis than with the yaw known.
   EXPECT_GT(with.covariance_model(5, 5), 1.2 * without.covariance_model(5, 5));
+}
+
+TEST(LidarStereoSolver, ANuisanceOnItsBoundOrBadSettingsAreNotConverged) {
+  // Review, session 34. The clouds 0.11 deg off in yaw with the yaw allowed 0.1 deg: the yaw
+  // stopped on its bound and the estimate was declared converged, tz 3.2 cm off at sigma 0.48 cm.
+  // A bound of zero width made Ceres fail, which left the start "settled" and converged; NaN
+  // settings passed every gate.
+  const StereoRig rig = kittiLikeRig();
+  const std::vector<Keyframe> kfs = canyonKeyframes(rig, 31, 0.11 / kDegPerRad);
+  const std::vector<const Keyframe*> window = windowOf(kfs);
+  LidarStereoSettings s = testSettings();
+  s.estimate_stereo_yaw = true;
+  s.max_stereo_yaw_deg = 0.1;
+  const LidarStereoResult pinned = solveLidarStereo(window, rig.T_cam_lidar, s);
+  EXPECT_NEAR(std::fabs(pinned.stereo_yaw_rad) * kDegPerRad, 0.1, 1e-6);
+  EXPECT_FALSE(pinned.converged);
+  EXPECT_NE(pinned.message.find("yaw ended on its bound"), std::string::npos) << pinned.message;
+  s.max_stereo_yaw_deg = 1.0;
+  const LidarStereoResult free_yaw = solveLidarStereo(window, rig.T_cam_lidar, s);
+  EXPECT_NEAR(free_yaw.stereo_yaw_rad * kDegPerRad, 0.11, 0.01);
+  for (double bad : {0.0, -1.0, std::nan("")}) {
+    s.max_stereo_yaw_deg = bad;
+    const LidarStereoResult r = solveLidarStereo(window, rig.T_cam_lidar, s);
+    EXPECT_FALSE(r.converged) << bad;
+    EXPECT_NE(r.message.find("max_stereo_yaw_deg > 0"), std::string::npos) << r.message;
+  }
+  s = testSettings();
+  s.fine_gate_sigma = std::nan("");
+  const LidarStereoResult nan_gate = solveLidarStereo(window, rig.T_cam_lidar, s);
+  EXPECT_FALSE(nan_gate.converged);
+  EXPECT_NE(nan_gate.message.find("positive numbers"), std::string::npos) << nan_gate.message;
+}
+
+TEST(LidarStereoSolver, ACancelledSolveIsNotConvergedWhereverItStops) {
+  // The header's contract. (Review, session 34: a cancel raised in the middle of the split-window
+  // check's fine stages left the halves' starts and placeholder covariances, which passed as
+  // agreement; that timing is not reproducible here, a cancel raised before the solve is.)
+  const StereoRig rig = kittiLikeRig();
+  const std::vector<Keyframe> kfs = canyonKeyframes(rig, 11);
+  std::vector<Keyframe> more = canyonKeyframes(rig, 41);
+  std::vector<const Keyframe*> window = windowOf(kfs);
+  for (const auto& kf : more) window.push_back(&kf);  // 6 keyframes: halves of 3
+  std::atomic<bool> cancel{true};
+  LidarStereoSettings s = testSettings();
+  s.cancel = &cancel;
+  const LidarStereoResult r = solveLidarStereo(window, rig.T_cam_lidar, s);
+  EXPECT_FALSE(r.converged);
+  EXPECT_EQ(r.message, "cancelled");
+  EXPECT_FALSE(r.halves.tested);
 }
 
 TEST(LidarStereoSolver, CoarseStageHoldsTheStereoNuisancesByDefault) {

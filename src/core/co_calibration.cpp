@@ -36,6 +36,7 @@ Vector12d normalisedDifference(const Eigen::Isometry3d& cl, const Eigen::Isometr
 
 /// Largest component of the normalised difference in max-norm per (extrinsic, rot/trans) block.
 double stepSize(const Vector12d& x) {
+  if (!x.allFinite()) return std::numeric_limits<double>::infinity();  // never "stable"
   double m = 0;
   for (int b = 0; b < 4; ++b) m = std::max(m, x.segment<3>(3 * b).norm());
   return m;
@@ -263,7 +264,8 @@ std::string secondOpinion(const std::vector<const Keyframe*>& window,
   const auto t0 = Clock::now();
   LidarStereoSettings ls = settings;
   ls.run_coarse = true;
-  ls.initial_stereo_scale = lidar.stereo_scale;  // the final clouds' scale, as found
+  ls.initial_stereo_scale = lidar.stereo_scale;  // the final clouds' scale and yaw, as found
+  ls.initial_stereo_yaw_rad = lidar.stereo_yaw_rad;
   const LidarStereoResult again = solveLidarStereo(window, T_cam_lidar_init, ls);
   if (seconds) *seconds = secondsSince(t0);
   if (!again.converged) return ls.cancelled() ? "cancelled during the second opinion" : "";
@@ -337,7 +339,8 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   };
   auto ranAway = [&](const LidarStereoResult& r, const LidarStereoSettings& ls, Vector6d* from) {
     *from = poseError(r.T_cam_lidar, T_cam_lidar_init);
-    return from->head<3>().norm() * kDegPerRad > ls.max_correction_rot_deg ||
+    return !from->allFinite() || !std::isfinite(r.stereo_scale) ||
+           from->head<3>().norm() * kDegPerRad > ls.max_correction_rot_deg ||
            from->tail<3>().norm() > ls.max_correction_trans_m;
   };
   // Stereo from features: round 1 starts from the matches' pair and solves LiDAR-stereo first.
@@ -378,6 +381,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     if (s.lidar.cancelled()) {  // LidarStereoSettings::cancel: before each round too
       res.converged = false;
       res.message = "cancelled";
+      res.rounds -= 1;  // the rounds that ran
       return res;
     }
     const bool warm = s.warm_start && (res.rounds > 1 || s.warm_first_round);
@@ -564,7 +568,8 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     // Stability: this round's step, and the remaining distance predicted from its contraction.
     const double step = stepSize(normalisedDifference(T_cl_new, T_rl_new, T_cl, T_rl, s));
     const double rho = step / prev_step;
-    bool stable = res.rounds > 1 && photometric_done && step < 1.0 &&
+    // A solve cancelled within the round returned its start: no step, but not stable either.
+    bool stable = !s.lidar.cancelled() && res.rounds > 1 && photometric_done && step < 1.0 &&
                   (rho < 1.0 ? step * rho / (1.0 - rho) < 1.0 : prev_step < 1.0);
     if (free_depth && stable) {
       free_depth_done = true;  // settled with free depth: confirm with the LiDAR depth
@@ -619,6 +624,11 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     }
   }
   res.rounds = std::min(res.rounds, s.max_rounds);
+  if (s.lidar.cancelled()) {  // within the last round: its solves returned their starts
+    res.converged = false;
+    res.message = "cancelled";
+    return res;
+  }
   // The split-window check of the LiDAR-stereo noise model, on the final estimate (the clouds are
   // still those the last solve used; also after an unstable run, for the online node's warm
   // rounds, which take a converged LiDAR-stereo solve as it is).
@@ -644,8 +654,10 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   // The left-right pair's uncertainty in the LiDAR covariance, through the LiDAR estimate's
   // sensitivity to the pair and the alternation's gain at its fixed point.
   // A warm update that cannot be stable takes an earlier full run's sensitivity.
+  // Only a computed left-right covariance: a placeholder (identity) is not an uncertainty
+  // (review, session 34: 28.6 deg sigma published with a converged LiDAR estimate).
   if (s.propagate_stereo_into_lidar && (res.stable || s.reuse_lidar_sensitivity) &&
-      res.lidar.converged && res.stereo.covariance.allFinite()) {
+      res.lidar.converged && res.stereo.covariance_known && res.stereo.covariance.allFinite()) {
     double seconds = 0;
     const Matrix6d& J_ls = res.lidar_stereo_sensitivity =
         res.stable ? lidarSensitivityToStereo(window, rig, res.lidar, ls_last, s, &seconds)
@@ -672,7 +684,10 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   // pair's own uncertainty, which S would count a second time (session 30). Without the fixed
   // point's gain on this side: with (I - S J)^-1 the pair's tz sigma doubled (0.42 -> 0.88 mm)
   // and the fitting windows' stereo z^2 in tz fell to 0.26 (doc/co_calibration.md).
-  coStereoCovariance(res.lidar, s, &res.stereo, res.lidar_covariance_given_stereo);
+  // Only with a LiDAR covariance that was computed (a placeholder would swamp the pair's and call
+  // a good left-right solve unconstrained, blaming it for the LiDAR's failure).
+  if (res.lidar.covariance_known)
+    coStereoCovariance(res.lidar, s, &res.stereo, res.lidar_covariance_given_stereo);
   res.converged = res.stable && res.lidar.converged && res.stereo.converged;
   if (!unrectifiable.empty())
     res.converged = false, res.message = unrectifiable;

@@ -208,6 +208,10 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
 
   // ------------------------------------------------------------ outer iterations
   for (res.rounds = 1; res.rounds <= js.max_outer; ++res.rounds) {
+    if (s.lidar.cancelled()) {  // LidarStereoSettings::cancel, as coCalibrate honours it
+      res.message = "cancelled";
+      break;
+    }
     // Re-rectify when the left-right rotation or direction moved enough to matter.
     if (rectifiedBaseline(rig, T_rl) <= 0) {
       res.message = "the left-right estimate of outer iteration " + std::to_string(res.rounds) +
@@ -331,6 +335,9 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     if (res.stable) break;
   }
   res.rounds = std::min(res.rounds, js.max_outer);
+  // The last update can turn the baseline too (checked above only before each iteration).
+  if (res.message.empty() && rectifiedBaseline(rig, T_rl) <= 0)
+    res.message = "the final left-right estimate cannot be rectified side by side";
   if (res.message.empty()) {
     // Covariances: the joint problem's own marginals take every residual as independent and were
     // over-confident (mean NEES 33 on 7 generated windows, session 8). Instead the alternation's
@@ -376,6 +383,11 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     res.stereo.covariance_known = ph.covariance_known;
     res.stereo.lidar_sensitivity = ph.lidar_sensitivity;
     std::copy(ph.observable, ph.observable + 6, res.stereo.observable);
+    // Its photo-consistency and directions too (they were the first round's), so that flags,
+    // message and ratio describe one solve.
+    res.stereo.consistency_ratio = ph.consistency_ratio;
+    res.stereo.weak_directions = ph.weak_directions;
+    res.stereo.message = ph.message;
   }
   res.lidar.T_cam_lidar = T_cl;
   res.lidar.stereo_scale =
@@ -394,8 +406,15 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
                         corr_s.head<3>().norm() * kDegPerRad > ps.max_correction_rot_deg ||
                         corr_s.tail<3>().norm() > ps.max_correction_trans_m;
   res.lidar.converged = res.stereo.converged = false;
+  if (s.lidar.cancelled()) res.message = "cancelled";
   if (!res.message.empty()) {
-  } else if (!res.stable)
+  } else if (!res.lidar.covariance_known || !res.stereo.covariance_known)
+    res.message = "the covariance solves at the joint estimate gave no covariance";
+  else if (!(res.stereo.consistency_ratio <= ps.max_consistency_ratio))
+    res.message = "not photo-consistent at the joint estimate (median key point residual " +
+                  std::to_string(res.stereo.consistency_ratio) +
+                  " of its value with the right image 4 px off)";
+  else if (!res.stable)
     res.message =
         "joint estimate still moving after " + std::to_string(js.max_outer) + " outer iterations";
   else if (diverged)

@@ -120,9 +120,16 @@ Vector6d solveUpdate(const std::vector<Association>& as, const Eigen::Vector3d& 
   opt.num_threads = s.threads;
   opt.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
+  const double scale_before = *scale, yaw_before = *yaw;
   ceres::Solve(opt, &problem, &summary);
   if (std::getenv("TESCALIB_DEBUG")) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
   Vector6d d;
+  // A failed solve (an infeasible bound, NaN residuals) leaves delta at 0, which the stages
+  // would take for "settled" at the start (review, session 34): NaN tells them it failed.
+  if (!summary.IsSolutionUsable()) {
+    *scale = scale_before, *yaw = yaw_before;
+    return Vector6d::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
   for (int i = 0; i < 6; ++i) d[i] = delta[i];
   return d;
 }
@@ -206,6 +213,27 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.message = "cov_cells_x, cov_cells_y, ceres_iterations and threads must be at least 1";
     return res;
   }
+  // Non-finite or non-positive limits pass every gate (NaN compares false); bounds of zero width
+  // make Ceres fail (review, session 34).
+  for (const double v : {s.normal_weight, s.coarse_loss_scale, s.fine_huber, s.fine_gate_sigma,
+                         s.max_depth, s.lidar_range_sigma, s.disparity_sigma})
+    if (!(v > 0) || !std::isfinite(v)) {
+      res.message =
+          "normal_weight, coarse_loss_scale, fine_huber, fine_gate_sigma, max_depth, "
+          "lidar_range_sigma and disparity_sigma must be positive numbers";
+      return res;
+    }
+  if ((s.estimate_stereo_scale &&
+       (!(s.max_stereo_scale > 1) || !std::isfinite(s.max_stereo_scale) ||
+        !(s.initial_stereo_scale > 0) || !std::isfinite(s.initial_stereo_scale))) ||
+      (s.estimate_stereo_yaw &&
+       (!(s.max_stereo_yaw_deg > 0) || !std::isfinite(s.max_stereo_yaw_deg) ||
+        !std::isfinite(s.initial_stereo_yaw_rad)))) {
+    res.message =
+        "the clouds' scale and yaw need max_stereo_scale > 1, max_stereo_yaw_deg > 0 and finite "
+        "starts";
+    return res;
+  }
   Eigen::Isometry3d T = T_init;
   double scale = s.estimate_stereo_scale ? std::clamp(s.initial_stereo_scale,
                                                       1.0 / s.max_stereo_scale, s.max_stereo_scale)
@@ -214,6 +242,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
 
   // ---------------------------------------------------------------- coarse (eq. KD6 + eq. 2)
   const auto t_coarse = Clock::now();
+  bool solver_failed = false;  // a Ceres update was not usable: not converged, said so
   if (s.run_coarse) {
     std::vector<pcl::KdTreeFLANN<pcl::PointNormal>> trees(window.size());
     std::vector<std::vector<size_t>> tree_index(window.size());
@@ -289,6 +318,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
         if (static_cast<int>(as.size()) < s.min_inliers) break;
         const Vector6d d =
             solveUpdate(as, T.translation(), true, s, s.coarse_loss_scale, &scale, &yaw);
+        if (!d.allFinite()) {
+          solver_failed = true;
+          break;
+        }
         T = perturb(T, d);
         if (smallUpdate(d, s)) break;
       }
@@ -349,6 +382,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       res.fine_inliers = static_cast<int>(as.size());
       if (static_cast<int>(as.size()) < s.min_inliers) break;
       const Vector6d d = solveUpdate(as, T.translation(), false, s, s.fine_huber, &scale, &yaw);
+      if (!d.allFinite()) {
+        solver_failed = true;
+        break;
+      }
       if (std::getenv("TESCALIB_DEBUG"))
         std::fprintf(stderr,
                      "fine it %d: %zu assoc, update %.5f deg %.5f m (rot [%.5f %.5f %.5f] deg, "
@@ -381,7 +418,11 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   res.T_cam_lidar = T;
   res.stereo_scale = scale;
   res.stereo_yaw_rad = yaw;
-  res.settled = settled;
+  res.settled = settled && !solver_failed;
+  if (solver_failed) {
+    res.message = "Ceres could not solve an update (NaN residuals, or an infeasible bound)";
+    return res;
+  }
 
   // ---------------------------------------------------------------- information, honesty
   // Analytic Jacobian of r = (R m)^T (R q + t - s) / sigma at the estimate:
@@ -549,6 +590,16 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
                   "disagree by more than a baseline error can explain",
                   res.stereo_scale);
     res.message = buf;
+  } else if (s.estimate_stereo_yaw &&
+             std::fabs(res.stereo_yaw_rad) * kDegPerRad >= s.max_stereo_yaw_deg - 1e-6) {
+    // The same for the yaw: a pinned nuisance is not marginalised, its covariance not the
+    // pose's (review, session 34: yaw on a 0.1 deg bound, tz 3.2 cm off at sigma 0.48 cm).
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "the clouds' yaw ended on its bound (%.3f deg): the right camera is turned "
+                  "further than max_stereo_yaw_deg allows",
+                  res.stereo_yaw_rad * kDegPerRad);
+    res.message = buf;
   } else if (!all_observable && disparityOffsetWidensBias(res, s)) {
     char buf[200];
     std::snprintf(buf, sizeof buf,
@@ -564,6 +615,12 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   else
     res.converged = true;
   if (res.converged && s.check_window_halves) checkWindowHalves(window, s, &res);
+  // Cancelled at any point (a stage, or the halves): not converged, whatever it reached (the
+  // header's promise; review, session 34: a cancel during the halves left a "tested" check).
+  if (s.cancelled()) {
+    res.converged = false;
+    res.message = "cancelled";
+  }
   return res;
 }
 
@@ -624,7 +681,10 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   const LidarStereoResult& a = halves[0];
   const LidarStereoResult& b = halves[1];
   full->halves.seconds = secondsSince(t0);
-  if (a.fine_inliers < s.min_inliers || b.fine_inliers < s.min_inliers) return;
+  // Only halves with a covariance are compared (a cancelled or failed half returns its start and
+  // a placeholder, which would pass as agreement).
+  for (const LidarStereoResult* r : {&a, &b})
+    if (r->fine_inliers < s.min_inliers || !r->covariance_known || s.cancelled()) return;
   const Vector6d e = poseError(a.T_cam_lidar, b.T_cam_lidar);
   const Matrix6d S = a.covariance + b.covariance;
   const double chi2 = e.dot(S.ldlt().solve(e));

@@ -148,7 +148,10 @@ struct LidarStereoResult {
   /// J^T W J of the final fine problem over the pose (with the stereo scale and yaw, when
   /// estimated, marginalised out: the Schur complement).
   Matrix6d information = Matrix6d::Zero();
-  /// Each keyframe's share of `information` (window order): what it constrains.
+  /// Each keyframe's share of the pose's information (window order): what it constrains. The
+  /// pose block of its Gauss-Newton information before the clouds' scale and yaw (when
+  /// estimated) are marginalised, so with them free the shares add up to more than
+  /// `information` along what they absorb (the optical axis).
   std::vector<Matrix6d> keyframe_information;
   double stereo_scale = 1.0;  ///< estimated stereo scale (1 unless estimate_stereo_scale)
   /// Variance of `stereo_scale` (0 unless estimated): the same cluster-robust sandwich as
