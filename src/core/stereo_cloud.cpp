@@ -65,6 +65,14 @@ Rectification rectificationFor(const StereoRig& rig, const Eigen::Isometry3d& T,
 
 }  // namespace
 
+namespace {
+/// A DataError when the left->right estimate cannot rectify a pair (stereoExtrinsicProblem).
+void requireUsablePair(const Eigen::Isometry3d& T_right_left) {
+  const std::string problem = stereoExtrinsicProblem(T_right_left);
+  if (!problem.empty()) throw DataError("stereo pair: " + problem);
+}
+}  // namespace
+
 double rectifiedBaseline(const StereoRig& rig, const Eigen::Isometry3d& T_right_left) {
   if (!isRigidTransform(T_right_left)) return 0.0;
   // A rig read from a calibration file alone has no image size: the principal point's twice.
@@ -202,8 +210,7 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
     throw DataError(
         "stereo settings: num_disparities must be a positive multiple of 16, sample_step and "
         "normal_scale at least 1");
-  const std::string pair_problem = stereoExtrinsicProblem(T_right_left);
-  if (!pair_problem.empty()) throw DataError("stereo pair: " + pair_problem);
+  requireUsablePair(T_right_left);
   StereoCloud out;
   cv::Mat left, right;
   cv::cvtColor(left_bgr, left, cv::COLOR_BGR2GRAY);
@@ -287,8 +294,7 @@ StereoCloud retriangulateStereoCloud(const StereoCloud& matched, const StereoRig
   const auto t0 = std::chrono::steady_clock::now();
   const cv::Mat& in = matched.disparity;
   if (in.empty()) throw DataError("stereo cloud: no disparity to re-triangulate");
-  const std::string pair_problem = stereoExtrinsicProblem(T_right_left);
-  if (!pair_problem.empty()) throw DataError("stereo pair: " + pair_problem);
+  requireUsablePair(T_right_left);
   StereoCloud out;
   out.exposure_equalized = matched.exposure_equalized;
   const Rectification rect = rectificationFor(rig, T_right_left, in.size());

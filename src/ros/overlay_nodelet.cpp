@@ -26,15 +26,13 @@ std::string statusLine(const char* name, const ExtrinsicEstimate& e) {
   bool observable[6];
   std::copy(e.observable.begin(), e.observable.end(), observable);
   const std::string weak = untrustedAxes(observable);
+  char sigma[64] = "no covariance";  // the solve ended before it (sigma -1: unknown)
+  if (rot >= 0 && trans >= 0)
+    std::snprintf(sigma, sizeof(sigma), "sigma <= %.3f deg / %.2f cm", rot, 100 * trans);
   char buf[256];
-  if (rot < 0 || trans < 0)  // the solve ended before its covariance (sigma -1: unknown)
-    std::snprintf(buf, sizeof(buf), "%s: %s, %u kf, no covariance, weak: %s", name,
-                  e.converged ? "converged" : "not converged", e.keyframes_used,
-                  weak.empty() ? "none" : weak.c_str());
-  else
-    std::snprintf(buf, sizeof(buf), "%s: %s, %u kf, sigma <= %.3f deg / %.2f cm, weak: %s", name,
-                  e.converged ? "converged" : "not converged", e.keyframes_used, rot, 100 * trans,
-                  weak.empty() ? "none" : weak.c_str());
+  std::snprintf(buf, sizeof(buf), "%s: %s, %u kf, %s, weak: %s", name,
+                e.converged ? "converged" : "not converged", e.keyframes_used, sigma,
+                weak.empty() ? "none" : weak.c_str());
   return buf;
 }
 
