@@ -5,6 +5,7 @@
 // stop, while the stereo pair from feature matches converges from there; the LiDAR estimate's
 // sensitivity to the stereo pair; the re-rectification test.
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <iostream>
 #include <random>
@@ -293,6 +294,31 @@ TEST(JointCalibration, RefusesMeshesWithOnlyTheSampleFitted) {
   EXPECT_NE(r.message.find("sampled_faces = 0"), std::string::npos) << r.message;
   EXPECT_LT(poseError(r.lidar.T_cam_lidar, c.T_cl_init).norm(), 1e-12);
   EXPECT_LT(poseError(r.stereo.T_right_left, c.T_rl_init).norm(), 1e-12);
+}
+
+// A cancel raised before the solve (a node shutting down; LidarStereoSettings::cancel, which the
+// alternation and the joint problem honour too): nothing runs, the initial guesses come back
+// unconverged and the message says why (review, session 35: no test called either with a cancel,
+// and the online test passes whether or not the solver looks at the flag).
+TEST(CoCalibration, ACancelledAlternationOrJointSolveRunsNoRound) {
+  CoCase c = coCase(2, 1.0, 0.1, 0);
+  std::atomic<bool> cancel{true};
+  JointCalibrationSettings js;
+  js.co.lidar.cancel = &cancel;
+  const CoCalibrationResult co =
+      coCalibrate(c.w.window(), c.w.rig, c.T_cl_init, c.T_rl_init, js.co);
+  const CoCalibrationResult joint =
+      jointCalibrate(c.w.window(), c.w.rig, c.T_cl_init, c.T_rl_init, js);
+  for (const CoCalibrationResult* r : {&co, &joint}) {
+    SCOPED_TRACE(r == &co ? "alternation" : "joint");
+    EXPECT_FALSE(r->converged);
+    EXPECT_FALSE(r->lidar.converged);
+    EXPECT_FALSE(r->stereo.converged);
+    EXPECT_EQ(r->message, "cancelled");
+    EXPECT_EQ(r->rounds, 0);
+    EXPECT_LT(poseError(r->lidar.T_cam_lidar, c.T_cl_init).norm(), 1e-12);
+    EXPECT_LT(poseError(r->stereo.T_right_left, c.T_rl_init).norm(), 1e-12);
+  }
 }
 
 TEST(CoCalibration, ASecondOpinionCatchesAnEstimateFarFromTheGuessInAnotherMinimum) {

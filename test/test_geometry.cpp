@@ -12,6 +12,39 @@ TEST(Geometry, ExpLogRoundTrip) {
   const Eigen::Vector3d phi(0.1, -0.2, 0.3);
   EXPECT_LT((logSO3(expSO3(phi)) - phi).norm(), 1e-12);
   EXPECT_LT((expSO3(Eigen::Vector3d::Zero()) - Eigen::Matrix3d::Identity()).norm(), 1e-15);
+  // Exp is the rotation by |phi| about phi (not its transpose, which a matching Log would hide).
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(phi.norm(), phi.normalized()).toRotationMatrix();
+  EXPECT_LT((expSO3(phi) - R).norm(), 1e-12);
+  // 90 deg about z takes x to y.
+  EXPECT_LT((expSO3(Eigen::Vector3d(0, 0, M_PI / 2)) * Eigen::Vector3d::UnitX() -
+             Eigen::Vector3d::UnitY())
+                .norm(),
+            1e-12);
+}
+
+TEST(Geometry, PerturbationFollowsTheDocumentedConvention) {
+  // geometry.h and the evaluation contract: R = Exp(phi) R_ref (phi in the target frame, on the
+  // left), t = t_ref + tau; poseError(a, b) = [Log(R_a R_b^T); t_a - t_b].
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, -1).normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(0.3, -0.1, 2.0);
+  Vector6d d;
+  d << 0.02, -0.05, 0.01, 0.1, -0.2, 0.05;
+  const Eigen::Isometry3d P = perturb(T, d);
+  const Eigen::Matrix3d R_left =
+      Eigen::AngleAxisd(d.head<3>().norm(), d.head<3>().normalized()).toRotationMatrix() *
+      T.linear();
+  EXPECT_LT((P.linear() - R_left).norm(), 1e-12);
+  EXPECT_LT((P.translation() - (T.translation() + d.tail<3>())).norm(), 1e-15);
+  // On the right it would differ by far more than the tolerance above.
+  const Eigen::Matrix3d R_right =
+      T.linear() *
+      Eigen::AngleAxisd(d.head<3>().norm(), d.head<3>().normalized()).toRotationMatrix();
+  EXPECT_GT((R_left - R_right).norm(), 1e-3);
+  const Vector6d e = poseError(P, T);
+  const Eigen::AngleAxisd aa(P.linear() * T.linear().transpose());
+  EXPECT_LT((e.head<3>() - aa.angle() * aa.axis()).norm(), 1e-12);
+  EXPECT_LT((e.tail<3>() - (P.translation() - T.translation())).norm(), 1e-15);
 }
 
 TEST(Geometry, PerturbationHasExactSizeAndErrorRecoversIt) {

@@ -54,7 +54,11 @@ TEST(KittiReaderReal, EverySequenceFramesRingsAndSizes) {
     // LiDAR sits about 0.27 m behind and 0.08 m above cam0; cam2 is ~6 cm to its left.
     EXPECT_NEAR(seq.rig().T_cam_lidar.translation().norm(), 0.3, 0.1);
     const auto kf = seq.keyframes(0.5);
-    EXPECT_EQ(kf.size(), exp.first == 10 ? 2u : 2u);
+    // Ten frames 0.104 s apart: the first and the sixth (0.52 s); two frames (000000 and
+    // 000005, 0.52 s apart): both.
+    const std::vector<size_t> expected_kf =
+        exp.first == 10 ? std::vector<size_t>{0, 5} : std::vector<size_t>{0, 1};
+    EXPECT_EQ(kf, expected_kf);
     for (size_t i = 0; i < seq.size(); ++i) {
       const Frame f = seq.load(i);
       EXPECT_EQ(f.left.size(), exp.second);

@@ -39,7 +39,7 @@ TEST(KittiToBag, RoundTripMatchesTheSequence) {
 
   rosbag::Bag bag(bag_path, rosbag::bagmode::Read);
   std::map<std::string, int> counts;
-  int cloud_i = 0, left_i = 0;
+  int cloud_i = 0, left_i = 0, right_i = 0;
   sensor_msgs::CameraInfo left_info, right_info;
   for (const rosbag::MessageInstance& m : rosbag::View(bag)) {
     ++counts[m.getTopic()];
@@ -73,6 +73,17 @@ TEST(KittiToBag, RoundTripMatchesTheSequence) {
       ASSERT_TRUE(ros_conv::toBgr8(*msg, &bgr, &err)) << err;
       const Frame f = seq.load(left_i++);
       EXPECT_EQ(cv::norm(bgr, f.left, cv::NORM_INF), 0.0);
+    } else if (m.getTopic() == "/kitti/camera_color_right/image_raw") {
+      const auto msg = m.instantiate<sensor_msgs::Image>();
+      ASSERT_TRUE(msg);
+      EXPECT_EQ(msg->encoding, "rgb8");
+      EXPECT_EQ(msg->header.frame_id, "camera_color_right");
+      cv::Mat bgr;
+      std::string err;
+      ASSERT_TRUE(ros_conv::toBgr8(*msg, &bgr, &err)) << err;
+      const Frame f = seq.load(right_i++);
+      ASSERT_GT(cv::norm(f.left, f.right, cv::NORM_INF), 0.0);  // a swap would show
+      EXPECT_EQ(cv::norm(bgr, f.right, cv::NORM_INF), 0.0);
     } else if (m.getTopic() == "/kitti/camera_color_right/camera_info") {
       const auto msg = m.instantiate<sensor_msgs::CameraInfo>();
       ASSERT_TRUE(msg);

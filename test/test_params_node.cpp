@@ -9,6 +9,36 @@
 TEST(Params, ShippedConfigLoadsAndValidates) {
   ros::NodeHandle pnh("~kitti");
   tescalib::NodeParams p;
+  // Valid values other than the shipped file's (most of which equal the compiled-in defaults):
+  // a key absent from the file keeps these, so each value checked below was read from the file
+  // into its own field (review, session 35: with the defaults as start values, a loader that
+  // read nothing passed).
+  p.online.window_size = 7;
+  p.online.keyframe_min_dt = 0.9;
+  p.online.max_time_jump_back = 0.3;
+  p.initial_tf_camera_frame = "sentinel_camera";
+  p.left_frame = "sentinel_left";
+  p.online.co.yaw_handover_deg = 0.7;
+  p.online.co.stereo_from_features = false;
+  p.online.co.lidar.check_window_halves = false;
+  p.online.co.lidar.halves_chi2_limit = 30.0;
+  p.online.co.lidar.measure_disparity_offset = false;
+  p.online.co.lidar.search_step_deg = 5.0;
+  p.online.search_min_keyframes = 4;
+  p.online.deskew = true;
+  p.online.deskew_max_dt = 0.4;
+  p.max_stereo_skew = 0.04;
+  p.online.max_row_offset_px = 0.9;
+  p.online.image_quality.min_contrast = 3.0;
+  p.online.image_quality.max_clipped_difference = 0.7;
+  p.online.keyframe.stereo.equalize_exposure_ratio = 1.5;
+  p.online.image_quality.min_sharpness_ratio = 0.5;
+  p.online.sweep.clockwise = false;
+  p.online.keyframe.stereo.refinement.iterations = 4;
+  p.online.keyframe.stereo.refinement.smoothed_gradient_rounds = 3;
+  p.online.co.stereo_cloud.refinement.iterations = 3;
+  p.online.co.stereo_cloud.refinement.smoothed_gradient_rounds = 2;
+  p.online.keyframe.stereo.num_disparities = 64;
   std::string error;
   std::vector<std::string> unknown{"not cleared"};
   EXPECT_TRUE(tescalib::loadNodeParams(pnh, &p, &error, &unknown)) << error;
@@ -40,6 +70,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_EQ(p.online.keyframe.stereo.refinement.smoothed_gradient_rounds, 1);
   EXPECT_EQ(p.online.co.stereo_cloud.refinement.iterations, 1);
   EXPECT_EQ(p.online.co.stereo_cloud.refinement.smoothed_gradient_rounds, 0);
+  EXPECT_EQ(p.online.keyframe.stereo.num_disparities, 128);
   EXPECT_EQ(p.online.co.stereo_cloud.num_disparities, p.online.keyframe.stereo.num_disparities);
 }
 
@@ -49,6 +80,9 @@ TEST(Params, WithoutAConfigTheNodeRunsLidarStereoAsDocumented) {
   // kitti.yaml co-calibrated).
   tescalib::NodeParams p;
   EXPECT_FALSE(p.online.estimate_stereo);
+  // ... and the shipped file says so itself (it is read into the field: a start value of true
+  // becomes false).
+  p.online.estimate_stereo = true;
   ros::NodeHandle pnh("~kitti");
   std::string error;
   std::vector<std::string> unknown;

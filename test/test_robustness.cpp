@@ -84,7 +84,10 @@ TEST(Robustness, ThePhotometricSolverChecksTheRigAgainstTheImages) {
   PhotometricSettings s;
   s.cell_size = 0;  // looped forever
   const StereoRig& good = w.sim->rig();
-  EXPECT_FALSE(solvePhotometric(w.window, good, good.T_cam_lidar, good.T_right_left, s).converged);
+  const PhotometricResult rc =
+      solvePhotometric(w.window, good, good.T_cam_lidar, good.T_right_left, s);
+  EXPECT_FALSE(rc.converged);
+  EXPECT_NE(rc.message.find("cell_size"), std::string::npos) << rc.message;
 }
 
 TEST(Robustness, SolversRefuseSettingsTheyCannotRun) {
@@ -163,6 +166,14 @@ TEST(Robustness, ReTriangulatingWithTheSameExtrinsicKeepsEveryMatch) {
   const cv::Mat valid_after = again.disparity == again.disparity;
   EXPECT_GT(cv::countNonZero(valid_before), 10000);
   EXPECT_EQ(cv::countNonZero(valid_after), cv::countNonZero(valid_before));
+  // The same pixels, with the same disparities (the rectification is unchanged: no shift, no
+  // sign error).
+  EXPECT_EQ(cv::countNonZero(valid_before != valid_after), 0);
+  cv::Mat diff;
+  cv::absdiff(again.disparity, kf.stereo.disparity, diff);
+  double max_diff = 0;
+  cv::minMaxLoc(diff, nullptr, &max_diff, nullptr, nullptr, valid_before);
+  EXPECT_LT(max_diff, 1e-3);
   double d = 0;
   EXPECT_FALSE(kf.stereo.disparityAt(std::nan(""), 10.0, &d));
   EXPECT_THROW(retriangulateStereoCloud(kf.stereo, rig, withNaN(kf.T_right_left_used)), DataError);

@@ -185,8 +185,17 @@ TEST(Simulator, DefaultRigIsKittiLike) {
   EXPECT_EQ(rig.left.height, 376);
   EXPECT_NEAR(rig.baseline(), 0.54, 1e-9);
   EXPECT_NEAR(rig.T_right_left.translation().x(), -0.54, 1e-9);
-  // LiDAR about 0.27 m behind and 0.08 m above cam0; the LiDAR sits 1.73 m above the ground.
-  EXPECT_NEAR(rig.T_cam_lidar.translation().norm(), 0.3, 0.1);
+  // KITTI's 2011_09_30 Tr (velodyne -> rectified cam0): the LiDAR 0.334 m behind and 0.073 m
+  // above cam0; the left colour camera (cam2) is 6 cm left of cam0, so in cam2's frame the
+  // LiDAR is at x = -0.0048 + 0.06.
+  EXPECT_LT(
+      (rig.T_cam_lidar.translation() - Eigen::Vector3d(0.0552160, -0.0733743, -0.3339968)).norm(),
+      1e-6);
+  // LiDAR forward is the optical axis, LiDAR left is the camera's -x, LiDAR up its -y.
+  EXPECT_GT(rig.T_cam_lidar.linear().col(0).z(), 0.9999);
+  EXPECT_LT(rig.T_cam_lidar.linear().col(1).x(), -0.9999);
+  EXPECT_LT(rig.T_cam_lidar.linear().col(2).y(), -0.9999);
+  // The LiDAR sits 1.73 m above the ground.
   EXPECT_NEAR(sim.worldFromLidar(0).translation().z(), 1.73, 0.02);
 }
 

@@ -846,6 +846,17 @@ TEST(StereoGenerated, MeshAndWindowCloudsDoNotDependOnTheThreadCount) {
       ASSERT_EQ(kf.stereo.points[i].p, kfs[0].stereo.points[i].p) << "point " << i;
     EXPECT_TRUE(kf.T_right_left_used.isApprox(T_rl, 1e-12));
   }
+  // One thread gives the same cloud (the keyframes above were computed two at a time).
+  Keyframe single;
+  single.left_gray = kfs[0].left_gray, single.right_gray = kfs[0].right_gray;
+  std::vector<Keyframe*> single_window = {&single};
+  StereoSettings ss1 = ss;
+  ss1.threads = 1;
+  int rematched1 = 0;
+  EXPECT_EQ(rectifyWindow(single_window, rig, T_rl, ss1, tol, &seconds, &rematched1), 1);
+  ASSERT_EQ(single.stereo.points.size(), kfs[0].stereo.points.size());
+  for (size_t i = 0; i < single.stereo.points.size(); ++i)
+    ASSERT_EQ(single.stereo.points[i].p, kfs[0].stereo.points[i].p) << "point " << i;
   // Nothing moved: nothing is recomputed.
   EXPECT_EQ(rectifyWindow(window, rig, T_rl, ss, tol, &seconds, &rematched), 0);
   EXPECT_EQ(rematched, 3);

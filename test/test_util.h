@@ -71,7 +71,8 @@ inline tescalib::KittiOdometryCalib syntheticCalib() {
   return c;
 }
 
-/// Writes a tiny odometry-layout sequence with `frames` frames of 640x240 random images.
+/// Writes a tiny odometry-layout sequence with `frames` frames of 640x240 random images (left and
+/// right each their own).
 inline void writeSyntheticSequence(const std::string& dir, int frames, int width = 640,
                                    int height = 240) {
   fs::create_directories(dir + "/image_2");
@@ -87,6 +88,7 @@ inline void writeSyntheticSequence(const std::string& dir, int frames, int width
     cv::Mat img(height, width, CV_8UC3);
     rng.fill(img, cv::RNG::UNIFORM, 0, 255);
     cv::imwrite(dir + "/image_2/" + name + ".png", img);
+    rng.fill(img, cv::RNG::UNIFORM, 0, 255);  // a right image of its own: a swap shows
     cv::imwrite(dir + "/image_3/" + name + ".png", img);
     tescalib::writeVelodyneBin(dir + "/velodyne/" + name + ".bin", syntheticScan());
   }

@@ -345,7 +345,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
   };
   // Stereo from features: round 1 starts from the matches' pair and solves LiDAR-stereo first.
   bool features_first = false;
-  if (s.stereo_from_features) {
+  if (s.stereo_from_features && !s.lidar.cancelled()) {
     res.features = estimateStereoFromFeatures(cwin, rig, T_rl, s.features);
     features_first = res.features.ok;
     if (features_first) T_rl = res.stereo.T_right_left = res.features.T_right_left;
