@@ -156,23 +156,30 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     res.seconds = secondsSince(t0);
     return res;
   }
-  // ------------------------------------------------------------ initialisation: one round
+  // ------------------------------------------------------------ initialisation
+  // Alternation rounds until one included a photometric solve (its key points, brightness and
+  // cost set up the problem below): with stereo_from_features, round 1 takes the pair from
+  // feature matches and solves LiDAR-stereo with the wide-basin search, round 2 is photometric.
   CoCalibrationSettings init = s;
-  init.max_rounds = 1;
+  init.max_rounds = s.stereo_from_features ? 2 : 1;
   init.extrapolate = false;
-  // The round must include a photometric solve (its key points and cost set up the problem
-  // below), which a round from feature matches does not.
-  init.stereo_from_features = false;
   CoCalibrationResult res = coCalibrate(window, rig, T_cam_lidar_init, T_right_left_init, init);
   res.stable = res.converged = false;
   res.rounds = 0;
+  if (s.lidar.cancelled()) {  // during the initial rounds: nothing else runs
+    res.lidar.converged = res.stereo.converged = false;
+    res.message = "cancelled";
+    res.seconds = secondsSince(t0);
+    return res;
+  }
   const std::string init_message = res.message;
   res.message.clear();
   // A pair the clouds cannot be rectified with: the round said why (coCalibrate's message).
   const bool unusable_pair =
       !window.empty() && rectifiedBaseline(rig, res.stereo.T_right_left) <= 0;
   if (window.empty() || res.stereo.keypoints < ps.min_keypoints ||
-      res.lidar.fine_inliers < ls.min_inliers || unusable_pair) {
+      res.stereo.brightness.size() != window.size() || res.lidar.fine_inliers < ls.min_inliers ||
+      unusable_pair) {
     res.message = "initial round failed: " +
                   (window.empty() ? std::string("empty window")
                    : unusable_pair || (res.stereo.message.empty() && res.lidar.message.empty())
