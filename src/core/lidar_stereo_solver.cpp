@@ -267,6 +267,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
       trees[k].setInputCloud(cloud);
     }
     for (double gate : s.coarse_gates) {
+      if (solver_failed) break;  // the result is not converged: no later gate, no fine stage
       for (int it = 0; it < s.coarse_reassociations; ++it) {
         if (s.cancelled()) {
           res.message = "cancelled";
@@ -334,7 +335,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   const auto t_fine = Clock::now();
   bool settled = !s.run_fine;
   std::vector<Association> as;
-  if (s.run_fine) {
+  if (s.run_fine && !solver_failed) {
     std::vector<std::vector<size_t>> face_index(window.size());
     for (size_t k = 0; k < window.size(); ++k)
       face_index[k] = sampleFaces(window[k]->mesh, s.fine_faces_per_keyframe);
