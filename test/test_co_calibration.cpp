@@ -274,14 +274,45 @@ TEST(JointCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
   EXPECT_LT(el.tail<3>().norm(), 0.03);
   EXPECT_LT(es.head<3>().norm() * kDegPerRad, 0.2);
   EXPECT_LT(es.tail<3>().norm(), 0.03);
+  // Both model errors are in the covariances (the joint one alone is 0 along some axes).
   for (int i = 0; i < 3; ++i) {
-    EXPECT_GE(r.lidar.covariance(3 + i, 3 + i), std::pow(js.model_sigma_lidar_trans_m[i], 2));
-    EXPECT_GE(r.stereo.covariance(3 + i, 3 + i), std::pow(js.model_sigma_stereo_trans_m[i], 2));
+    EXPECT_GE(r.lidar.covariance(3 + i, 3 + i),
+              std::pow(js.model_sigma_lidar_trans_m[i], 2) +
+                  std::pow(js.co_model_sigma_lidar_trans_m[i], 2));
+    EXPECT_GE(r.stereo.covariance(3 + i, 3 + i),
+              std::pow(js.model_sigma_stereo_trans_m[i], 2) +
+                  std::pow(js.co_model_sigma_stereo_trans_m[i], 2));
   }
+  EXPECT_EQ(r.yaw_handovers, 0);
+  EXPECT_TRUE(r.lidar_covariance_given_stereo.isApprox(r.lidar.covariance));
   for (int i = 0; i < 6; ++i) {
     EXPECT_LT(std::fabs(el[i]), 3 * std::sqrt(r.lidar.covariance(i, i))) << "LiDAR axis " << i;
     EXPECT_LT(std::fabs(es[i]), 3 * std::sqrt(r.stereo.covariance(i, i))) << "stereo axis " << i;
   }
+}
+
+// The joint estimate is declared converged only when its covariance solves converged at it
+// (session 35: a real KITTI start was declared converged 4.75 cm off with a LiDAR-stereo
+// covariance solve that had not settled; that case needs real data). Here that solve does not
+// converge because no window meets a trust limit of 0.01 mm, and the result says that
+// the covariance solve at the joint estimate is what failed (the initial rounds' LiDAR solves
+// fail the same way, which the joint problem does not need).
+TEST(JointCalibration, ACovarianceSolveThatDidNotConvergeIsNotAConvergedResult) {
+  CoCase c = coCase(8, 1.0, 0.1, 0);
+  JointCalibrationSettings js;
+  js.co.lidar.max_sigma_trans_m = 1e-5;
+  const CoCalibrationResult r = jointCalibrate(c.w.window(), c.w.rig, c.T_cl_init, c.T_rl_init, js);
+  EXPECT_FALSE(r.converged);
+  EXPECT_FALSE(r.lidar.converged);
+  EXPECT_NE(r.message.find("the LiDAR-stereo solve at the joint estimate did not converge: the "
+                           "window does not constrain every axis"),
+            std::string::npos)
+      << r.message;
+  // The joint estimate itself is the one the default settings reach.
+  EXPECT_TRUE(r.stable);
+  const Vector6d el = poseError(r.lidar.T_cam_lidar, c.truth.T_cam_lidar);
+  EXPECT_LT(el.head<3>().norm() * kDegPerRad, 0.2);
+  EXPECT_LT(el.tail<3>().norm(), 0.03);
 }
 
 // Meshes that fit only the solvers' sample of normals are refused with a message, and the result
@@ -309,6 +340,7 @@ TEST(CoCalibration, ACancelledAlternationOrJointSolveRunsNoRound) {
       coCalibrate(c.w.window(), c.w.rig, c.T_cl_init, c.T_rl_init, js.co);
   const CoCalibrationResult joint =
       jointCalibrate(c.w.window(), c.w.rig, c.T_cl_init, c.T_rl_init, js);
+  EXPECT_EQ(co.features.matches, 0);  // not even the feature matching ran
   for (const CoCalibrationResult* r : {&co, &joint}) {
     SCOPED_TRACE(r == &co ? "alternation" : "joint");
     EXPECT_FALSE(r->converged);

@@ -846,7 +846,8 @@ TEST(StereoGenerated, MeshAndWindowCloudsDoNotDependOnTheThreadCount) {
       ASSERT_EQ(kf.stereo.points[i].p, kfs[0].stereo.points[i].p) << "point " << i;
     EXPECT_TRUE(kf.T_right_left_used.isApprox(T_rl, 1e-12));
   }
-  // One thread gives the same cloud (the keyframes above were computed two at a time).
+  // A keyframe computed alone on the calling thread gives the same cloud as in the batch above
+  // (worker threads, their reused buffers).
   Keyframe single;
   single.left_gray = kfs[0].left_gray, single.right_gray = kfs[0].right_gray;
   std::vector<Keyframe*> single_window = {&single};

@@ -58,15 +58,21 @@ struct JointCalibrationSettings {
 /// Initialises with co-calibration rounds (the joint problem's projective associations need a
 /// start within their basin): with `co.stereo_from_features` (default) two, round 1 taking the
 /// pair from left-right feature matches and solving LiDAR-stereo with the wide-basin search,
-/// round 2 photometric (coarse-to-fine, on that LiDAR estimate's depth) and LiDAR-stereo fine;
-/// without it one, photometric first. Session 35: one photometric-first round (until then) left
+/// round 2 photometric (coarse-to-fine, on that LiDAR estimate's depth) and LiDAR-stereo (fine
+/// only after a converged round 1); without it, or when the matches give no pair, photometric
+/// first. The rounds run without the alternation's yaw handover, split-window check, sensitivity
+/// to the pair and second opinion. Session 35: one photometric-first round (until then) left
 /// 10 of the 30 benchmark starts unconverged (2 with too few LiDAR residuals after a round-1 pair
 /// 0.2-0.25 deg off, 8 still moving after 15 outer iterations); the two rounds converge on 29.
 /// Then it runs the joint outer iterations. Returns the co-calibration result type:
 /// `lidar.T_cam_lidar`, `stereo.T_right_left`, their covariances (co-calibration's, evaluated at
 /// the joint estimate by one warm solve of each kind, plus the joint model error above; the joint
 /// problem's own marginals were over-confident), the trust flags of those solves, `rounds` = outer
-/// iterations, `stable` = the last update was below the tolerance.
+/// iterations, `stable` = the last update was below the tolerance; `lidar_covariance_given_stereo`
+/// is the LiDAR covariance (the joint one does not propagate the pair's), `features`,
+/// `rectifications` and `rematches` count the initial rounds too, the alternation's other
+/// bookkeeping (extrapolations, rejected, yaw_handovers, lidar_first, the sensitivity to the
+/// pair, coupling) is zero.
 /// The keyframes' meshes need every face's normal fitted (LidarMeshSettings::sampled_faces = 0):
 /// the photometric residuals intersect each key point's ray with its face along that normal, and
 /// key points lie on any face. A window whose meshes fit only a sample is refused (converged =
