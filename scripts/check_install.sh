@@ -37,6 +37,8 @@ env -i HOME="$HOME" PATH="$PATH" WORK="$WORK" bash -euo pipefail -c '
   done
   port=$(python3 -c "import socket; s = socket.socket(); s.bind((\"\", 0)); print(s.getsockname()[1])")
   export ROS_MASTER_URI=http://localhost:$port ROS_HOME="$WORK/ros_home"
+  # shellcheck disable=SC1091
+  source "$ROOT/scripts/ros_hostname.sh"
   roscore -p "$port" > /dev/null 2>&1 &
   core=$!
   trap "kill $core 2> /dev/null || true" EXIT

@@ -7,3 +7,5 @@ source "$ROOT/build/devel/setup.bash"
 export ROS_HOME=${ROS_HOME:-$ROOT/build/ros_home}
 ROS_PORT=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')
 export ROS_MASTER_URI=http://localhost:$ROS_PORT
+# shellcheck disable=SC1091
+source "$ROOT/scripts/ros_hostname.sh"

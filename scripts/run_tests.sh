@@ -7,6 +7,8 @@ BUILD=$ROOT/build
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
 # shellcheck disable=SC1091
 source "$BUILD/devel/setup.bash"
+# shellcheck disable=SC1091
+source "$ROOT/scripts/ros_hostname.sh"
 rm -rf "$BUILD/test_results"
 make --no-print-directory -C "$BUILD" -j"${JOBS:-2}" tests || { echo "[test] building the tests failed"; exit 1; }
 # Again: the tests' build may have created folders (Python messages) setup.bash adds only if present.
