@@ -17,7 +17,7 @@ echo "[install-check] building into $WORK/install"
   -DPython3_EXECUTABLE=/usr/bin/python3 -DCATKIN_DEVEL_PREFIX="$WORK/devel" \
   -DCMAKE_INSTALL_PREFIX="$WORK/install" -DCATKIN_ENABLE_TESTING=OFF > cmake.log &&
   make -j"${JOBS:-2}" install > make.log) || { tail -20 "$WORK/build/make.log"; exit 1; }
-env -i HOME="$HOME" PATH="$PATH" WORK="$WORK" bash -euo pipefail -c '
+env -i HOME="$HOME" PATH="$PATH" WORK="$WORK" ROOT="$ROOT" bash -euo pipefail -c '
   set +u  # ROS setup files read unset variables
   # shellcheck disable=SC1091
   source "$WORK/install/setup.bash"
