@@ -39,6 +39,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   p.online.co.stereo_cloud.refinement.iterations = 3;
   p.online.co.stereo_cloud.refinement.smoothed_gradient_rounds = 2;
   p.online.keyframe.stereo.num_disparities = 64;
+  p.image_transport = "compressed";
   std::string error;
   std::vector<std::string> unknown{"not cleared"};
   EXPECT_TRUE(tescalib::loadNodeParams(pnh, &p, &error, &unknown)) << error;
