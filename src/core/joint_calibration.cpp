@@ -409,6 +409,16 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     else if (!ph.converged)
       covariance_solves =
           "the left-right solve at the joint estimate did not converge: " + ph.message;
+    else {
+      // An estimate far from the initial guess gets co-calibration's second opinion (a
+      // LiDAR-stereo solve from the guess with the final clouds; CoCalibrationSettings::
+      // confirm_*), which the initial rounds leave out.
+      LidarStereoResult at_joint = lr;
+      at_joint.T_cam_lidar = T_cl;
+      double seconds = 0;
+      covariance_solves = secondOpinion(cwin, T_cam_lidar_init, at_joint, lw, s, &seconds);
+      res.seconds_lidar += seconds;
+    }
     const int joint_inliers = res.lidar.fine_inliers;
     res.lidar = lr;
     res.lidar.fine_inliers = joint_inliers;

@@ -61,10 +61,12 @@ struct JointCalibrationSettings {
 /// round 2 photometric (coarse-to-fine, on that LiDAR estimate's depth) and LiDAR-stereo (fine
 /// only after a converged round 1); without it, or when the matches give no pair, photometric
 /// first. The rounds run without the alternation's yaw handover, split-window check, sensitivity
-/// to the pair and second opinion. Session 35: one photometric-first round (until then) left
-/// 10 of the 30 benchmark starts unconverged (2 with too few LiDAR residuals after a round-1 pair
-/// 0.2-0.25 deg off, 8 still moving after 15 outer iterations); the two rounds converge on 29.
-/// Then it runs the joint outer iterations. Returns the co-calibration result type:
+/// to the pair and second opinion; the joint estimate gets the second opinion at the end (when
+/// it moved CoCalibrationSettings::confirm_beyond_* from the guess), and is converged only when
+/// its two covariance solves (below) converged at it. Session 35: one photometric-first round
+/// (until then) left 10 of the 30 benchmark starts unconverged (2 with too few LiDAR residuals
+/// after a round-1 pair 0.2-0.25 deg off, 8 still moving after 15 outer iterations); the two rounds
+/// converge on 29. Then it runs the joint outer iterations. Returns the co-calibration result type:
 /// `lidar.T_cam_lidar`, `stereo.T_right_left`, their covariances (co-calibration's, evaluated at
 /// the joint estimate by one warm solve of each kind, plus the joint model error above; the joint
 /// problem's own marginals were over-confident), the trust flags of those solves, `rounds` = outer
