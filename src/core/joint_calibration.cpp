@@ -401,8 +401,6 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     coStereoCovariance(lr, s_cov, &ph);
     addAxisVariances(&lr.covariance, js.model_sigma_lidar_rot_deg, js.model_sigma_lidar_trans_m);
     addAxisVariances(&ph.covariance, js.model_sigma_stereo_rot_deg, js.model_sigma_stereo_trans_m);
-    // The LiDAR result is that solve's (covariances, information, flags, split-window check) with
-    // the joint estimate and the joint problem's association count.
     if (!lr.converged)
       covariance_solves =
           "the LiDAR-stereo solve at the joint estimate did not converge: " + lr.message;
@@ -419,6 +417,8 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
       covariance_solves = secondOpinion(cwin, T_cam_lidar_init, at_joint, lw, s, &seconds);
       res.seconds_lidar += seconds;
     }
+    // The LiDAR result is that solve's (covariances, information, flags, split-window check) with
+    // the joint estimate and the joint problem's association count.
     const int joint_inliers = res.lidar.fine_inliers;
     res.lidar = lr;
     res.lidar.fine_inliers = joint_inliers;
