@@ -31,16 +31,12 @@ TEST(Geometry, PerturbationFollowsTheDocumentedConvention) {
   Vector6d d;
   d << 0.02, -0.05, 0.01, 0.1, -0.2, 0.05;
   const Eigen::Isometry3d P = perturb(T, d);
-  const Eigen::Matrix3d R_left =
-      Eigen::AngleAxisd(d.head<3>().norm(), d.head<3>().normalized()).toRotationMatrix() *
-      T.linear();
-  EXPECT_LT((P.linear() - R_left).norm(), 1e-12);
+  const Eigen::Matrix3d R_d =
+      Eigen::AngleAxisd(d.head<3>().norm(), d.head<3>().normalized()).toRotationMatrix();
+  EXPECT_LT((P.linear() - R_d * T.linear()).norm(), 1e-12);
   EXPECT_LT((P.translation() - (T.translation() + d.tail<3>())).norm(), 1e-15);
   // On the right it would differ by far more than the tolerance above.
-  const Eigen::Matrix3d R_right =
-      T.linear() *
-      Eigen::AngleAxisd(d.head<3>().norm(), d.head<3>().normalized()).toRotationMatrix();
-  EXPECT_GT((R_left - R_right).norm(), 1e-3);
+  EXPECT_GT((R_d * T.linear() - T.linear() * R_d).norm(), 1e-3);
   const Vector6d e = poseError(P, T);
   const Eigen::AngleAxisd aa(P.linear() * T.linear().transpose());
   EXPECT_LT((e.head<3>() - aa.angle() * aa.axis()).norm(), 1e-12);

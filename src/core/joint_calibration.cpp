@@ -359,12 +359,12 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   // The last update can turn the baseline too (checked above only before each iteration).
   if (res.message.empty() && rectifiedBaseline(rig, T_rl) <= 0)
     res.message = "the final left-right estimate cannot be rectified side by side";
-  // The covariance solves at the joint estimate must have converged themselves: a LiDAR-stereo
-  // solve that did not settle there has no split-window check either, and its covariance does
-  // not describe the joint estimate (session 35: a real KITTI 2011_10_03 start was declared
-  // converged 4.75 cm from KITTI's calibration at sigma 0.78 cm; that solve moved 15 mm and did
-  // not settle).
-  std::string covariance_solves;
+  // Why the joint estimate is not trusted though the joint problem settled: a covariance solve
+  // at it that did not converge itself (a LiDAR-stereo solve that did not settle there has no
+  // split-window check either, and its covariance does not describe the joint estimate; session
+  // 35: a real KITTI 2011_10_03 start was declared converged 4.75 cm from KITTI's calibration at
+  // sigma 0.78 cm, that solve had moved 15 mm and not settled), or the second opinion's doubt.
+  std::string doubt;
   if (res.message.empty()) {
     // Covariances: the joint problem's own marginals take every residual as independent and were
     // over-confident (mean NEES 33 on 7 generated windows, session 8). Instead the alternation's
@@ -402,11 +402,9 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     addAxisVariances(&lr.covariance, js.model_sigma_lidar_rot_deg, js.model_sigma_lidar_trans_m);
     addAxisVariances(&ph.covariance, js.model_sigma_stereo_rot_deg, js.model_sigma_stereo_trans_m);
     if (!lr.converged)
-      covariance_solves =
-          "the LiDAR-stereo solve at the joint estimate did not converge: " + lr.message;
+      doubt = "the LiDAR-stereo solve at the joint estimate did not converge: " + lr.message;
     else if (!ph.converged)
-      covariance_solves =
-          "the left-right solve at the joint estimate did not converge: " + ph.message;
+      doubt = "the left-right solve at the joint estimate did not converge: " + ph.message;
     else {
       // An estimate far from the initial guess gets co-calibration's second opinion (a
       // LiDAR-stereo solve from the guess with the final clouds; CoCalibrationSettings::
@@ -414,7 +412,7 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
       LidarStereoResult at_joint = lr;
       at_joint.T_cam_lidar = T_cl;
       double seconds = 0;
-      covariance_solves = secondOpinion(cwin, T_cam_lidar_init, at_joint, lw, s, &seconds);
+      doubt = secondOpinion(cwin, T_cam_lidar_init, at_joint, lw, s, &seconds);
       res.seconds_lidar += seconds;
     }
     // The LiDAR result is that solve's (covariances, information, flags, split-window check) with
@@ -455,8 +453,8 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
   if (!res.message.empty()) {
   } else if (!res.lidar.covariance_known || !res.stereo.covariance_known)
     res.message = "the covariance solves at the joint estimate gave no covariance";
-  else if (!covariance_solves.empty())
-    res.message = covariance_solves;
+  else if (!doubt.empty())
+    res.message = doubt;
   else if (!(res.stereo.consistency_ratio <= ps.max_consistency_ratio))
     res.message = "not photo-consistent at the joint estimate (median key point residual " +
                   std::to_string(res.stereo.consistency_ratio) +
