@@ -8,6 +8,7 @@
 #include <cstring>
 #include <fstream>
 #include <memory>
+#include <random>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -312,6 +313,41 @@ TEST(CalibrateTool, CalibratesAKitti2bagLaidOutBagAsItsFolder) {
   EXPECT_EQ(text.find("velo_link"), std::string::npos) << text;
 }
 
+TEST(CalibrateTool, JointModeCalibratesBothExtrinsics) {
+  // --mode joint: both extrinsics in one Ceres problem (OnlineSettings::joint), the stereo pair
+  // 0.1 deg / 1 cm off as the data's calib.txt gives it (--init), the LiDAR 2 deg / 0.2 m.
+  TempDir tmp;
+  const auto sim = writeDrive(tmp, 26, 9);  // 6 keyframes
+  OnlineEstimate init;  // written as tescalib writes a result (R_right_left: the rotation)
+  init.T_cam_lidar = sim->rig().T_cam_lidar;
+  std::mt19937_64 rng(5);
+  init.T_right_left =
+      perturb(sim->rig().T_right_left, randomPerturbation(0.1 / kDegPerRad, 0.01, rng));
+  writeKittiOdometryCalib(tmp.str() + "/init_calib.txt", calibrationAsKitti(sim->rig(), init));
+  const ToolRun r =
+      runCalibrate("--sequences " + tmp.str() + "/drive --mode joint --init " + tmp.str() +
+                   "/init_calib.txt --perturb-rot-deg 2 " +
+                   "--perturb-trans-m 0.2 --seed 4 --window 6 --out " + tmp.str() + "/result");
+  std::cout << r.output;
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("mode joint, window 6"), std::string::npos) << r.output;
+  const StereoRig back =
+      rigFromOdometryCalib(readKittiOdometryCalib(tmp.str() + "/result_calib.txt"));
+  const Vector6d el = poseError(back.T_cam_lidar, sim->rig().T_cam_lidar);
+  const Vector6d es = poseError(back.T_right_left, sim->rig().T_right_left);
+  const Vector6d es0 = poseError(init.T_right_left, sim->rig().T_right_left);
+  std::cout << "[ calibrate] joint: LiDAR " << el.head<3>().norm() * kDegPerRad << " deg, "
+            << el.tail<3>().norm() * 100 << " cm; stereo " << es.head<3>().norm() * kDegPerRad
+            << " deg, " << es.tail<3>().norm() * 1000 << " mm (from "
+            << es0.head<3>().norm() * kDegPerRad << " deg, " << es0.tail<3>().norm() * 1000
+            << " mm)\n";
+  EXPECT_LT(el.head<3>().norm() * kDegPerRad, 0.1);
+  EXPECT_LT(el.tail<3>().norm(), 0.015);
+  EXPECT_LT(es.head<3>().norm() * kDegPerRad, 0.02);
+  EXPECT_LT(es.tail<3>().norm(), 0.003);
+  EXPECT_NE(readAll(tmp.str() + "/result.yaml").find("T_right_left:"), std::string::npos);
+}
+
 TEST(CalibrateTool, WritesNothingItDoesNotTrust) {
   // Random images (no disparity to match) and a LiDAR sphere: nothing to calibrate on.
   TempDir tmp;
@@ -377,7 +413,7 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
   // 7), and where the result goes is checked before any work (audit, session 31: a folder given
   // as --out failed after the whole run).
   const std::pair<const char*, const char*> usage_errors[] = {
-      {"--mode both", "--mode must be lidar_stereo or co"},
+      {"--mode both", "--mode must be lidar_stereo, co or joint"},
       {"--window 2", "--window must be at least 3"},
       {"--window 7.9", "bad value '7.9' for --window"},
       {"--max-skew -1", "--max-skew must be > 0 s"},

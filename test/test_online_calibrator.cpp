@@ -370,6 +370,40 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
   EXPECT_FALSE(fresh.estimate()->stereo_estimated);
 }
 
+TEST(OnlineCalibratorGenerated, JointCoCalibrationStartsFromTheLidarFirstEstimate) {
+  // OnlineSettings::joint: co-calibration by the one-problem solve. Its keyframes fit every mesh
+  // face's normal (jointCalibrate refuses a window of sampled meshes: converged false, nothing
+  // published), and it starts from the LiDAR-first estimate; an update starts from its own.
+  const auto drive = coDrive();
+  const Simulator& sim = *drive;
+  const StereoRig rig = perturbedRig(sim, 8, 1.0, 0.05, 0.02, 0.002);
+  OnlineSettings settings;
+  settings.estimate_stereo = settings.joint = true;
+  settings.window_size = 6;
+  OnlineCalibrator cal(rig, settings);
+  std::string msg;
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  ASSERT_TRUE(cal.solve(&msg)) << msg;
+  ASSERT_TRUE(cal.estimate().has_value());
+  EXPECT_FALSE(cal.estimate()->stereo_estimated) << "LiDAR first";
+  ASSERT_TRUE(cal.coCalibrationPending());
+  ASSERT_TRUE(cal.solve(&msg)) << msg;
+  auto e = cal.estimate();
+  EXPECT_GE(e->co_rounds, 1);
+  EXPECT_GT(e->cov_stereo.trace(), 0.0);
+  EXPECT_TRUE(e->cov_lidar.isApprox(e->cov_lidar_given_stereo)) << "the joint solve's";
+  expectCoAccuracy(*e, sim.rig(), "joint from it, 5 keyframes");
+  ASSERT_TRUE(cal.lastSolve().has_value());
+  EXPECT_TRUE(cal.lastSolve()->converged);
+  // An update (no feature matches: one photometric-first round, then the joint problem).
+  const double published_stamp = e->stamp;
+  cal.solve(&msg);
+  ASSERT_TRUE(cal.lastSolve().has_value());
+  EXPECT_TRUE(cal.lastSolve()->converged) << msg;
+  expectCoAccuracy(*cal.lastSolve(), sim.rig(), "joint update from its own estimate");
+  EXPECT_EQ(cal.estimate()->stamp, published_stamp);
+}
+
 TEST(OnlineCalibratorGenerated, ARecordingShorterThanTheWindowIsCoCalibratedAtItsEnd) {
   // With the stereo pair 0.2 deg / 1 cm off, the LiDAR-first solves on its misrectified clouds
   // are never trusted, and 5 keyframes never fill a window of 10: the node would wait for more,

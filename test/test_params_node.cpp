@@ -81,14 +81,17 @@ TEST(Params, WithoutAConfigTheNodeRunsLidarStereoAsDocumented) {
   // kitti.yaml co-calibrated).
   tescalib::NodeParams p;
   EXPECT_FALSE(p.online.estimate_stereo);
+  EXPECT_FALSE(p.online.joint);
   // ... and the shipped file says so itself (it is read into the field: a start value of true
   // becomes false).
   p.online.estimate_stereo = true;
+  p.online.joint = true;
   ros::NodeHandle pnh("~kitti");
   std::string error;
   std::vector<std::string> unknown;
   ASSERT_TRUE(tescalib::loadNodeParams(pnh, &p, &error, &unknown)) << error;
   EXPECT_FALSE(p.online.estimate_stereo);
+  EXPECT_FALSE(p.online.joint);
 }
 
 TEST(Params, LiveProfileLoadsOverTheDefaults) {
@@ -127,6 +130,7 @@ TEST(Params, InvalidValuesAreNamed) {
   pnh.setParam("window/size", 0);
   pnh.setParam("initial/T_cam_lidar", std::vector<double>{1, 2, 3});
   pnh.setParam("co_calibration/yaw_handover_deg", 0.0);
+  pnh.setParam("co_calibration/joint", true);  // without estimate_stereo (false by default)
   pnh.setParam("lidar_stereo/halves_chi2_limit", -1.0);
   pnh.setParam("deskew/max_dt", 0.0);
   pnh.setParam("deskew/rate_hz", -10.0);
@@ -143,6 +147,10 @@ TEST(Params, InvalidValuesAreNamed) {
   EXPECT_NE(error.find("stereo/num_disparities"), std::string::npos) << error;
   EXPECT_NE(error.find("window/size"), std::string::npos) << error;
   EXPECT_NE(error.find("co_calibration/yaw_handover_deg"), std::string::npos) << error;
+  EXPECT_NE(error.find("co_calibration/joint (the one-problem co-calibration) needs "
+                       "co_calibration/estimate_stereo: true"),
+            std::string::npos)
+      << error;
   EXPECT_NE(error.find("images/min_sharpness_ratio must be in [0, 1)"), std::string::npos) << error;
   EXPECT_NE(error.find("images/max_clipped_difference must be in (0, 1]"), std::string::npos)
       << error;

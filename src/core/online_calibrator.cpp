@@ -9,6 +9,7 @@
 
 #include "tescalib/core/consistency.h"
 #include "tescalib/core/error.h"
+#include "tescalib/core/joint_calibration.h"
 
 namespace tescalib {
 
@@ -103,6 +104,7 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
                   std::to_string(settings_.deskew_max_dt) + " s)");
   KeyframeSettings ks = settings_.keyframe;
   if (settings_.estimate_stereo) ks.stereo.refinement = settings_.co.stereo_cloud.refinement;
+  if (settings_.estimate_stereo && settings_.joint) ks.mesh.sampled_faces = 0;
   std::shared_ptr<Keyframe> kf;
   try {
     // Before the costly part (SGBM, the mesh, de-skewing: 0.3-0.7 s; this takes about 6 ms).
@@ -329,7 +331,9 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
       // (generated windows: 0.03-0.07 deg off; real KITTI 0.13-0.15 deg).
       if (current) cs.stereo_from_features = false;
       // Warm only from a co-calibration: a LiDAR-first estimate has the stereo pair at its start.
-      const bool warm = current && current->stereo_estimated && settings_.warm_start_fine_only;
+      // The joint solve has no warm rounds: it starts from the estimate (see OnlineSettings).
+      const bool warm = current && current->stereo_estimated && settings_.warm_start_fine_only &&
+                        !settings_.joint;
       if (warm) {
         cs.warm_first_round = true;
         cs.max_rounds = std::min(cs.max_rounds, settings_.warm_co_rounds);
@@ -339,7 +343,14 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
           cs.lidar_sensitivity_to_stereo = *sensitivity;
         }
       }
-      const CoCalibrationResult r = coCalibrate(win, rig_, T_cl, T_rl, cs);
+      CoCalibrationResult r;
+      if (settings_.joint) {
+        JointCalibrationSettings js;
+        js.co = cs;
+        r = jointCalibrate(win, rig_, T_cl, T_rl, js);
+      } else {
+        r = coCalibrate(win, rig_, T_cl, T_rl, cs);
+      }
       if (!warm && r.stable && !r.lidar_stereo_sensitivity.isZero())
         new_sensitivity = r.lidar_stereo_sensitivity;
       keep_clouds = true;  // swapped into the window if the estimate is published (below)

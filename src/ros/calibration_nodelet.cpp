@@ -434,10 +434,12 @@ void CalibrationNodelet::solveLoop() {
         continue;
       }
       publish(*e, rosStamp(e->stamp));
-      const std::string kind = e->co_rounds > 0
-                                   ? "co-calibration, " + std::to_string(e->co_rounds) + " round(s)"
-                               : e->stereo_estimated ? "LiDAR-stereo, T_right_left kept"
-                                                     : "LiDAR-stereo, T_right_left not estimated";
+      std::string kind = e->stereo_estimated ? "LiDAR-stereo, T_right_left kept"
+                                             : "LiDAR-stereo, T_right_left not estimated";
+      if (e->co_rounds > 0 && params_.online.joint)
+        kind = "joint co-calibration, " + std::to_string(e->co_rounds) + " outer iteration(s)";
+      else if (e->co_rounds > 0)
+        kind = "co-calibration, " + std::to_string(e->co_rounds) + " round(s)";
       NODELET_INFO(
           "tescalib: new estimate from %d keyframes in %.2f s (keyframe to estimate %.2f s; %s)",
           e->keyframes_used, last_solve_seconds_.load(), latency, kind.c_str());

@@ -132,6 +132,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("deskew/reference_azimuth_deg", &reference_azimuth_deg);
   p->online.sweep.reference_azimuth_rad = reference_azimuth_deg * M_PI / 180.0;
   get("co_calibration/estimate_stereo", &p->online.estimate_stereo);
+  get("co_calibration/joint", &p->online.joint);
   get("co_calibration/max_rounds", &p->online.co.max_rounds);
   get("co_calibration/warm_co_rounds", &p->online.warm_co_rounds);
   get("co_calibration/lidar_estimates_stereo_yaw", &p->online.co.lidar_estimates_stereo_yaw);
@@ -253,6 +254,9 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
       << o.keyframe.stereo.refinement.window_radius << "); ";
   checkRefinementRounds(o.co.stereo_cloud.refinement, "co_calibration/", e);
   if (o.co.max_rounds < 1) e << "co_calibration/max_rounds must be >= 1; ";
+  if (o.joint && !o.estimate_stereo)
+    e << "co_calibration/joint (the one-problem co-calibration) needs "
+         "co_calibration/estimate_stereo: true; ";
   if (o.warm_co_rounds < 1) e << "co_calibration/warm_co_rounds must be >= 1; ";
   if (o.co.free_depth_rounds < 0) e << "co_calibration/free_depth_rounds must be >= 0; ";
   if (o.co.rematch_deg == 0) e << "co_calibration/rematch_deg must be > 0 (< 0: always match); ";

@@ -57,7 +57,7 @@ void usage() {
   std::cout
       << "usage: rosrun tescalib tescalib_calibrate --sequences DIR[,DIR...] | --bag FILE\n"
          "       [--points TOPIC --left IMAGE_TOPIC --right IMAGE_TOPIC --max-skew S]\n"
-         "       [--mode lidar_stereo|co]\n"
+         "       [--mode lidar_stereo|co|joint]\n"
          "       [--window N] [--init CALIB.txt] [--perturb-rot-deg R] [--perturb-trans-m T]\n"
          "       [--seed S]\n"
          "       [--deskew 0|1] [--out BASE [--lidar-frame NAME]] [--overlay FILE.png]\n"
@@ -71,8 +71,9 @@ void usage() {
          " (default 0.05). Initial guess: camera_info and /tf_static (left camera frame <-\n"
          "  cloud frame), or --init.\n"
          "--mode lidar_stereo: T_cam_lidar only (the stereo pair as calibrated); co: both\n"
-         "  extrinsics (co-calibration).\n"
-         "--window N: keyframes in the sliding window (default, or 0: 20; co: 10).\n"
+         "  extrinsics (co-calibration, alternating the two solvers); joint: both in one Ceres\n"
+         "  problem (started from alternation rounds; its meshes fit every face's normal).\n"
+         "--window N: keyframes in the sliding window (default, or 0: 20; co, joint: 10).\n"
          "--init FILE: initial extrinsics from a KITTI calib.txt (e.g. an earlier "
          "BASE_calib.txt);\n"
          "  intrinsics stay the data's (DIR's calibration, a bag's camera_info). Default: DIR's\n"
@@ -147,8 +148,8 @@ bool parse(int argc, char** argv, Args* a) {
     std::cerr << "tescalib_calibrate: give exactly one of --sequences and --bag\n";
     return false;
   }
-  if (a->mode != "lidar_stereo" && a->mode != "co") {
-    std::cerr << "tescalib_calibrate: --mode must be lidar_stereo or co\n";
+  if (a->mode != "lidar_stereo" && a->mode != "co" && a->mode != "joint") {
+    std::cerr << "tescalib_calibrate: --mode must be lidar_stereo, co or joint\n";
     return false;
   }
   if (a->window < 0 || a->window == 1 || a->window == 2) {
@@ -455,7 +456,7 @@ struct Session {
       std::printf("T_right_left: as calibrated (%s)\n",
                   settings.estimate_stereo
                       ? "no co-calibrated estimate was published; the last solve's message says why"
-                      : "not estimated; --mode co estimates it");
+                      : "not estimated; --mode co or joint estimates it");
     std::printf("change from the initial guess: %s\n",
                 pose6(poseError(e->T_cam_lidar, T_initial)).c_str());
     if (perturbed) {
@@ -640,7 +641,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   Session session;
-  session.settings.estimate_stereo = args.mode == "co";
+  session.settings.estimate_stereo = args.mode == "co" || args.mode == "joint";
+  session.settings.joint = args.mode == "joint";
   session.settings.window_size =
       args.window > 0 ? args.window : (session.settings.estimate_stereo ? 10 : 20);
   session.settings.deskew = args.deskew > 0;

@@ -47,7 +47,15 @@ struct OnlineSettings {
     return estimate_stereo && !lidar_first ? std::max(min_keyframes, min_keyframes_co)
                                            : min_keyframes;
   }
-  bool estimate_stereo = true;      ///< co-calibration; false: LiDAR-stereo only, stereo fixed
+  bool estimate_stereo = true;  ///< co-calibration; false: LiDAR-stereo only, stereo fixed
+  /// With estimate_stereo: co-calibrate with jointCalibrate (both residual sets in one Ceres
+  /// problem, joint_calibration.h) instead of the alternation. Its keyframes' meshes fit every
+  /// face's normal (LidarMeshSettings::sampled_faces = 0), which the joint problem needs. An
+  /// update from a published estimate starts from it with one photometric-first round (no
+  /// feature matches, no wide-basin search) instead of the alternation's warm rounds, and its
+  /// LiDAR covariance takes the pair as exact (cov_lidar = cov_lidar_given_stereo, as the joint
+  /// covariance solve does).
+  bool joint = false;
   double max_sync_skew = 0.05;      ///< s; LiDAR and image stamps further apart are rejected
   double max_time_jump_back = 0.0;  ///< s; a stamp earlier than the last by more resets the window
   /// A new estimate replaces the current one only when converged and no axis's variance is more
