@@ -315,6 +315,25 @@ TEST(JointCalibration, ACovarianceSolveThatDidNotConvergeIsNotAConvergedResult) 
   EXPECT_LT(el.tail<3>().norm(), 0.03);
 }
 
+// The wiring of secondOpinion into jointCalibrate (its initial rounds leave it out; the joint
+// estimate gets it at the end): asked always and always disagreeing (a negative tolerance), a
+// window the joint problem otherwise converges on (the test above) is reported not converged
+// with the second opinion's reason; the joint estimate is kept.
+TEST(JointCalibration, AskedForASecondOpinionThatDisagreesTheResultIsNotConverged) {
+  CoCase c = coCase(8, 1.0, 0.1, 0);
+  JointCalibrationSettings js;
+  js.co.confirm_beyond_deg = 0, js.co.confirm_beyond_m = 0;
+  js.co.confirm_disagree_deg = -1, js.co.confirm_disagree_m = -1;
+  const CoCalibrationResult r = jointCalibrate(c.w.window(), c.w.rig, c.T_cl_init, c.T_rl_init, js);
+  EXPECT_TRUE(r.stable);
+  EXPECT_FALSE(r.converged);
+  EXPECT_FALSE(r.lidar.converged);
+  EXPECT_NE(r.message.find("two minima"), std::string::npos) << r.message;
+  const Vector6d el = poseError(r.lidar.T_cam_lidar, c.truth.T_cam_lidar);
+  EXPECT_LT(el.head<3>().norm() * kDegPerRad, 0.2);
+  EXPECT_LT(el.tail<3>().norm(), 0.03);
+}
+
 // Meshes that fit only the solvers' sample of normals are refused with a message, and the result
 // keeps the initial guesses.
 TEST(JointCalibration, RefusesMeshesWithOnlyTheSampleFitted) {
