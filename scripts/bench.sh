@@ -69,6 +69,13 @@ if [ "$BENCH" != kitti ]; then
   [ -f "$OUT/sim_urban_s1.bag" ] || rosrun tescalib kitti_to_bag --in "$URBAN" --out "$OUT/sim_urban_s1.bag" > /dev/null
   rosrun tescalib tescalib_calibrate --bag "$OUT/sim_urban_s1.bag" --perturb-rot-deg 3 --perturb-trans-m 0.3 |
     grep -E '^[0-9]+ keyframes|^error against'
+  # Both extrinsics with the offline tool, alternation and joint problem (README, "Known limits",
+  # joint mode): the last estimate and the per-update solve times.
+  for m in co joint; do
+    echo "=== tescalib_calibrate --mode $m, LiDAR 2 deg / 0.2 m"
+    rosrun tescalib tescalib_calibrate --sequences "$URBAN" --mode $m --perturb-rot-deg 2 \
+      --perturb-trans-m 0.2 --seed 1 | grep -E '^[0-9]+ keyframes|^NEES of|against'
+  done
   # Raw swept scans (the same drive, each scan swept over its revolution): de-skewed (the
   # default for such data) and as they are (README, "Motion compensation").
   SWEPT=$(simulate_swept urban 1 100)
