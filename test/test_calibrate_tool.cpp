@@ -345,7 +345,10 @@ TEST(CalibrateTool, JointModeCalibratesBothExtrinsics) {
   EXPECT_LT(el.tail<3>().norm(), 0.015);
   EXPECT_LT(es.head<3>().norm() * kDegPerRad, 0.02);
   EXPECT_LT(es.tail<3>().norm(), 0.003);
-  EXPECT_NE(readAll(tmp.str() + "/result.yaml").find("T_right_left:"), std::string::npos);
+  const std::string yaml = readAll(tmp.str() + "/result.yaml");
+  const size_t stereo_at = yaml.find("T_right_left:");
+  ASSERT_NE(stereo_at, std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("estimated: true", stereo_at), std::string::npos) << yaml;
 }
 
 TEST(CalibrateTool, WritesNothingItDoesNotTrust) {

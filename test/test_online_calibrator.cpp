@@ -395,13 +395,13 @@ TEST(OnlineCalibratorGenerated, JointCoCalibrationStartsFromTheLidarFirstEstimat
   expectCoAccuracy(*e, sim.rig(), "joint from it, 5 keyframes");
   ASSERT_TRUE(cal.lastSolve().has_value());
   EXPECT_TRUE(cal.lastSolve()->converged);
-  // An update (no feature matches: one photometric-first round, then the joint problem).
-  const double published_stamp = e->stamp;
+  // An update (no feature matches: one photometric-first round with the LiDAR-stereo fine stage
+  // alone, then the joint problem): converged again, as accurate.
   cal.solve(&msg);
   ASSERT_TRUE(cal.lastSolve().has_value());
   EXPECT_TRUE(cal.lastSolve()->converged) << msg;
+  EXPECT_GE(cal.lastSolve()->co_rounds, 1);
   expectCoAccuracy(*cal.lastSolve(), sim.rig(), "joint update from its own estimate");
-  EXPECT_EQ(cal.estimate()->stamp, published_stamp);
 }
 
 TEST(OnlineCalibratorGenerated, ARecordingShorterThanTheWindowIsCoCalibratedAtItsEnd) {

@@ -19,6 +19,7 @@ import rospkg
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
+from rosgraph_msgs.msg import Log
 from sensor_msgs.msg import Image, PointCloud2
 from tescalib.msg import ExtrinsicEstimate
 from std_srvs.srv import Trigger
@@ -39,6 +40,8 @@ class OnlineEndToEnd(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('test_online_e2e')
         cls.estimate_stereo = rospy.get_param('~estimate_stereo', False)
+        # Co-calibration by the one-problem joint solve (co_calibration/joint, joint:=true).
+        cls.joint = rospy.get_param('~joint', False)
         # Raw swept scans (tescalib_simulate --lidar-sweep 1), de-skewed by the node.
         cls.sweep = rospy.get_param('~sweep', False)
         # The bag laid out as kitti2bag's raw mode writes it (kitti_to_bag --like-kitti2bag 1):
@@ -59,6 +62,8 @@ class OnlineEndToEnd(unittest.TestCase):
         rospy.Subscriber('/tescalib_overlay/left/overlay', Image, cls.on_overlay, queue_size=2)
         rospy.Subscriber('/kitti/camera_color_left/image_raw', Image, cls.on_raw, queue_size=20)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diag)
+        cls.estimate_logs = []  # the node's "new estimate from ..." lines (which kind of solve)
+        rospy.Subscriber('/rosout', Log, cls.on_log, queue_size=100)
         cls.keyframe = {}
         rospy.Subscriber('/tescalib/keyframe/stereo_cloud', PointCloud2, cls.on_keyframe, 'cloud')
         rospy.Subscriber('/tescalib/keyframe/lidar_mesh', Marker, cls.on_keyframe, 'mesh')
@@ -140,6 +145,12 @@ class OnlineEndToEnd(unittest.TestCase):
             cls.keyframe[name] = msg
 
     @classmethod
+    def on_log(cls, msg):
+        if 'new estimate from' in msg.msg:
+            with cls.lock:
+                cls.estimate_logs.append(msg.msg)
+
+    @classmethod
     def on_diag(cls, msg):
         for s in msg.status:
             if s.hardware_id == 'tescalib':
@@ -185,6 +196,13 @@ class OnlineEndToEnd(unittest.TestCase):
         if self.estimate_stereo:
             self.assertLess(ex.norm(phi_s) * DEG, 0.2)
             self.assertLess(ex.norm(tau_s), 0.03)
+            # The co-calibrated estimates came from the solve the launch asked for.
+            with self.lock:
+                logs = list(self.estimate_logs)
+            kind = 'joint co-calibration' if self.joint else '; co-calibration'
+            self.assertTrue(any(kind in m for m in logs), '%r in none of %r' % (kind, logs))
+            if not self.joint:
+                self.assertFalse(any('joint' in m for m in logs), logs)
         else:
             # Not estimated: stays at the camera_info baseline, which is the generator's.
             self.assertLess(ex.norm(phi_s), 1e-9)

@@ -243,10 +243,6 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     tol.direction_deg = tol.yaw_deg = -1.0;  // the joint problem has no yaw nuisance
     res.rectifications += rectifyWindow(window, rig, T_rl, s.stereo_cloud, tol,
                                         &res.seconds_stereo_cloud, &res.rematches) > 0;
-    const double b_used = window.front()->T_right_left_used.translation().norm();
-    const double scale = T_rl.translation().norm() / b_used;
-    const Eigen::Vector3d phi0 =
-        logSO3(T_rl.linear() * window.front()->T_right_left_used.linear().transpose());
 
     double d_cl[6] = {0, 0, 0, 0, 0, 0}, d_rl[6] = {0, 0, 0, 0, 0, 0};
     ceres::Problem::Options po;
@@ -259,6 +255,12 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     const Eigen::Matrix3d R = T_cl.linear();
     for (size_t k = 0; k < window.size(); ++k) {
       const StereoCloud& st = window[k]->stereo;
+      // Per keyframe: the clouds need not share one rectification (rectifyWindow leaves a cloud
+      // within its tolerances as it is; online windows mix clouds built at different estimates).
+      const Eigen::Isometry3d& used = window[k]->T_right_left_used;
+      const double b_used = used.translation().norm();
+      const double scale = T_rl.translation().norm() / b_used;
+      const Eigen::Vector3d phi0 = logSO3(T_rl.linear() * used.linear().transpose());
       for (size_t fi : sampleFaces(window[k]->mesh, ls.fine_faces_per_keyframe)) {
         const MeshFace& f = window[k]->mesh.faces[fi];
         const Eigen::Vector3d q = R * f.centroid.cast<double>();
@@ -429,6 +431,8 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
     res.stereo.consistency_ratio = ph.consistency_ratio;
     res.stereo.weak_directions = ph.weak_directions;
     res.stereo.message = ph.message;
+    res.stereo.final_cost = ph.final_cost;  // not the first round's, at another T_right_left
+    res.stereo.iterations = ph.iterations;
   }
   // The joint LiDAR covariance takes the pair as its covariance solve does (no propagation).
   res.lidar_covariance_given_stereo = res.lidar.covariance;

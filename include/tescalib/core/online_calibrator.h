@@ -52,9 +52,10 @@ struct OnlineSettings {
   /// problem, joint_calibration.h) instead of the alternation. Its keyframes' meshes fit every
   /// face's normal (LidarMeshSettings::sampled_faces = 0), which the joint problem needs. An
   /// update from a published estimate starts from it with one photometric-first round (no
-  /// feature matches, no wide-basin search) instead of the alternation's warm rounds, and its
-  /// LiDAR covariance takes the pair as exact (cov_lidar = cov_lidar_given_stereo, as the joint
-  /// covariance solve does).
+  /// feature matches, no wide-basin search; from a co-calibrated estimate with
+  /// warm_start_fine_only its LiDAR-stereo solve runs the fine stage alone) instead of the
+  /// alternation's warm rounds (warm_co_rounds does not apply), and its LiDAR covariance takes the
+  /// pair as exact (cov_lidar = cov_lidar_given_stereo, as the joint covariance solve does).
   bool joint = false;
   double max_sync_skew = 0.05;      ///< s; LiDAR and image stamps further apart are rejected
   double max_time_jump_back = 0.0;  ///< s; a stamp earlier than the last by more resets the window
