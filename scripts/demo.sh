@@ -12,7 +12,8 @@
 # its first estimate only after about 7 s here, and its updates take about 1 s (README, "Online").
 # RVIZ=1 opens rviz on part 2 and keeps it open.
 # Settings: DEMO_FRAMES (100), DEMO_SEED (1), DEMO_SCENARIO (urban), DEMO_NOISE (default),
-# DEMO_STEREO (0: LiDAR-stereo only; 1: co-calibration, both extrinsics),
+# DEMO_STEREO (0: LiDAR-stereo only; 1: co-calibration, both extrinsics; joint: co-calibration by
+# the one-problem joint solve, joint:=true),
 # DEMO_KITTI (1: run part 3 when the data exists; 0: skip it), DEMO_ROT_DEG / DEMO_TRANS_M (2 / 0.2:
 # how far the initial LiDAR extrinsic is deliberately perturbed),
 # DEMO_SWEEP (0; 1: raw swept scans, tescalib_simulate --lidar-sweep 1, de-skewed online unless
@@ -71,14 +72,16 @@ fi
 # --- 2. online, headless, 1x ---------------------------------------------------------------------
 echo
 STEREO=false
+JOINT=false
 [ "${DEMO_STEREO:-0}" = "1" ] && STEREO=true
-echo "[demo] roslaunch tescalib demo.launch bag:=$BAG perturb_rot_deg:=$ROT perturb_trans_m:=$TRANS estimate_stereo:=$STEREO deskew:=$DESKEW rviz:=$RVIZ_ARG"
+[ "${DEMO_STEREO:-0}" = "joint" ] && STEREO=true && JOINT=true
+echo "[demo] roslaunch tescalib demo.launch bag:=$BAG perturb_rot_deg:=$ROT perturb_trans_m:=$TRANS estimate_stereo:=$STEREO joint:=$JOINT deskew:=$DESKEW rviz:=$RVIZ_ARG"
 if [ "$STEREO" = false ]; then
   echo "[demo] LiDAR-stereo only (the default; DEMO_STEREO=1 for co-calibration), so T_right_left"
   echo "       stays at the camera_info baseline"
 fi
 roslaunch tescalib demo.launch bag:="$BAG" perturb_rot_deg:=$ROT perturb_trans_m:=$TRANS \
-  estimate_stereo:=$STEREO deskew:=$DESKEW rviz:=$RVIZ_ARG > "$OUT/roslaunch_sim.log" 2>&1 &
+  estimate_stereo:=$STEREO joint:=$JOINT deskew:=$DESKEW rviz:=$RVIZ_ARG > "$OUT/roslaunch_sim.log" 2>&1 &
 LAUNCH=$!
 wait_master
 /usr/bin/python3 "$ROOT/scripts/demo_report.py" --ground-truth "$DRIVE/sim_info.txt" \
