@@ -330,14 +330,13 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
       // round 1's photometric solve has good depth, and its yaw is far tighter than the matches'
       // (generated windows: 0.03-0.07 deg off; real KITTI 0.13-0.15 deg).
       if (current) cs.stereo_from_features = false;
-      // The joint solve's initial round from a co-calibrated estimate: its LiDAR-stereo solve
-      // runs the fine stage alone, as a warm LiDAR-stereo update does (warm_start_fine_only).
-      if (settings_.joint && current && current->stereo_estimated && settings_.warm_start_fine_only)
-        cs.lidar.run_coarse = false;
       // Warm only from a co-calibration: a LiDAR-first estimate has the stereo pair at its start.
-      // The joint solve has no warm rounds: it starts from the estimate (see OnlineSettings).
-      const bool warm = current && current->stereo_estimated && settings_.warm_start_fine_only &&
-                        !settings_.joint;
+      const bool from_co = current && current->stereo_estimated && settings_.warm_start_fine_only;
+      // The joint solve has no warm rounds: it starts from the estimate (see OnlineSettings), and
+      // its initial round's LiDAR-stereo solve runs the fine stage alone, as a warm LiDAR-stereo
+      // update does.
+      if (settings_.joint && from_co) cs.lidar.run_coarse = false;
+      const bool warm = from_co && !settings_.joint;
       if (warm) {
         cs.warm_first_round = true;
         cs.max_rounds = std::min(cs.max_rounds, settings_.warm_co_rounds);
