@@ -589,7 +589,9 @@ TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
 
 TEST(OnlineCalibratorGenerated, CancelStopsARunningCoCalibration) {
   // A node shutting down cancels its calibrator: a cold co-calibration (seconds) stops at its
-  // next round or re-association, unpublished, and later solves return at once.
+  // next round or re-association, unpublished, and later solves return at once. "cancelled"
+  // (not "cancelled after the solve had ended") says the solvers saw the flag: without it wired
+  // into the co-calibration's settings this fails.
   const auto drive = coDrive();
   const Simulator& sim = *drive;
   const StereoRig rig = perturbedRig(sim, 5, 2.0, 0.2, 0.5, 0.05);
@@ -615,6 +617,27 @@ TEST(OnlineCalibratorGenerated, CancelStopsARunningCoCalibration) {
   EXPECT_FALSE(cal.estimate().has_value());
   EXPECT_FALSE(cal.solve(&msg));
   EXPECT_EQ(msg, "cancelled");
+}
+
+TEST(OnlineCalibratorGenerated, CancelStopsARunningLidarStereoSolve) {
+  // The same for a LiDAR-stereo solve (its wide-basin search runs several starts).
+  const auto drive = coDrive();
+  const Simulator& sim = *drive;
+  const StereoRig rig = perturbedRig(sim, 6, 3.0, 0.3, 0.0, 0.0);
+  OnlineSettings settings;
+  settings.window_size = 5;
+  settings.search_min_keyframes = 5;
+  OnlineCalibrator cal(rig, settings);
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  std::string msg;
+  bool updated = true;
+  std::thread solver([&] { updated = cal.solve(&msg); });
+  while (cal.readyToSolve()) std::this_thread::yield();
+  cal.cancel();
+  solver.join();
+  EXPECT_FALSE(updated);
+  EXPECT_EQ(msg, "cancelled");
+  EXPECT_FALSE(cal.estimate().has_value());
 }
 
 TEST(OnlineCalibratorGenerated, CoCalibrationContinuesWarmAfterTheFirstEstimate) {

@@ -35,7 +35,7 @@ using Clock = std::chrono::steady_clock;
 struct JointLidarResidual {
   Eigen::Vector3d q, m, t;  ///< R_cl p_l, R_cl n_l, t_cl (reference)
   double u, v, d;           ///< rectified pixel and measured disparity
-  double fx, fy, cx, cy, b_used;
+  double fx, fy, cx, cy;
   Eigen::Matrix3d R_rect;
   Eigen::Vector3d t_rl;  ///< reference left-right translation
   Eigen::Vector3d phi0;  ///< rotation of the reference right camera from the clouds' one
@@ -278,7 +278,7 @@ CoCalibrationResult jointCalibrate(const std::vector<Keyframe*>& window, const S
         auto* lr = new JointLidarResidual;
         lr->q = q, lr->m = m, lr->t = T_cl.translation();
         lr->u = u, lr->v = v, lr->d = d;
-        lr->fx = st.fx, lr->fy = st.fy, lr->cx = st.cx, lr->cy = st.cy, lr->b_used = b_used;
+        lr->fx = st.fx, lr->fy = st.fy, lr->cx = st.cx, lr->cy = st.cy;
         lr->R_rect = st.R_rect_left;
         lr->t_rl = T_rl.translation();
         lr->phi0 = phi0;

@@ -12,6 +12,15 @@
 #include "tescalib/core/joint_calibration.h"
 
 namespace tescalib {
+namespace {
+
+/// Whether a solver's message says it stopped on the cancel flag ("cancelled", "cancelled during
+/// the second opinion").
+bool mentionsCancel(const std::string& message) {
+  return message.find("cancelled") != std::string::npos;
+}
+
+}  // namespace
 
 OnlineCalibrator::OnlineCalibrator(const StereoRig& rig, const OnlineSettings& settings)
     : rig_(rig), settings_(settings) {}
@@ -281,6 +290,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
   std::optional<OnlineEstimate> current;
   std::optional<Matrix6d> sensitivity, new_sensitivity;  // co_sensitivity_ before and after
   bool co = false, keep_clouds = false;
+  bool solver_cancelled = false;  // the solver itself saw the cancel and stopped early
   uint64_t generation = 0;
   if (cancel_) {
     *msg = "cancelled";
@@ -354,6 +364,8 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
       } else {
         r = coCalibrate(win, rig_, T_cl, T_rl, cs);
       }
+      solver_cancelled = mentionsCancel(r.message) || mentionsCancel(r.lidar.message) ||
+                         mentionsCancel(r.stereo.message);
       if (!warm && r.stable && !r.lidar_stereo_sensitivity.isZero())
         new_sensitivity = r.lidar_stereo_sensitivity;
       keep_clouds = true;  // swapped into the window if the estimate is published (below)
@@ -392,6 +404,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
                          std::min(settings_.window_size, settings_.search_min_keyframes))
         ls.search_step_deg = 0;
       const LidarStereoResult r = solveLidarStereoSearch(cwin, T_cl, ls);
+      solver_cancelled = mentionsCancel(r.message);
       keyframe_info = r.keyframe_information;
       e.T_cam_lidar = r.T_cam_lidar;
       e.T_right_left = T_rl;
@@ -423,7 +436,8 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
   e.solve_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::lock_guard<std::mutex> lock(mutex_);
   if (cancel_) {
-    *msg = "cancelled";
+    // The solvers poll the flag; a cancel that came after their last poll lets the solve end.
+    *msg = solver_cancelled ? "cancelled" : "cancelled after the solve had ended";
     return false;
   }
   if (generation_ != generation) {

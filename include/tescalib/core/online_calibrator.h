@@ -209,7 +209,8 @@ class OnlineCalibrator {
 
   /// Makes a running solve stop at its next re-association, search start or co-calibration
   /// round (within about a second) and every later one return at once, unpublished: for a node
-  /// shutting down. Irreversible.
+  /// shutting down. Irreversible. A solve it stopped says "cancelled"; one that had ended before
+  /// the solver saw the flag says "cancelled after the solve had ended".
   void cancel() { cancel_ = true; }
 
   std::optional<OnlineEstimate> estimate() const;  ///< the current published estimate
