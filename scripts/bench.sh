@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # make bench: the accuracy/speed benchmarks whose tables go into the README. Long; not in make test.
-# BENCH=sim|kitti|all (default all) selects the generated-drive or the real-KITTI part.
+# BENCH=sim|kitti|all (default all) selects the generated-drive or the real-KITTI part; BENCH=core
+# runs only the rows of the README's headline table, one per issue target (about 25 minutes).
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
@@ -28,6 +29,44 @@ simulate_swept() {  # scenario seed frames: raw (swept, motion-skewed) scans, de
     --frames "$3" --noise default --lidar-sweep 1 --out "$dir" > /dev/null || exit 1
   echo "$dir"
 }
+case $BENCH in
+  sim | kitti | all | core) ;;
+  *) echo "[bench] BENCH=$BENCH: expected sim, kitti, all or core" >&2; exit 2 ;;
+esac
+if [ "$BENCH" = core ]; then
+  # The README's headline table ("Benchmarks"): each issue's generated-drive target, the baseline
+  # a user would pick, and the real-KITTI rows (skipped without the frames).
+  URBAN=$(simulate urban 1 100)
+  for method in tescalib pcl_gicp; do
+    run "core_sim_urban_${method}_3deg" --sequences "$URBAN" --mode lidar_stereo --method $method \
+      --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
+  done
+  run "core_sim_urban_tescalib_10deg" --sequences "$URBAN" --mode lidar_stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
+  run "core_sim_urban_stereo_1deg" --sequences "$URBAN" --mode stereo --trials "$SIM_TRIALS" \
+    --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
+  run "core_sim_urban_stereo_1deg_lidar_off" --sequences "$URBAN" --mode stereo \
+    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
+    --lidar-trans-m 0.1 --seed 5 --window 20
+  CO_SEQS=$URBAN,$(simulate urban 11 100),$(simulate urban 12 100)
+  for mode in co joint; do
+    run "core_sim_urban_${mode}_3deg" --sequences "$CO_SEQS" --mode $mode --trials "$SIM_TRIALS" \
+      --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
+      --seed 1 --window 10 --windows disjoint
+  done
+  if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data rows"; exit 0; fi
+  for day in "0930 $K/04,$K/05,$K/06,$K/07" "1003 $K/00,$K/02"; do
+    read -r name seqs <<< "$day"
+    run "core_kitti_${name}_tescalib_3deg" --sequences "$seqs" --mode lidar_stereo \
+      --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
+    run "core_kitti_${name}_stereo_1deg" --sequences "$seqs" --mode stereo \
+      --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
+    run "core_kitti_${name}_co_3deg" --sequences "$seqs" --mode co --trials 10 \
+      --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
+  done
+  echo "[bench] JSON files in $OUT"
+  exit 0
+fi
 if [ "$BENCH" != kitti ]; then
   echo "=== tescalib_simulate speed"
   bash "$ROOT/scripts/bench_simulate.sh"
