@@ -55,9 +55,10 @@ StereoRig kittiLikeRig() {
 /// A keyframe of the plane scene: LiDAR ray cast from the LiDAR, disparity ray cast from the
 /// camera (exact, plus Gaussian noise), stereo points with the plane normals. `right_yaw`: the
 /// true right camera is rotated by this (rad, about its y axis) from the one the disparities were
-/// rectified for, so they are short by f yaw (1 + x_r^2).
+/// rectified for, so they are short by f yaw (1 + x_r^2). `disparity_offset` (px) is added to
+/// every disparity.
 Keyframe planeKeyframe(const std::vector<Plane>& planes, const StereoRig& rig, uint64_t seed,
-                       double right_yaw = 0.0) {
+                       double right_yaw = 0.0, double disparity_offset = 0.0) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> range_noise(0.0, 0.01), disp_noise(0.0, 0.2);
   Keyframe kf;
@@ -95,7 +96,8 @@ Keyframe planeKeyframe(const std::vector<Plane>& planes, const StereoRig& rig, u
       if (!std::isfinite(t) || t > 40) continue;
       const double d_true = st.fx * st.baseline / t;
       const double xr = (u - d_true - st.cx) / st.fx;
-      const double d = d_true - st.fx * right_yaw * (1.0 + xr * xr) + disp_noise(rng);
+      const double d =
+          d_true - st.fx * right_yaw * (1.0 + xr * xr) + disparity_offset + disp_noise(rng);
       st.disparity.at<float>(v, u) = float(d);
       if (u % 4 == 0 && v % 4 == 0) {
         StereoPoint sp;
@@ -123,12 +125,13 @@ std::vector<Plane> streetCanyon(double shift) {
 }
 
 /// Three views of the street canyon 0.7 m apart (noise seeds first_seed, +1, +2), clouds
-/// rectified with a right camera `right_yaw` off.
+/// rectified with a right camera `right_yaw` off, every disparity `disparity_offset` px more.
 std::vector<Keyframe> canyonKeyframes(const StereoRig& rig, uint64_t first_seed,
-                                      double right_yaw = 0.0) {
+                                      double right_yaw = 0.0, double disparity_offset = 0.0) {
   std::vector<Keyframe> kfs;
   for (int k = 0; k < 3; ++k)
-    kfs.push_back(planeKeyframe(streetCanyon(0.7 * k), rig, first_seed + k, right_yaw));
+    kfs.push_back(
+        planeKeyframe(streetCanyon(0.7 * k), rig, first_seed + k, right_yaw, disparity_offset));
   return kfs;
 }
 
@@ -168,6 +171,39 @@ TEST(LidarStereoSolver, RecoversKnownPerturbationsOnAPlaneScene) {
     for (int i = 0; i < 6; ++i) EXPECT_TRUE(r.observable[i]) << "axis " << i;
     EXPECT_NEAR(r.bias_sensitivity(5, 0), -0.235, 0.02);  // m of tz per px of disparity offset
   }
+}
+
+TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatADisparityOffsetDoes) {
+  // bias_sensitivity column 0 is the first-order move of the estimate per px of a disparity
+  // offset common to every stereo point; the published covariance adds it times the model's
+  // bias sigma. Checked against the solver itself: the same window (same noise) with every
+  // disparity 0.1 px larger moves the estimate by h * 0.1 (tz by about 2.4 cm here).
+  const StereoRig rig = kittiLikeRig();
+  LidarStereoSettings settings = testSettings();
+  settings.model_sigma_disparity_px = 0;
+  settings.measure_disparity_offset = false;
+  settings.check_window_halves = false;
+  std::mt19937_64 rng(5);
+  const Eigen::Isometry3d T_init =
+      perturb(rig.T_cam_lidar, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
+  const double offset = 0.1;
+  const std::vector<Keyframe> plain = canyonKeyframes(rig, 11);
+  const std::vector<Keyframe> shifted = canyonKeyframes(rig, 11, 0.0, offset);
+  const LidarStereoResult a = solveLidarStereo(windowOf(plain), T_init, settings);
+  const LidarStereoResult b = solveLidarStereo(windowOf(shifted), T_init, settings);
+  ASSERT_TRUE(a.covariance_known && b.covariance_known) << a.message << " / " << b.message;
+  const Vector6d moved = poseError(b.T_cam_lidar, a.T_cam_lidar);
+  const Vector6d predicted = offset * a.bias_sensitivity.col(0);
+  std::printf(
+      "moved     [%+.4f %+.4f %+.4f] deg, [%+.2f %+.2f %+.2f] cm\n"
+      "predicted [%+.4f %+.4f %+.4f] deg, [%+.2f %+.2f %+.2f] cm\n",
+      moved[0] * kDegPerRad, moved[1] * kDegPerRad, moved[2] * kDegPerRad, 100 * moved[3],
+      100 * moved[4], 100 * moved[5], predicted[0] * kDegPerRad, predicted[1] * kDegPerRad,
+      predicted[2] * kDegPerRad, 100 * predicted[3], 100 * predicted[4], 100 * predicted[5]);
+  EXPECT_GT(std::fabs(moved[5]), 0.015);  // the offset moves tz by centimetres
+  EXPECT_NEAR(moved[5], predicted[5], 0.2 * std::fabs(predicted[5]));
+  EXPECT_LT((moved - predicted).head<3>().norm() * kDegPerRad, 0.01);
+  EXPECT_LT((moved - predicted).tail<3>().norm(), 0.2 * predicted.tail<3>().norm());
 }
 
 TEST(LidarStereoSolver, CoarseStageKeepsToItsWindowBudget) {
