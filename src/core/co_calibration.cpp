@@ -706,6 +706,9 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
     res.message = "left-right: " + res.stereo.message;
   else if (!res.lidar.converged)
     res.message = "LiDAR-stereo: " + res.lidar.message;
+  // Cancelled after the rounds: the split-window check, the second opinion or the sensitivity to
+  // the pair may have been cut short (review, session 37; jointCalibrate does the same).
+  if (s.lidar.cancelled()) res.converged = false, res.message = "cancelled";
   res.seconds = secondsSince(t0);
   return res;
 }
