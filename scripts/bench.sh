@@ -12,10 +12,12 @@ mkdir -p "$OUT"
 TRIALS=${TRIALS:-20}
 SIM_TRIALS=${SIM_TRIALS:-30}
 BENCH=${BENCH:-all}
+STATUS=0  # the exit status: 1 when a run failed (its name is printed; the others still run)
 run() {  # name, args...
   local name=$1; shift
   echo "=== $name"
-  rosrun tescalib tescalib_eval "$@" --json "$OUT/$name.json" | grep -v '^  keyframe [0-9]' | sed -n '/^summary/,$p'
+  rosrun tescalib tescalib_eval "$@" --json "$OUT/$name.json" | grep -v '^  keyframe [0-9]' |
+    sed -n '/^summary/,$p' || { echo "[bench] $name failed" >&2; STATUS=1; }
 }
 simulate() {  # scenario seed frames [noise] -> prints the folder (generated once, then cached)
   local dir="$OUT/sim_$1_s$2_f$3_${4:-default}"
@@ -36,7 +38,7 @@ esac
 if [ "$BENCH" = core ]; then
   # The README's headline table ("Benchmarks"): each issue's generated-drive target, the baseline
   # a user would pick, and the real-KITTI rows (skipped without the frames).
-  URBAN=$(simulate urban 1 100)
+  URBAN=$(simulate urban 1 100) || exit 1
   for method in tescalib pcl_gicp; do
     run "core_sim_urban_${method}_3deg" --sequences "$URBAN" --mode lidar_stereo --method $method \
       --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
@@ -48,13 +50,14 @@ if [ "$BENCH" = core ]; then
   run "core_sim_urban_stereo_1deg_lidar_off" --sequences "$URBAN" --mode stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
     --lidar-trans-m 0.1 --seed 5 --window 20
-  CO_SEQS=$URBAN,$(simulate urban 11 100),$(simulate urban 12 100)
+  S11=$(simulate urban 11 100) && S12=$(simulate urban 12 100) || exit 1
+  CO_SEQS=$URBAN,$S11,$S12
   for mode in co joint; do
     run "core_sim_urban_${mode}_3deg" --sequences "$CO_SEQS" --mode $mode --trials "$SIM_TRIALS" \
       --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
       --seed 1 --window 10 --windows disjoint
   done
-  if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data rows"; exit 0; fi
+  if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data rows"; exit $STATUS; fi
   for day in "0930 $K/04,$K/05,$K/06,$K/07" "1003 $K/00,$K/02"; do
     read -r name seqs <<< "$day"
     run "core_kitti_${name}_tescalib_3deg" --sequences "$seqs" --mode lidar_stereo \
@@ -65,7 +68,7 @@ if [ "$BENCH" = core ]; then
       --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
   done
   echo "[bench] JSON files in $OUT"
-  exit 0
+  exit $STATUS
 fi
 if [ "$BENCH" != kitti ]; then
   echo "=== tescalib_simulate speed"
@@ -104,16 +107,16 @@ if [ "$BENCH" != kitti ]; then
   # recording offline"): the node's pipeline, as fast as the CPU allows.
   echo "=== tescalib_calibrate (folder, then bag), 3 deg / 0.3 m"
   rosrun tescalib tescalib_calibrate --sequences "$URBAN" --perturb-rot-deg 3 --perturb-trans-m 0.3 |
-    grep -E '^[0-9]+ keyframes|^error against'
+    grep -E '^[0-9]+ keyframes|^error against' || STATUS=1
   [ -f "$OUT/sim_urban_s1.bag" ] || rosrun tescalib kitti_to_bag --in "$URBAN" --out "$OUT/sim_urban_s1.bag" > /dev/null
   rosrun tescalib tescalib_calibrate --bag "$OUT/sim_urban_s1.bag" --perturb-rot-deg 3 --perturb-trans-m 0.3 |
-    grep -E '^[0-9]+ keyframes|^error against'
+    grep -E '^[0-9]+ keyframes|^error against' || STATUS=1
   # Both extrinsics with the offline tool, alternation and joint problem (README, "Known limits",
   # joint mode): the last estimate and the per-update solve times.
   for m in co joint; do
     echo "=== tescalib_calibrate --mode $m, LiDAR 2 deg / 0.2 m"
     rosrun tescalib tescalib_calibrate --sequences "$URBAN" --mode $m --perturb-rot-deg 2 \
-      --perturb-trans-m 0.2 --seed 1 | grep -E '^[0-9]+ keyframes|^NEES of|against'
+      --perturb-trans-m 0.2 --seed 1 | grep -E '^[0-9]+ keyframes|^NEES of|against' || STATUS=1
   done
   # Raw swept scans (the same drive, each scan swept over its revolution): de-skewed (the
   # default for such data) and as they are (README, "Motion compensation").
@@ -192,8 +195,8 @@ if [ "$BENCH" != kitti ]; then
   nees_scene sim_residential_nees_held_out residential "47 48" 73
   nees_scene sim_highway_nees_held_out highway "6 7 8" 73
 fi
-[ "$BENCH" = sim ] && { echo "[bench] JSON files in $OUT"; exit 0; }
-if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data benchmarks"; exit 0; fi
+[ "$BENCH" = sim ] && { echo "[bench] JSON files in $OUT"; exit $STATUS; }
+if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data benchmarks"; exit $STATUS; fi
 for method in tescalib pcl_gicp; do
   run "kitti_0930_${method}_3deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
     --method $method --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
@@ -238,3 +241,4 @@ run "kitti_1003_co_3deg" --sequences "$K/00,$K/02" --mode co --trials 10 \
 run "kitti_0930_co_1deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode co --trials 10 \
   --init-rot-deg 1 --init-trans-m 0.1 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
 echo "[bench] JSON files in $OUT"
+exit $STATUS
