@@ -587,6 +587,19 @@ TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
   EXPECT_LT(err.tail<3>().norm(), 0.03);
 }
 
+namespace {
+/// Starts a solve on another thread, cancels the calibrator once the solve has taken its window
+/// and returns what the solve returned (its message in *msg).
+bool solveAndCancelIt(OnlineCalibrator* cal, std::string* msg) {
+  bool updated = true;
+  std::thread solver([&] { updated = cal->solve(msg); });
+  while (cal->readyToSolve()) std::this_thread::yield();
+  cal->cancel();
+  solver.join();
+  return updated;
+}
+}  // namespace
+
 TEST(OnlineCalibratorGenerated, CancelStopsARunningCoCalibration) {
   // A node shutting down cancels its calibrator: a cold co-calibration (seconds) stops at its
   // next round or re-association, unpublished, and later solves return at once. "cancelled"
@@ -603,12 +616,8 @@ TEST(OnlineCalibratorGenerated, CancelStopsARunningCoCalibration) {
   OnlineCalibrator cal(rig, settings);
   ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
   std::string msg;
-  bool updated = true;
   const auto t0 = std::chrono::steady_clock::now();
-  std::thread solver([&] { updated = cal.solve(&msg); });
-  while (cal.readyToSolve()) std::this_thread::yield();
-  cal.cancel();
-  solver.join();
+  const bool updated = solveAndCancelIt(&cal, &msg);
   std::cout << "[ online   ] cancelled co-calibration returned after "
             << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()
             << " s\n";
@@ -631,12 +640,7 @@ TEST(OnlineCalibratorGenerated, CancelStopsARunningLidarStereoSolve) {
   OnlineCalibrator cal(rig, settings);
   ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
   std::string msg;
-  bool updated = true;
-  std::thread solver([&] { updated = cal.solve(&msg); });
-  while (cal.readyToSolve()) std::this_thread::yield();
-  cal.cancel();
-  solver.join();
-  EXPECT_FALSE(updated);
+  EXPECT_FALSE(solveAndCancelIt(&cal, &msg));
   EXPECT_EQ(msg, "cancelled");
   EXPECT_FALSE(cal.estimate().has_value());
 }
