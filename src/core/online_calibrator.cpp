@@ -12,15 +12,6 @@
 #include "tescalib/core/joint_calibration.h"
 
 namespace tescalib {
-namespace {
-
-/// Whether a solver's message says it stopped on the cancel flag ("cancelled", "cancelled during
-/// the second opinion").
-bool mentionsCancel(const std::string& message) {
-  return message.find("cancelled") != std::string::npos;
-}
-
-}  // namespace
 
 OnlineCalibrator::OnlineCalibrator(const StereoRig& rig, const OnlineSettings& settings)
     : rig_(rig), settings_(settings) {}
@@ -290,7 +281,9 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
   std::optional<OnlineEstimate> current;
   std::optional<Matrix6d> sensitivity, new_sensitivity;  // co_sensitivity_ before and after
   bool co = false, keep_clouds = false;
-  bool solver_cancelled = false;  // the solver itself saw the cancel and stopped early
+  // The solver itself saw the cancel: coCalibrate, jointCalibrate and solveLidarStereo(Search)
+  // all end with the message "cancelled" when the flag is up at their end.
+  bool solver_cancelled = false;
   uint64_t generation = 0;
   if (cancel_) {
     *msg = "cancelled";
@@ -364,8 +357,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
       } else {
         r = coCalibrate(win, rig_, T_cl, T_rl, cs);
       }
-      solver_cancelled = mentionsCancel(r.message) || mentionsCancel(r.lidar.message) ||
-                         mentionsCancel(r.stereo.message);
+      solver_cancelled = r.message == "cancelled";
       if (!warm && r.stable && !r.lidar_stereo_sensitivity.isZero())
         new_sensitivity = r.lidar_stereo_sensitivity;
       keep_clouds = true;  // swapped into the window if the estimate is published (below)
@@ -404,7 +396,7 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
                          std::min(settings_.window_size, settings_.search_min_keyframes))
         ls.search_step_deg = 0;
       const LidarStereoResult r = solveLidarStereoSearch(cwin, T_cl, ls);
-      solver_cancelled = mentionsCancel(r.message);
+      solver_cancelled = r.message == "cancelled";
       keyframe_info = r.keyframe_information;
       e.T_cam_lidar = r.T_cam_lidar;
       e.T_right_left = T_rl;
