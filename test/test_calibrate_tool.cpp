@@ -351,6 +351,20 @@ TEST(CalibrateTool, JointModeCalibratesBothExtrinsics) {
   EXPECT_NE(yaml.find("estimated: true", stereo_at), std::string::npos) << yaml;
 }
 
+TEST(CalibrateTool, MinKeyframesDelaysTheFirstSolve) {
+  // The node's window/min_keyframes: no solve (and no line) before the window holds that many.
+  TempDir tmp;
+  writeDrive(tmp, 31, 8);  // 7 keyframes
+  const ToolRun r = runCalibrate("--sequences " + tmp.str() +
+                                 "/drive --perturb-rot-deg 1 --perturb-trans-m 0.1 "
+                                 "--min-keyframes 5");
+  std::cout << r.output;
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.find("  keyframe 4 ("), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("  keyframe 5 ("), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("7 keyframes, 0 rejected, 3 solves"), std::string::npos) << r.output;
+}
+
 TEST(CalibrateTool, WritesNothingItDoesNotTrust) {
   // Random images (no disparity to match) and a LiDAR sphere: nothing to calibrate on.
   TempDir tmp;
@@ -423,6 +437,8 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
       {"--out /tmp/", "names a folder"},
       {"--out /nonexistent_folder/result", "the folder \"/nonexistent_folder\" does not exist"},
       {"--search-deg 45", "--search-deg must be between 0 (off) and 20"},
+      {"--min-keyframes 0", "--min-keyframes must be at least 1"},
+      {"--mode co --min-keyframes 11", "--min-keyframes must be between 1 and the window (10)"},
       {"--max-skew 0.1", "--max-skew is an option of --bag, not of --sequences"},
       {"--points /p", "--points is an option of --bag, not of --sequences"},
       {"--lidar-frame velo", "--lidar-frame names the LiDAR frame in --out's files"}};

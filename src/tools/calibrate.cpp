@@ -41,7 +41,8 @@ struct Args {
   std::string bag;
   BagTopics topics;
   std::string mode = "lidar_stereo";
-  int window = 0;  // 0: 20 keyframes (lidar_stereo), 10 (co, the paper's batch)
+  int window = 0;          // 0: 20 keyframes (lidar_stereo), 10 (co, the paper's batch)
+  int min_keyframes = -1;  // -1: OnlineSettings' default (3)
   std::string init;
   double perturb_rot_deg = 0, perturb_trans_m = 0;
   uint64_t seed = 1;
@@ -58,7 +59,8 @@ void usage() {
       << "usage: rosrun tescalib tescalib_calibrate --sequences DIR[,DIR...] | --bag FILE\n"
          "       [--points TOPIC --left IMAGE_TOPIC --right IMAGE_TOPIC --max-skew S]\n"
          "       [--mode lidar_stereo|co|joint]\n"
-         "       [--window N] [--init CALIB.txt] [--perturb-rot-deg R] [--perturb-trans-m T]\n"
+         "       [--window N] [--min-keyframes N] [--init CALIB.txt] [--perturb-rot-deg R] "
+         "[--perturb-trans-m T]\n"
          "       [--seed S]\n"
          "       [--deskew 0|1] [--out BASE [--lidar-frame NAME]] [--overlay FILE.png]\n"
          "       [--search-deg D]\n"
@@ -74,6 +76,8 @@ void usage() {
          "  extrinsics (co-calibration, alternating the two solvers); joint: both in one Ceres\n"
          "  problem (started from alternation rounds; its meshes fit every face's normal).\n"
          "--window N: keyframes in the sliding window (default, or 0: 20; co, joint: 10).\n"
+         "--min-keyframes N: solve only once the window holds N keyframes (default 3, at most\n"
+         "  --window; the node's window/min_keyframes): fewer, better first estimates.\n"
          "--init FILE: initial extrinsics from a KITTI calib.txt (e.g. an earlier "
          "BASE_calib.txt);\n"
          "  intrinsics stay the data's (DIR's calibration, a bag's camera_info). Default: DIR's\n"
@@ -109,6 +113,8 @@ bool parse(int argc, char** argv, Args* a) {
       a->mode = v;
     else if (k == "--window")
       a->window = cli::toInt(v);
+    else if (k == "--min-keyframes")
+      a->min_keyframes = cli::toInt(v);
     else if (k == "--init")
       a->init = v;
     else if (k == "--perturb-rot-deg")
@@ -154,6 +160,10 @@ bool parse(int argc, char** argv, Args* a) {
   }
   if (a->window < 0 || a->window == 1 || a->window == 2) {
     std::cerr << "tescalib_calibrate: --window must be at least 3\n";
+    return false;
+  }
+  if (a->min_keyframes == 0 || a->min_keyframes < -1) {  // above the window: checked in main
+    std::cerr << "tescalib_calibrate: --min-keyframes must be at least 1\n";
     return false;
   }
   if (a->search_deg > LidarStereoSettings::kMaxSearchStepDeg) {
@@ -645,6 +655,14 @@ int main(int argc, char** argv) {
   session.settings.joint = args.mode == "joint";
   session.settings.window_size =
       args.window > 0 ? args.window : (session.settings.estimate_stereo ? 10 : 20);
+  if (args.min_keyframes > 0) {
+    if (args.min_keyframes > session.settings.window_size) {
+      std::cerr << "tescalib_calibrate: --min-keyframes must be between 1 and the window ("
+                << session.settings.window_size << ")\n";
+      return 2;
+    }
+    session.settings.min_keyframes = args.min_keyframes;
+  }
   session.settings.deskew = args.deskew > 0;
   if (args.search_deg >= 0) session.settings.co.lidar.search_step_deg = args.search_deg;
   session.keep_last_keyframe = !args.overlay.empty();
