@@ -31,6 +31,38 @@ simulate_swept() {  # scenario seed frames: raw (swept, motion-skewed) scans, de
     --frames "$3" --noise default --lidar-sweep 1 --out "$dir" > /dev/null || exit 1
   echo "$dir"
 }
+# The rows of the README's headline table, run by BENCH=core and by the full bench alike; their
+# JSON names start with $P ("core_" under BENCH=core, so that they do not overwrite the full
+# bench's).
+P=""
+[ "$BENCH" = core ] && P=core_
+D0930="$K/04,$K/05,$K/06,$K/07"  # KITTI 2011_09_30: 8 keyframes
+D1003="$K/00,$K/02"              # KITTI 2011_10_03: 4 keyframes
+urban_lidar_stereo() {  # method rot-deg trans-m seed [name suffix [options...]]: window 20
+  run "${P}sim_urban_$1_$2deg${5:-}" --sequences "$URBAN" --mode lidar_stereo --method "$1" \
+    --trials "$SIM_TRIALS" --init-rot-deg "$2" --init-trans-m "$3" --seed "$4" --window 20 "${@:6}"
+}
+urban_stereo() {  # seed [name suffix [options...]]: left-right from 1 deg / 0.1 m, window 20
+  run "${P}sim_urban_stereo_1deg${2:-}" --sequences "$URBAN" --mode stereo --trials "$SIM_TRIALS" \
+    --init-rot-deg 1 --init-trans-m 0.1 --seed "$1" --window 20 "${@:3}"
+}
+urban_both() {  # co|joint: both extrinsics, the 6 windows of three drives ($CO_SEQS), 30 starts
+  run "${P}sim_urban_$1_3deg" --sequences "$CO_SEQS" --mode "$1" --trials "$SIM_TRIALS" \
+    --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
+    --seed 1 --window 10 --windows disjoint
+}
+kitti_lidar_stereo() {  # day sequences method [name suffix [options...]]: 3 deg / 0.3 m, window 20
+  run "${P}kitti_$1_$3_3deg${4:-}" --sequences "$2" --mode lidar_stereo --method "$3" \
+    --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 "${@:5}"
+}
+kitti_stereo() {  # day sequences seed [name suffix [options...]]: left-right from 1 deg / 0.1 m
+  run "${P}kitti_$1_stereo_1deg${4:-}" --sequences "$2" --mode stereo --trials "$TRIALS" \
+    --init-rot-deg 1 --init-trans-m 0.1 --seed "$3" --window 20 "${@:5}"
+}
+kitti_co() {  # day sequences rot-deg trans-m: co from the LiDAR that far off, 10 starts
+  run "${P}kitti_$1_co_$3deg" --sequences "$2" --mode co --trials 10 --init-rot-deg "$3" \
+    --init-trans-m "$4" --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
+}
 case $BENCH in
   sim | kitti | all | core) ;;
   *) echo "[bench] BENCH=$BENCH: expected sim, kitti, all or core" >&2; exit 2 ;;
@@ -39,33 +71,21 @@ if [ "$BENCH" = core ]; then
   # The README's headline table ("Benchmarks"): each issue's generated-drive target, the baseline
   # a user would pick, and the real-KITTI rows (skipped without the frames).
   URBAN=$(simulate urban 1 100) || exit 1
-  for method in tescalib pcl_gicp; do
-    run "core_sim_urban_${method}_3deg" --sequences "$URBAN" --mode lidar_stereo --method $method \
-      --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
-  done
-  run "core_sim_urban_tescalib_10deg" --sequences "$URBAN" --mode lidar_stereo \
-    --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
-  run "core_sim_urban_stereo_1deg" --sequences "$URBAN" --mode stereo --trials "$SIM_TRIALS" \
-    --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
-  run "core_sim_urban_stereo_1deg_lidar_off" --sequences "$URBAN" --mode stereo \
-    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
-    --lidar-trans-m 0.1 --seed 5 --window 20
+  urban_lidar_stereo tescalib 3 0.3 1
+  urban_lidar_stereo pcl_gicp 3 0.3 1
+  urban_lidar_stereo tescalib 10 1.0 2
+  urban_stereo 4
+  urban_stereo 5 _lidar_off --lidar-rot-deg 1 --lidar-trans-m 0.1
   S11=$(simulate urban 11 100) && S12=$(simulate urban 12 100) || exit 1
   CO_SEQS=$URBAN,$S11,$S12
-  for mode in co joint; do
-    run "core_sim_urban_${mode}_3deg" --sequences "$CO_SEQS" --mode $mode --trials "$SIM_TRIALS" \
-      --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
-      --seed 1 --window 10 --windows disjoint
-  done
+  urban_both co
+  urban_both joint
   if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data rows"; exit $STATUS; fi
-  for day in "0930 $K/04,$K/05,$K/06,$K/07" "1003 $K/00,$K/02"; do
+  for day in "0930 $D0930" "1003 $D1003"; do
     read -r name seqs <<< "$day"
-    run "core_kitti_${name}_tescalib_3deg" --sequences "$seqs" --mode lidar_stereo \
-      --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
-    run "core_kitti_${name}_stereo_1deg" --sequences "$seqs" --mode stereo \
-      --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
-    run "core_kitti_${name}_co_3deg" --sequences "$seqs" --mode co --trials 10 \
-      --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
+    kitti_lidar_stereo "$name" "$seqs" tescalib
+    kitti_stereo "$name" "$seqs" 4
+    kitti_co "$name" "$seqs" 3 0.3
   done
   echo "[bench] JSON files in $OUT"
   exit $STATUS
@@ -75,17 +95,13 @@ if [ "$BENCH" != kitti ]; then
   bash "$ROOT/scripts/bench_simulate.sh"
   URBAN=$(simulate urban 1 100)
   # Issue 4: window 20 (the paper's protocol), 3 deg / 0.3 m and the wide basin 10 deg / 1 m.
-  for method in tescalib pcl_gicp; do
-    run "sim_urban_${method}_3deg" --sequences "$URBAN" --mode lidar_stereo --method $method \
-      --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
-  done
+  urban_lidar_stereo tescalib 3 0.3 1
+  urban_lidar_stereo pcl_gicp 3 0.3 1
   # Sparser LiDARs from the same drive: every 2nd ring (32) and every 4th (16, about a VLP-16).
   for keep in 2 4; do
-    run "sim_urban_tescalib_3deg_rings$((64 / keep))" --sequences "$URBAN" --mode lidar_stereo \
-      --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --keep-rings $keep
+    urban_lidar_stereo tescalib 3 0.3 1 "_rings$((64 / keep))" --keep-rings $keep
   done
-  run "sim_urban_tescalib_10deg" --sequences "$URBAN" --mode lidar_stereo \
-    --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
+  urban_lidar_stereo tescalib 10 1.0 2
   # Beyond it: 15 deg / 1.5 m and 20 deg / 2 m, with the wide-basin search (the default) and
   # without it (README, "Benchmarks").
   for start in "15 1.5" "20 2.0"; do
@@ -97,12 +113,8 @@ if [ "$BENCH" != kitti ]; then
     done
   done
   # The same with the clouds' scale and yaw as nuisances (README, "Benchmarks").
-  run "sim_urban_tescalib_3deg_scale_yaw" --sequences "$URBAN" --mode lidar_stereo \
-    --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 \
-    --stereo-scale 1 --stereo-yaw 1
-  run "sim_urban_tescalib_10deg_scale_yaw" --sequences "$URBAN" --mode lidar_stereo \
-    --trials "$SIM_TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20 \
-    --stereo-scale 1 --stereo-yaw 1
+  urban_lidar_stereo tescalib 3 0.3 1 _scale_yaw --stereo-scale 1 --stereo-yaw 1
+  urban_lidar_stereo tescalib 10 1.0 2 _scale_yaw --stereo-scale 1 --stereo-yaw 1
   # The offline tool on the same drive, from its folder and from its bag (README, "Calibrating a
   # recording offline"): the node's pipeline, as fast as the CPU allows.
   echo "=== tescalib_calibrate (folder, then bag), 3 deg / 0.3 m"
@@ -126,29 +138,20 @@ if [ "$BENCH" != kitti ]; then
   run "sim_urban_swept_tescalib_3deg_raw" --sequences "$SWEPT" --mode lidar_stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --deskew 0
   # Issue 5: left-right from 1 deg / 0.1 m, with the LiDAR at the truth and 1 deg / 0.1 m off.
-  run "sim_urban_stereo_1deg" --sequences "$URBAN" --mode stereo --trials "$SIM_TRIALS" \
-    --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
+  urban_stereo 4
   # The baseline a user would pick: an essential matrix from left-right feature matches (rotation
   # and baseline direction; the length stays the start's).
-  run "sim_urban_stereo_1deg_features" --sequences "$URBAN" --mode stereo --method features \
-    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
-  run "sim_urban_stereo_1deg_lidar_off" --sequences "$URBAN" --mode stereo \
-    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
-    --lidar-trans-m 0.1 --seed 5 --window 20
-  run "sim_urban_stereo_1deg_lidar_off_smooth8" --sequences "$URBAN" --mode stereo \
-    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
-    --lidar-trans-m 0.1 --seed 5 --window 20 --smooth-keypoints 8
+  urban_stereo 4 _features --method features
+  LIDAR_OFF=(--lidar-rot-deg 1 --lidar-trans-m 0.1)
+  urban_stereo 5 _lidar_off "${LIDAR_OFF[@]}"
+  urban_stereo 5 _lidar_off_smooth8 "${LIDAR_OFF[@]}" --smooth-keypoints 8
   # The same with free key point depth (PhotometricSettings::depth_prior_sigma), and at the truth.
-  run "sim_urban_stereo_1deg_lidar_off_free_depth" --sequences "$URBAN" --mode stereo \
-    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
-    --lidar-trans-m 0.1 --seed 5 --window 20 --depth-prior 0.05
+  urban_stereo 5 _lidar_off_free_depth "${LIDAR_OFF[@]}" --depth-prior 0.05
   # ... and with the LiDAR's error a nuisance of the depths (its prior: the per-axis sigma of a
   # 1 deg / 0.1 m perturbation, PhotometricSettings::lidar_error_sigma_*).
-  run "sim_urban_stereo_1deg_lidar_off_free_depth_nuisance" --sequences "$URBAN" --mode stereo \
-    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 \
-    --lidar-trans-m 0.1 --seed 5 --window 20 --depth-prior 0.01 --lidar-sigma 0.58,0.058
-  run "sim_urban_stereo_1deg_free_depth" --sequences "$URBAN" --mode stereo \
-    --trials "$SIM_TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20 --depth-prior 0.05
+  urban_stereo 5 _lidar_off_free_depth_nuisance "${LIDAR_OFF[@]}" --depth-prior 0.01 \
+    --lidar-sigma 0.58,0.058
+  urban_stereo 4 _free_depth --depth-prior 0.05
   # Issue 6: NEES over independent windows of 10 keyframes (15 urban drives; 4 held out).
   NEES_SEQS=$URBAN
   for s in 11 12 13 14 15 16 21 22 23 24 31 32 33 34; do NEES_SEQS=$NEES_SEQS,$(simulate urban $s 100); done
@@ -158,9 +161,7 @@ if [ "$BENCH" != kitti ]; then
   # over 54 starts on 18 held-out windows (its model error is fitted on s1, s11-s16, s21-s24;
   # README).
   CO_SEQS=$URBAN,$(simulate urban 11 100),$(simulate urban 12 100)
-  run "sim_urban_co_3deg" --sequences "$CO_SEQS" --mode co --trials "$SIM_TRIALS" \
-    --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
-    --seed 1 --window 10 --windows disjoint
+  urban_both co
   # From the LiDAR 10 deg / 1 m off: round 1's stereo pair from feature matches, LiDAR first
   # (CoCalibrationSettings::stereo_from_features; 30 % of these starts without it, session 27).
   run "sim_urban_co_10deg" --sequences "$CO_SEQS" --mode co --trials "$SIM_TRIALS" \
@@ -173,9 +174,7 @@ if [ "$BENCH" != kitti ]; then
     --seed 61 --window 10 --windows disjoint
   # The joint problem (--mode joint) on the same starts: its model error is fitted on the first
   # run's converged starts, the second is held out (README, "Co-calibration").
-  run "sim_urban_joint_3deg" --sequences "$CO_SEQS" --mode joint --trials "$SIM_TRIALS" \
-    --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
-    --seed 1 --window 10 --windows disjoint
+  urban_both joint
   run "sim_urban_joint_nees_held_out" --sequences "$CO_HELD_OUT" --mode joint --trials 54 \
     --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
     --seed 61 --window 10 --windows disjoint
@@ -197,48 +196,24 @@ if [ "$BENCH" != kitti ]; then
 fi
 [ "$BENCH" = sim ] && { echo "[bench] JSON files in $OUT"; exit $STATUS; }
 if [ ! -d "$K" ]; then echo "[bench] no KITTI frames at $K: skipping the real-data benchmarks"; exit $STATUS; fi
-for method in tescalib pcl_gicp; do
-  run "kitti_0930_${method}_3deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
-    --method $method --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
-  run "kitti_1003_${method}_3deg" --sequences "$K/00,$K/02" --mode lidar_stereo \
-    --method $method --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
+for day in "0930 $D0930" "1003 $D1003"; do
+  read -r name seqs <<< "$day"
+  kitti_lidar_stereo "$name" "$seqs" tescalib
+  kitti_lidar_stereo "$name" "$seqs" pcl_gicp
+  # The clouds' yaw as a nuisance (on in co-calibration, off by default in LiDAR-stereo mode).
+  kitti_lidar_stereo "$name" "$seqs" tescalib _stereo_yaw --stereo-yaw 1
+  kitti_lidar_stereo "$name" "$seqs" tescalib _scale_yaw --stereo-scale 1 --stereo-yaw 1
+  kitti_stereo "$name" "$seqs" 4
+  kitti_stereo "$name" "$seqs" 4 _features --method features
+  # KITTI's stated LiDAR calibration accuracy propagated into the stereo covariance.
+  kitti_stereo "$name" "$seqs" 4 _lidar_sigma --lidar-sigma 0.1,0.02
+  kitti_co "$name" "$seqs" 3 0.3
 done
-# The clouds' yaw as a nuisance (on in co-calibration, off by default in LiDAR-stereo mode).
-run "kitti_0930_tescalib_3deg_stereo_yaw" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
-  --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --stereo-yaw 1
-run "kitti_1003_tescalib_3deg_stereo_yaw" --sequences "$K/00,$K/02" --mode lidar_stereo \
-  --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --stereo-yaw 1
-run "kitti_0930_tescalib_3deg_scale_yaw" --sequences "$K/04,$K/05,$K/06,$K/07" \
-  --mode lidar_stereo --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 \
-  --stereo-scale 1 --stereo-yaw 1
-run "kitti_1003_tescalib_3deg_scale_yaw" --sequences "$K/00,$K/02" --mode lidar_stereo \
-  --trials "$TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --stereo-scale 1 \
-  --stereo-yaw 1
-run "kitti_0930_tescalib_10deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
+run "kitti_0930_tescalib_10deg" --sequences "$D0930" --mode lidar_stereo \
   --trials "$TRIALS" --init-rot-deg 10 --init-trans-m 1.0 --seed 2 --window 20
-run "kitti_0930_tescalib_from_gt" --sequences "$K/04,$K/05,$K/06,$K/07" --mode lidar_stereo \
+run "kitti_0930_tescalib_from_gt" --sequences "$D0930" --mode lidar_stereo \
   --trials 1 --init-rot-deg 0 --init-trans-m 0 --seed 3 --window 20
-run "kitti_0930_stereo_1deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo \
-  --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
-run "kitti_1003_stereo_1deg" --sequences "$K/00,$K/02" --mode stereo \
-  --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
-run "kitti_0930_stereo_1deg_features" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo \
-  --method features --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
-run "kitti_1003_stereo_1deg_features" --sequences "$K/00,$K/02" --mode stereo \
-  --method features --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20
-# The same with KITTI's stated LiDAR calibration accuracy propagated into the stereo covariance.
-run "kitti_0930_stereo_1deg_lidar_sigma" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo \
-  --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20 --lidar-sigma 0.1,0.02
-run "kitti_1003_stereo_1deg_lidar_sigma" --sequences "$K/00,$K/02" --mode stereo \
-  --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --seed 4 --window 20 --lidar-sigma 0.1,0.02
-run "kitti_0930_stereo_1deg_lidar_off" --sequences "$K/04,$K/05,$K/06,$K/07" --mode stereo \
-  --trials "$TRIALS" --init-rot-deg 1 --init-trans-m 0.1 --lidar-rot-deg 1 --lidar-trans-m 0.1 \
-  --seed 5 --window 20
-run "kitti_0930_co_3deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode co --trials 10 \
-  --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
-run "kitti_1003_co_3deg" --sequences "$K/00,$K/02" --mode co --trials 10 \
-  --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
-run "kitti_0930_co_1deg" --sequences "$K/04,$K/05,$K/06,$K/07" --mode co --trials 10 \
-  --init-rot-deg 1 --init-trans-m 0.1 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
+kitti_stereo 0930 "$D0930" 5 _lidar_off --lidar-rot-deg 1 --lidar-trans-m 0.1
+kitti_co 0930 "$D0930" 1 0.1
 echo "[bench] JSON files in $OUT"
 exit $STATUS
