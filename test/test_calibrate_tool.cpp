@@ -437,8 +437,12 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
       {"--out /tmp/", "names a folder"},
       {"--out /nonexistent_folder/result", "the folder \"/nonexistent_folder\" does not exist"},
       {"--search-deg 45", "--search-deg must be between 0 (off) and 20"},
-      {"--min-keyframes 0", "--min-keyframes must be at least 1"},
+      {"--min-keyframes 0", "--min-keyframes must be between 1 and the window (20)"},
+      {"--min-keyframes -1", "--min-keyframes must be between 1 and the window (20)"},
+      {"--min-keyframes 21", "--min-keyframes must be between 1 and the window (20)"},
       {"--mode co --min-keyframes 11", "--min-keyframes must be between 1 and the window (10)"},
+      {"--window 4 --min-keyframes 5", "--min-keyframes must be between 1 and the window (4)"},
+      {"--mode joint --window 4", "--mode joint needs --window 5 or more"},
       {"--max-skew 0.1", "--max-skew is an option of --bag, not of --sequences"},
       {"--points /p", "--points is an option of --bag, not of --sequences"},
       {"--lidar-frame velo", "--lidar-frame names the LiDAR frame in --out's files"}};

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <random>
 #include <set>
 #include <string>
@@ -41,8 +42,8 @@ struct Args {
   std::string bag;
   BagTopics topics;
   std::string mode = "lidar_stereo";
-  int window = 0;          // 0: 20 keyframes (lidar_stereo), 10 (co, the paper's batch)
-  int min_keyframes = -1;  // -1: OnlineSettings' default (3)
+  int window = 0;                    // 0: 20 keyframes (lidar_stereo), 10 (co, the paper's batch)
+  std::optional<int> min_keyframes;  // none: OnlineSettings' default (3)
   std::string init;
   double perturb_rot_deg = 0, perturb_trans_m = 0;
   uint64_t seed = 1;
@@ -59,9 +60,8 @@ void usage() {
       << "usage: rosrun tescalib tescalib_calibrate --sequences DIR[,DIR...] | --bag FILE\n"
          "       [--points TOPIC --left IMAGE_TOPIC --right IMAGE_TOPIC --max-skew S]\n"
          "       [--mode lidar_stereo|co|joint]\n"
-         "       [--window N] [--min-keyframes N] [--init CALIB.txt] [--perturb-rot-deg R] "
-         "[--perturb-trans-m T]\n"
-         "       [--seed S]\n"
+         "       [--window N] [--min-keyframes N] [--init CALIB.txt]\n"
+         "       [--perturb-rot-deg R] [--perturb-trans-m T] [--seed S]\n"
          "       [--deskew 0|1] [--out BASE [--lidar-frame NAME]] [--overlay FILE.png]\n"
          "       [--search-deg D]\n"
          "Calibrates the recording in DIR (KITTI odometry or raw layout; several folders of one\n"
@@ -75,9 +75,11 @@ void usage() {
          "--mode lidar_stereo: T_cam_lidar only (the stereo pair as calibrated); co: both\n"
          "  extrinsics (co-calibration, alternating the two solvers); joint: both in one Ceres\n"
          "  problem (started from alternation rounds; its meshes fit every face's normal).\n"
-         "--window N: keyframes in the sliding window (default, or 0: 20; co, joint: 10).\n"
-         "--min-keyframes N: solve only once the window holds N keyframes (default 3, at most\n"
-         "  --window; the node's window/min_keyframes): fewer, better first estimates.\n"
+         "--window N: keyframes in the sliding window (default, or 0: 20; co, joint: 10, at\n"
+         "  least 5).\n"
+         "--min-keyframes N: no solve before the window holds N keyframes (default 3, at most\n"
+         "  the window; the node's window/min_keyframes): fewer, better first estimates. co,\n"
+         "  joint: co-calibration waits for 5 keyframes in any case (LiDAR-stereo before).\n"
          "--init FILE: initial extrinsics from a KITTI calib.txt (e.g. an earlier "
          "BASE_calib.txt);\n"
          "  intrinsics stay the data's (DIR's calibration, a bag's camera_info). Default: DIR's\n"
@@ -102,6 +104,11 @@ void usage() {
          "  solve's, labelled NOT TRUSTED), to look at the alignment without ROS.\n"
          "Exit status: 0 when an estimate converged, 1 when none did, the data are unusable or\n"
          "--overlay could not be written, 2 on a usage error.\n";
+}
+
+/// The sliding window's size: --window, or 20 keyframes (lidar_stereo), 10 (co and joint).
+int windowSize(const Args& a) {
+  return a.window > 0 ? a.window : (a.mode == "lidar_stereo" ? 20 : 10);
 }
 
 bool parse(int argc, char** argv, Args* a) {
@@ -162,8 +169,17 @@ bool parse(int argc, char** argv, Args* a) {
     std::cerr << "tescalib_calibrate: --window must be at least 3\n";
     return false;
   }
-  if (a->min_keyframes == 0 || a->min_keyframes < -1) {  // above the window: checked in main
-    std::cerr << "tescalib_calibrate: --min-keyframes must be at least 1\n";
+  // The node's own parameter checks (validateNodeParams), on the window this run will use.
+  const int window = windowSize(*a);
+  const int min_co = OnlineSettings{}.min_keyframes_co;
+  if (a->mode != "lidar_stereo" && window < min_co) {
+    std::cerr << "tescalib_calibrate: --mode " << a->mode << " needs --window " << min_co
+              << " or more (co-calibration waits for " << min_co << " keyframes)\n";
+    return false;
+  }
+  if (a->min_keyframes && (*a->min_keyframes < 1 || *a->min_keyframes > window)) {
+    std::cerr << "tescalib_calibrate: --min-keyframes must be between 1 and the window (" << window
+              << ")\n";
     return false;
   }
   if (a->search_deg > LidarStereoSettings::kMaxSearchStepDeg) {
@@ -653,16 +669,8 @@ int main(int argc, char** argv) {
   Session session;
   session.settings.estimate_stereo = args.mode == "co" || args.mode == "joint";
   session.settings.joint = args.mode == "joint";
-  session.settings.window_size =
-      args.window > 0 ? args.window : (session.settings.estimate_stereo ? 10 : 20);
-  if (args.min_keyframes > 0) {
-    if (args.min_keyframes > session.settings.window_size) {
-      std::cerr << "tescalib_calibrate: --min-keyframes must be between 1 and the window ("
-                << session.settings.window_size << ")\n";
-      return 2;
-    }
-    session.settings.min_keyframes = args.min_keyframes;
-  }
+  session.settings.window_size = windowSize(args);
+  if (args.min_keyframes) session.settings.min_keyframes = *args.min_keyframes;
   session.settings.deskew = args.deskew > 0;
   if (args.search_deg >= 0) session.settings.co.lidar.search_step_deg = args.search_deg;
   session.keep_last_keyframe = !args.overlay.empty();
