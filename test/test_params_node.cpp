@@ -124,6 +124,26 @@ TEST(Params, MisspelledKeysAreReported) {
   EXPECT_EQ(unknown, (std::vector<std::string>{"stereo/refine/iterations", "sync/max_skw"}));
 }
 
+TEST(Params, ASmallWindowIsRefusedOnlyWhereCoCalibrationCouldNotStart) {
+  // LiDAR-stereo alone never waits for window/min_keyframes_co (5): a window of 4 is fine there.
+  ros::NodeHandle lidar_only("~small_lidar_stereo");
+  lidar_only.setParam("window/size", 4);
+  tescalib::NodeParams p;
+  std::string error;
+  EXPECT_TRUE(tescalib::loadNodeParams(lidar_only, &p, &error)) << error;
+  EXPECT_EQ(p.online.window_size, 4);
+  // With co-calibration it would never co-calibrate.
+  ros::NodeHandle co("~small_co");
+  co.setParam("window/size", 4);
+  co.setParam("co_calibration/estimate_stereo", true);
+  error.clear();
+  EXPECT_FALSE(tescalib::loadNodeParams(co, &p, &error));
+  EXPECT_NE(error.find("window/min_keyframes_co must be in [1, window/size] with "
+                       "co_calibration/estimate_stereo (got 5, window/size 4)"),
+            std::string::npos)
+      << error;
+}
+
 TEST(Params, InvalidValuesAreNamed) {
   ros::NodeHandle pnh("~bad");
   pnh.setParam("stereo/num_disparities", 100);

@@ -210,8 +210,10 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
     e << "window/max_time_jump_back must be >= 0 s (got " << o.max_time_jump_back << "); ";
   if (o.min_keyframes < 1 || o.min_keyframes > o.window_size)
     e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes << "); ";
-  if (o.min_keyframes_co < 1 || o.min_keyframes_co > o.window_size)
-    e << "window/min_keyframes_co must be in [1, window/size] (got " << o.min_keyframes_co << "); ";
+  if (o.estimate_stereo && (o.min_keyframes_co < 1 || o.min_keyframes_co > o.window_size))
+    e << "window/min_keyframes_co must be in [1, window/size] with co_calibration/estimate_stereo "
+         "(got "
+      << o.min_keyframes_co << ", window/size " << o.window_size << "); ";
   if (o.max_variance_growth < 1) e << "window/max_variance_growth must be >= 1; ";
   if (!(o.max_variance_growth_first_co >= 1))
     e << "window/max_variance_growth_first_co must be >= 1; ";
