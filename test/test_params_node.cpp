@@ -1,5 +1,6 @@
 // rostest: every shipped config/*.yaml loads and validates; invalid values are named.
 #include <cmath>
+#include <limits>
 
 #include <gtest/gtest.h>
 #include <ros/ros.h>
@@ -198,7 +199,7 @@ TEST(Params, ValuesThatWouldRejectEveryFrameAreNamed) {
   ros::NodeHandle pnh("~bad2");
   pnh.setParam("stereo/max_depth", 0.0);
   pnh.setParam("lidar_stereo/max_depth", -5.0);
-  pnh.setParam("lidar_stereo/normal_weight", -0.5);
+  pnh.setParam("lidar_stereo/normal_weight", 0.0);  // the solver refuses 0 too
   pnh.setParam("lidar_stereo/lidar_range_sigma", 0.0);
   pnh.setParam("photometric/huber", 0.0);
   pnh.setParam("window/max_time_jump_back", -0.1);
@@ -208,10 +209,11 @@ TEST(Params, ValuesThatWouldRejectEveryFrameAreNamed) {
   std::string error;
   EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
   for (const char* named :
-       {"stereo/max_depth must be > 0 m (got 0)", "lidar_stereo/max_depth must be > 0 m (got -5)",
-        "lidar_stereo/normal_weight must be >= 0", "lidar_stereo/lidar_range_sigma must be > 0",
-        "photometric/huber must be > 0", "initial/T_cam_lidar's quaternion",
-        "window/max_time_jump_back must be >= 0 s (got -0.1)",
+       {"stereo/max_depth must be beyond the stereo clouds' near limit of 2 m (got 0)",
+        "lidar_stereo/max_depth must be > 0 m (got -5)",
+        "lidar_stereo/normal_weight must be > 0 (got 0)",
+        "lidar_stereo/lidar_range_sigma must be > 0", "photometric/huber must be > 0",
+        "initial/T_cam_lidar's quaternion", "window/max_time_jump_back must be >= 0 s (got -0.1)",
         "initial/T_right_left must have a baseline"})
     EXPECT_NE(error.find(named), std::string::npos) << named << " in: " << error;
   // A non-finite entry: .nan in YAML.
@@ -220,6 +222,33 @@ TEST(Params, ValuesThatWouldRejectEveryFrameAreNamed) {
   EXPECT_FALSE(tescalib::loadNodeParams(nan_pnh, &p, &error));
   EXPECT_NE(error.find("initial/T_cam_lidar must hold 7 finite numbers"), std::string::npos)
       << error;
+}
+
+TEST(Params, NotANumberAndOtherSilentValuesAreNamed) {
+  // Session 38 audit: checks written "x <= 0" let NaN through (keyframe_min_dt NaN made every frame
+  // a keyframe, max_variance_growth NaN switched off the never-publish-worse rule); a max_depth
+  // under the clouds' 2 m near limit emptied every cloud; a negative perturbation was ignored.
+  ros::NodeHandle pnh("~bad4");
+  const double nan = std::nan("");
+  pnh.setParam("window/keyframe_min_dt", nan);
+  pnh.setParam("window/max_variance_growth", nan);
+  pnh.setParam("sync/max_skew", nan);
+  pnh.setParam("stereo/disparity_sigma", std::numeric_limits<double>::infinity());
+  pnh.setParam("stereo/max_depth", 1.5);
+  pnh.setParam("initial/perturb_rot_deg", -2.0);
+  pnh.setParam("window/size", 2);
+  pnh.setParam("stereo/block_size", -1);
+  tescalib::NodeParams p;
+  std::string error;
+  EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
+  for (const char* named :
+       {"window/keyframe_min_dt must be > 0", "window/max_variance_growth must be >= 1",
+        "sync/max_skew must be > 0", "stereo/disparity_sigma must be > 0",
+        "stereo/max_depth must be beyond the stereo clouds' near limit of 2 m (got 1.5)",
+        "initial/perturb_rot_deg and initial/perturb_trans_m must be sizes, >= 0 (got -2, 0)",
+        "window/min_keyframes must be in [1, window/size] (got 3, window/size 2)",
+        "stereo/block_size must be a positive odd number (got -1)"})
+    EXPECT_NE(error.find(named), std::string::npos) << named << " in: " << error;
 }
 
 TEST(Params, ValuesOfTheWrongTypeAreNamed) {

@@ -1,6 +1,7 @@
 #include "tescalib/ros/overlay_nodelet.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -41,7 +42,16 @@ std::string statusLine(const char* name, const ExtrinsicEstimate& e) {
 void OverlayNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
-  pnh.param("max_depth", max_depth_, max_depth_);
+  // Checked (session 38 audit): a string kept the default silently, 0 or less drew nothing.
+  double max_depth = max_depth_;
+  if (pnh.hasParam("max_depth") &&
+      !(pnh.getParam("max_depth", max_depth) && max_depth > 0 && std::isfinite(max_depth)))
+    NODELET_ERROR(
+        "~max_depth must be a number > 0 m (points are coloured by depth up to it); "
+        "keeping %.0f m",
+        max_depth_);
+  else
+    max_depth_ = max_depth;
   // Images in and out through image_transport: ~image_transport names the input's transport
   // (raw by default); the overlays are offered on every transport installed.
   image_transport_ = std::make_unique<image_transport::ImageTransport>(nh);

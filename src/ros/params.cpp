@@ -203,18 +203,22 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
 bool validateNodeParams(const NodeParams& p, std::string* error) {
   std::ostringstream e;
   const auto& o = p.online;
-  if (o.keyframe_min_dt <= 0)
+  // Written so that NaN fails too (NaN compares false with everything: "x <= 0" let it through).
+  const auto positive = [](double x) { return x > 0 && std::isfinite(x); };
+  if (!positive(o.keyframe_min_dt))
     e << "window/keyframe_min_dt must be > 0 (got " << o.keyframe_min_dt << "); ";
   if (o.window_size < 1) e << "window/size must be >= 1 (got " << o.window_size << "); ";
   if (!(o.max_time_jump_back >= 0 && std::isfinite(o.max_time_jump_back)))
     e << "window/max_time_jump_back must be >= 0 s (got " << o.max_time_jump_back << "); ";
   if (o.min_keyframes < 1 || o.min_keyframes > o.window_size)
-    e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes << "); ";
+    e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes
+      << ", window/size " << o.window_size << "); ";
   if (o.estimate_stereo && (o.min_keyframes_co < 1 || o.min_keyframes_co > o.window_size))
     e << "window/min_keyframes_co must be in [1, window/size] with co_calibration/estimate_stereo "
          "(got "
       << o.min_keyframes_co << ", window/size " << o.window_size << "); ";
-  if (o.max_variance_growth < 1) e << "window/max_variance_growth must be >= 1; ";
+  if (!(o.max_variance_growth >= 1 && std::isfinite(o.max_variance_growth)))
+    e << "window/max_variance_growth must be >= 1 (got " << o.max_variance_growth << "); ";
   if (!(o.max_variance_growth_first_co >= 1))
     e << "window/max_variance_growth_first_co must be >= 1; ";
   if (!(o.changed_chi2 > 0)) e << "window/changed_chi2 must be > 0; ";
@@ -231,12 +235,14 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.keyframe_selection != "information" && o.keyframe_selection != "fifo")
     e << "window/keyframe_selection must be information or fifo (got '" << o.keyframe_selection
       << "'); ";
-  if (o.max_sync_skew <= 0) e << "sync/max_skew must be > 0; ";
-  if (p.max_stereo_skew <= 0) e << "sync/max_stereo_skew must be > 0; ";
-  if (o.deskew_max_dt <= 0) e << "deskew/max_dt must be > 0 (got " << o.deskew_max_dt << "); ";
+  if (!positive(o.max_sync_skew)) e << "sync/max_skew must be > 0; ";
+  if (!positive(p.max_stereo_skew)) e << "sync/max_stereo_skew must be > 0; ";
+  if (!positive(o.deskew_max_dt))
+    e << "deskew/max_dt must be > 0 (got " << o.deskew_max_dt << "); ";
   if (!std::isfinite(o.sweep.reference_azimuth_rad))
     e << "deskew/reference_azimuth_deg must be a number; ";
-  if (o.sweep.rate_hz <= 0) e << "deskew/rate_hz must be > 0 (got " << o.sweep.rate_hz << "); ";
+  if (!positive(o.sweep.rate_hz))
+    e << "deskew/rate_hz must be > 0 (got " << o.sweep.rate_hz << "); ";
   if (p.sync_queue < 1) e << "sync/queue_size must be >= 1; ";
   if (p.image_transport.empty() || p.image_transport.find('/') != std::string::npos)
     e << "image_transport must be a transport's name (raw, compressed, ...; got \""
@@ -245,8 +251,9 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
     e << "stereo/num_disparities must be a positive multiple of 16 (got "
       << o.keyframe.stereo.num_disparities << "); ";
   if (o.keyframe.stereo.block_size < 1 || o.keyframe.stereo.block_size % 2 == 0)
-    e << "stereo/block_size must be odd (got " << o.keyframe.stereo.block_size << "); ";
-  if (o.keyframe.stereo.disparity_sigma <= 0) e << "stereo/disparity_sigma must be > 0; ";
+    e << "stereo/block_size must be a positive odd number (got " << o.keyframe.stereo.block_size
+      << "); ";
+  if (!positive(o.keyframe.stereo.disparity_sigma)) e << "stereo/disparity_sigma must be > 0; ";
   if (!std::isfinite(o.keyframe.stereo.equalize_exposure_ratio))
     e << "stereo/equalize_exposure_ratio must be a number (<= 1: off); ";
   checkRefinementRounds(o.keyframe.stereo.refinement, "stereo/", e);
@@ -261,8 +268,9 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
          "co_calibration/estimate_stereo: true; ";
   if (o.warm_co_rounds < 1) e << "co_calibration/warm_co_rounds must be >= 1; ";
   if (o.co.free_depth_rounds < 0) e << "co_calibration/free_depth_rounds must be >= 0; ";
-  if (o.co.rematch_deg == 0) e << "co_calibration/rematch_deg must be > 0 (< 0: always match); ";
-  if (o.co.yaw_handover_deg == 0)
+  if (o.co.rematch_deg == 0 || !std::isfinite(o.co.rematch_deg))
+    e << "co_calibration/rematch_deg must be > 0 (< 0: always match); ";
+  if (o.co.yaw_handover_deg == 0 || !std::isfinite(o.co.yaw_handover_deg))
     e << "co_calibration/yaw_handover_deg must be > 0 (< 0: never hand over); ";
   if (!(o.co.lidar.halves_chi2_limit > 0))
     e << "lidar_stereo/halves_chi2_limit must be > 0 (got " << o.co.lidar.halves_chi2_limit
@@ -278,12 +286,15 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
     e << "photometric/pyramid_levels must be in [1, 5]; ";
   // Read but not checked until session 32's review: 0 made every keyframe fail as "a dark,
   // blurred ... right image" (stereo) or every solve as "too few associations" (LiDAR-stereo).
-  if (!(o.keyframe.stereo.max_depth > 0))
-    e << "stereo/max_depth must be > 0 m (got " << o.keyframe.stereo.max_depth << "); ";
+  // ... and below the clouds' fixed near limit (StereoSettings::min_depth) every cloud is empty.
+  if (!(o.keyframe.stereo.max_depth > o.keyframe.stereo.min_depth))
+    e << "stereo/max_depth must be beyond the stereo clouds' near limit of "
+      << o.keyframe.stereo.min_depth << " m (got " << o.keyframe.stereo.max_depth << "); ";
   if (!(o.co.lidar.max_depth > 0))
     e << "lidar_stereo/max_depth must be > 0 m (got " << o.co.lidar.max_depth << "); ";
-  if (!(o.co.lidar.normal_weight >= 0 && std::isfinite(o.co.lidar.normal_weight)))
-    e << "lidar_stereo/normal_weight must be >= 0 (got " << o.co.lidar.normal_weight << "); ";
+  // > 0, as the LiDAR-stereo solver requires (0 started a node whose every solve was refused).
+  if (!positive(o.co.lidar.normal_weight))
+    e << "lidar_stereo/normal_weight must be > 0 (got " << o.co.lidar.normal_weight << "); ";
   if (!(o.co.lidar.lidar_range_sigma > 0 && std::isfinite(o.co.lidar.lidar_range_sigma)))
     e << "lidar_stereo/lidar_range_sigma must be > 0 m (got " << o.co.lidar.lidar_range_sigma
       << "); ";
@@ -309,6 +320,10 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
       std::hypot(p.initial_T_right_left[0], p.initial_T_right_left[1], p.initial_T_right_left[2]) <
           1e-3)
     e << "initial/T_right_left must have a baseline (its translation is under 1 mm); ";
+  if (!(p.initial_perturb_rot_deg >= 0 && std::isfinite(p.initial_perturb_rot_deg)) ||
+      !(p.initial_perturb_trans_m >= 0 && std::isfinite(p.initial_perturb_trans_m)))
+    e << "initial/perturb_rot_deg and initial/perturb_trans_m must be sizes, >= 0 (got "
+      << p.initial_perturb_rot_deg << ", " << p.initial_perturb_trans_m << "); ";
   if (p.left_frame.empty() || p.right_frame.empty())
     e << "frames/left and frames/right must be set; ";
   *error = e.str();

@@ -83,14 +83,17 @@ struct OnlineSettings {
   /// its stereo cloud is computed: generated urban keyframes with the right image blurred by 1 px
   /// gave a LiDAR-stereo estimate 1.6 cm off (declared not converged, but without saying why).
   ImageQualitySettings image_quality;
-  /// LiDAR-stereo only: once an estimate is published, solve from it with the fine stage alone.
-  /// The coarse stage exists to bring a start degrees / decimetres off into the fine stage's
-  /// basin; from a converged estimate it only costs time (70-80 % of a 10-keyframe solve).
+  /// Once an estimate is published, solve from it with the LiDAR-stereo fine stage alone. The
+  /// coarse stage exists to bring a start degrees / decimetres off into the fine stage's basin;
+  /// from a converged estimate it only costs time (70-80 % of a 10-keyframe solve). With
+  /// co-calibration it also makes the updates after a co-calibrated estimate warm rounds
+  /// (warm_co_rounds); false: a full alternation each time (several s instead of about 1 s).
   bool warm_start_fine_only = true;
-  /// LiDAR-stereo only: before the first estimate, a solve that does not converge tries the
-  /// wide-basin search (LidarStereoSettings::search_step_deg, in co.lidar) once the window holds
-  /// min(window_size, search_min_keyframes) keyframes; on fewer a start turned 10 deg could
-  /// settle where the few keyframes' constraints allow, and each search costs 9 solves.
+  /// Before the first estimate, a LiDAR-stereo solve (also co-calibration's LiDAR-first one)
+  /// that does not converge tries the wide-basin search (LidarStereoSettings::search_step_deg, in
+  /// co.lidar) once the window holds min(window_size, search_min_keyframes) keyframes; on fewer a
+  /// start turned 10 deg could settle where the few keyframes' constraints allow, and each search
+  /// costs 9 solves.
   int search_min_keyframes = 8;
   /// Co-calibration: once an estimate is published, an update runs this many warm rounds
   /// (photometric on the finest level, LiDAR-stereo fine stage) from it instead of the full
