@@ -205,10 +205,11 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   const auto& o = p.online;
   // Written so that NaN fails too (NaN compares false with everything: "x <= 0" let it through).
   const auto positive = [](double x) { return x > 0 && std::isfinite(x); };
+  const auto size = [](double x) { return x >= 0 && std::isfinite(x); };
   if (!positive(o.keyframe_min_dt))
     e << "window/keyframe_min_dt must be > 0 (got " << o.keyframe_min_dt << "); ";
   if (o.window_size < 1) e << "window/size must be >= 1 (got " << o.window_size << "); ";
-  if (!(o.max_time_jump_back >= 0 && std::isfinite(o.max_time_jump_back)))
+  if (!size(o.max_time_jump_back))
     e << "window/max_time_jump_back must be >= 0 s (got " << o.max_time_jump_back << "); ";
   if (o.min_keyframes < 1 || o.min_keyframes > o.window_size)
     e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes
@@ -295,10 +296,10 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   // > 0, as the LiDAR-stereo solver requires (0 started a node whose every solve was refused).
   if (!positive(o.co.lidar.normal_weight))
     e << "lidar_stereo/normal_weight must be > 0 (got " << o.co.lidar.normal_weight << "); ";
-  if (!(o.co.lidar.lidar_range_sigma > 0 && std::isfinite(o.co.lidar.lidar_range_sigma)))
+  if (!positive(o.co.lidar.lidar_range_sigma))
     e << "lidar_stereo/lidar_range_sigma must be > 0 m (got " << o.co.lidar.lidar_range_sigma
       << "); ";
-  if (!(o.co.stereo.huber > 0 && std::isfinite(o.co.stereo.huber)))
+  if (!positive(o.co.stereo.huber))
     e << "photometric/huber must be > 0 (got " << o.co.stereo.huber << "); ";
   for (const auto& [name, v] : {std::pair{"initial/T_cam_lidar", &p.initial_T_cam_lidar},
                                 std::pair{"initial/T_right_left", &p.initial_T_right_left}}) {
@@ -320,8 +321,7 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
       std::hypot(p.initial_T_right_left[0], p.initial_T_right_left[1], p.initial_T_right_left[2]) <
           1e-3)
     e << "initial/T_right_left must have a baseline (its translation is under 1 mm); ";
-  if (!(p.initial_perturb_rot_deg >= 0 && std::isfinite(p.initial_perturb_rot_deg)) ||
-      !(p.initial_perturb_trans_m >= 0 && std::isfinite(p.initial_perturb_trans_m)))
+  if (!size(p.initial_perturb_rot_deg) || !size(p.initial_perturb_trans_m))
     e << "initial/perturb_rot_deg and initial/perturb_trans_m must be sizes, >= 0 (got "
       << p.initial_perturb_rot_deg << ", " << p.initial_perturb_trans_m << "); ";
   if (p.left_frame.empty() || p.right_frame.empty())
