@@ -9,6 +9,7 @@
 #include <functional>
 #include <limits>
 #include <random>
+#include <set>
 #include <vector>
 
 #include "tescalib/core/geometry.h"
@@ -211,6 +212,61 @@ TEST(LidarMesh, NormalsAreFittedForTheSampleTheSolversDrawFrom) {
   ASSERT_EQ(coarse.size(), 750u);
   for (size_t f : coarse) EXPECT_TRUE(in_sample[f]);
   EXPECT_EQ(tescalib::sampleFaces(sampled, 10000).size(), 4000u);
+}
+
+TEST(LidarMesh, AConsistentSampleDoesNotDependOnTheViewCone) {
+  // Two meshes of one scan, kept within 60 deg of axes 3 deg apart (two initial guesses), with
+  // `consistent_sample`: of the faces both meshes hold, those in one's sample are in the other's.
+  // The default evenly strided sample of the faces in view shares 1021 of 3909 (checked in
+  // session 39): the stride shifts with the faces the other cone lets in or leaves out.
+  const LidarScan scan = stepScene(0.02, 3);
+  LidarMeshSettings a, b;
+  a.view_half_angle_deg = b.view_half_angle_deg = 60;
+  a.consistent_sample = b.consistent_sample = true;
+  a.view_axis = Eigen::Vector3d::UnitX();
+  b.view_axis = Eigen::AngleAxisd(3.0 / kDegPerRad, Eigen::Vector3d::UnitZ()) * a.view_axis;
+  const LidarMesh ma = tescalib::buildLidarMesh(scan, a), mb = tescalib::buildLidarMesh(scan, b);
+  ASSERT_GT(ma.faces.size(), 8000u);
+  ASSERT_EQ(ma.sample.size(), 4000u);
+  ASSERT_EQ(mb.sample.size(), 4000u);
+  std::set<uint32_t> keys_b, sample_b;
+  for (const auto& f : mb.faces) keys_b.insert(f.key);
+  for (uint32_t i : mb.sample) sample_b.insert(mb.faces[i].key);
+  int shared = 0, in_both_samples = 0;
+  for (uint32_t i : ma.sample) {
+    if (!keys_b.count(ma.faces[i].key)) continue;
+    ++shared;
+    if (sample_b.count(ma.faces[i].key)) ++in_both_samples;
+  }
+  std::printf("faces %zu / %zu; of A's sample %d are in B's mesh, %d in B's sample\n",
+              ma.faces.size(), mb.faces.size(), shared, in_both_samples);
+  EXPECT_GT(shared, 3700);
+  EXPECT_GT(in_both_samples, 0.95 * shared);
+  // Keys are unique: ring, azimuth bin, triangle.
+  std::set<uint32_t> keys_a;
+  for (const auto& f : ma.faces) keys_a.insert(f.key);
+  EXPECT_EQ(keys_a.size(), ma.faces.size());
+  // Spread like a stride over the whole turn: increasing, no gap wider than a few strides, and a
+  // solver asking for fewer faces gets a consistent part of the sample.
+  LidarMeshSettings whole;
+  whole.consistent_sample = true;
+  const LidarMesh mw = tescalib::buildLidarMesh(scan, whole);
+  const size_t n = mw.faces.size();
+  ASSERT_EQ(mw.sample.size(), 4000u);
+  size_t widest = 0;
+  for (size_t j = 1; j < mw.sample.size(); ++j) {
+    ASSERT_GT(mw.sample[j], mw.sample[j - 1]) << j;
+    widest = std::max<size_t>(widest, mw.sample[j] - mw.sample[j - 1]);
+  }
+  std::printf("faces %zu, widest gap in the consistent sample %zu (n / 4000 = %.1f)\n", n, widest,
+              n / 4000.0);
+  EXPECT_LT(widest, 8 * n / 4000);
+  const std::vector<size_t> coarse = tescalib::sampleFaces(mw, 750);
+  ASSERT_EQ(coarse.size(), 750u);
+  const std::set<uint32_t> in_sample(mw.sample.begin(), mw.sample.end());
+  for (size_t f : coarse) EXPECT_TRUE(in_sample.count(static_cast<uint32_t>(f)));
+  EXPECT_EQ(coarse, tescalib::consistentSample(
+                        mw.faces, std::vector<size_t>(mw.sample.begin(), mw.sample.end()), 750));
 }
 
 // One revolution of a 16-ring sensor (elevations -15..+15 deg, 2 deg apart, as a VLP-16; 1800

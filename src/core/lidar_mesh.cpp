@@ -19,7 +19,56 @@ std::vector<size_t> evenlyStrided(size_t n, int k) {
   return idx;
 }
 
+namespace {
+/// splitmix64's finaliser: a well-mixed 64-bit hash of a face key.
+uint64_t mixKey(uint64_t x) {
+  x += 0x9E3779B97F4A7C15ULL;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
+  return x ^ (x >> 31);
+}
+}  // namespace
+
+std::vector<size_t> consistentSample(const std::vector<MeshFace>& faces,
+                                     const std::vector<size_t>& candidates, int k) {
+  if (k <= 0) return {};
+  if (candidates.size() <= static_cast<size_t>(k)) return candidates;
+  // Stratified: the range image's rings cut into runs of S faces (S a power of two, the largest
+  // that leaves at least k runs with a candidate), from each run the face whose key hashes
+  // lowest (as even as a stride, without a stride's regular pattern), and of those the k lowest.
+  uint32_t S = 1;
+  while (candidates.size() / (2 * S) >= static_cast<size_t>(k)) S *= 2;
+  struct Drawn {
+    uint32_t run;
+    uint64_t hash;
+    size_t face;
+  };
+  std::vector<Drawn> drawn;
+  drawn.reserve(candidates.size());
+  for (size_t i : candidates) {
+    const uint32_t key = faces[i].key;
+    drawn.push_back({(key >> 16) << 16 | (key & 0xFFFFu) / S, mixKey(key), i});
+  }
+  std::sort(drawn.begin(), drawn.end(), [](const Drawn& x, const Drawn& y) {
+    return x.run != y.run ? x.run < y.run : x.hash < y.hash;
+  });
+  std::vector<std::pair<uint64_t, size_t>> ranked;
+  for (size_t j = 0; j < drawn.size(); ++j)
+    if (j == 0 || drawn[j].run != drawn[j - 1].run)
+      ranked.emplace_back(drawn[j].hash, drawn[j].face);
+  std::vector<size_t> idx;
+  const size_t n = std::min(ranked.size(), static_cast<size_t>(k));
+  std::nth_element(ranked.begin(), ranked.begin() + n, ranked.end());
+  idx.reserve(n);
+  for (size_t j = 0; j < n; ++j) idx.push_back(ranked[j].second);
+  std::sort(idx.begin(), idx.end());
+  return idx;
+}
+
 std::vector<size_t> sampleFaces(const LidarMesh& mesh, int k) {
+  if (mesh.consistent_sample)
+    return consistentSample(mesh.faces, std::vector<size_t>(mesh.sample.begin(), mesh.sample.end()),
+                            k);
   std::vector<size_t> idx = evenlyStrided(mesh.sample.size(), k);
   for (size_t& i : idx) i = mesh.sample[i];
   return idx;
@@ -109,7 +158,12 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
     if (len < 1e-6f) return false;
     return d.cross(q - p).norm() / len <= continueTol(q.norm());
   };
-  auto tryFace = [&](int ia, int ib, int ic) {
+  // The face's key (MeshFace::key): ring, then azimuth bin and triangle.
+  auto face_key = [&](uint32_t triangle) {
+    return (static_cast<uint32_t>(cell / cols) << 16) |
+           (static_cast<uint32_t>(cell % cols) * 2 + triangle);
+  };
+  auto tryFace = [&](int ia, int ib, int ic, uint32_t triangle) {
     if (ia < 0 || ib < 0 || ic < 0) return;
     const Eigen::Vector3f a = vec(ia), b = vec(ib), c = vec(ic);
     const Eigen::Vector3f centroid = (a + b + c) / 3.f;
@@ -157,7 +211,7 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       // return there (the lowest ring pair, the sky above).
       if (sparse && (checked == 0 || agree < checked)) return;
     }
-    mesh.faces.push_back({a, b, c, centroid, n, range});
+    mesh.faces.push_back({a, b, c, centroid, n, range, face_key(triangle)});
     face_cell.push_back(cell);
   };
   for (int r = 0; r + 1 < rings; ++r) {
@@ -178,13 +232,20 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
       const int lo = p00 >= 0 ? p00 : p01;
       continues_lo = folds && r > 1 && onLine(at(r - 2, col), at(r - 1, col), lo);
       continues_hi = folds && r + 3 < rings && onLine(at(r + 3, col), at(r + 2, col), p10);
-      tryFace(p00, p01, p10);
-      tryFace(p01, p11, p10);
+      tryFace(p00, p01, p10, 0);
+      tryFace(p01, p11, p10, 1);
     }
   }
-  const std::vector<size_t> sample =
-      evenlyStrided(mesh.faces.size(),
-                    s.sampled_faces > 0 ? s.sampled_faces : static_cast<int>(mesh.faces.size()));
+  const int n_sample = s.sampled_faces > 0 ? s.sampled_faces : static_cast<int>(mesh.faces.size());
+  std::vector<size_t> sample;
+  if (s.consistent_sample) {
+    std::vector<size_t> all(mesh.faces.size());
+    for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+    sample = consistentSample(mesh.faces, all, n_sample);
+  } else {
+    sample = evenlyStrided(mesh.faces.size(), n_sample);
+  }
+  mesh.consistent_sample = s.consistent_sample;
   mesh.sample.assign(sample.begin(), sample.end());
   if (s.smooth_cols > 0) {
     // Normals of the sampled faces from a plane fit (PCA) to the points of the face's

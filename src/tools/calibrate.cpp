@@ -44,6 +44,7 @@ struct Args {
   std::string mode = "lidar_stereo";
   int window = 0;                    // 0: 20 keyframes (lidar_stereo), 10 (co, the paper's batch)
   std::optional<int> min_keyframes;  // none: OnlineSettings' default (3)
+  bool consistent_sample = false;    // LidarMeshSettings::consistent_sample
   std::string init;
   double perturb_rot_deg = 0, perturb_trans_m = 0;
   uint64_t seed = 1;
@@ -63,7 +64,7 @@ void usage() {
          "       [--window N] [--min-keyframes N] [--init CALIB.txt]\n"
          "       [--perturb-rot-deg R] [--perturb-trans-m T] [--seed S]\n"
          "       [--deskew 0|1] [--out BASE [--lidar-frame NAME]] [--overlay FILE.png]\n"
-         "       [--search-deg D]\n"
+         "       [--consistent-sample 0|1] [--search-deg D]\n"
          "Calibrates the recording in DIR (KITTI odometry or raw layout; several folders of one\n"
          "rig are played one after the other) or in a rosbag with the online pipeline.\n"
          "--bag FILE: topics as kitti.launch's (kitti2bag); --points, --left, --right TOPIC\n"
@@ -80,6 +81,9 @@ void usage() {
          "--min-keyframes N: no solve before the window holds N keyframes (default 3, at most\n"
          "  the window; the node's window/min_keyframes): fewer, better first estimates. co,\n"
          "  joint: co-calibration waits for 5 keyframes in any case (LiDAR-stereo before).\n"
+         "--consistent-sample 0|1: draw the meshes' faces by their place in the range image, so\n"
+         "  that the estimates do not depend on the view cone of the estimate each keyframe's\n"
+         "  mesh was built with (LidarMeshSettings::consistent_sample; default 0).\n"
          "--init FILE: initial extrinsics from a KITTI calib.txt (e.g. an earlier "
          "BASE_calib.txt);\n"
          "  intrinsics stay the data's (DIR's calibration, a bag's camera_info). Default: DIR's\n"
@@ -122,6 +126,8 @@ bool parse(int argc, char** argv, Args* a) {
       a->window = cli::toInt(v);
     else if (k == "--min-keyframes")
       a->min_keyframes = cli::toInt(v);
+    else if (k == "--consistent-sample")
+      a->consistent_sample = cli::toSwitch(v);
     else if (k == "--init")
       a->init = v;
     else if (k == "--perturb-rot-deg")
@@ -671,6 +677,7 @@ int main(int argc, char** argv) {
   session.settings.joint = args.mode == "joint";
   session.settings.window_size = windowSize(args);
   if (args.min_keyframes) session.settings.min_keyframes = *args.min_keyframes;
+  session.settings.keyframe.mesh.consistent_sample = args.consistent_sample;
   session.settings.deskew = args.deskew > 0;
   if (args.search_deg >= 0) session.settings.co.lidar.search_step_deg = args.search_deg;
   session.keep_last_keyframe = !args.overlay.empty();

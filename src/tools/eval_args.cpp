@@ -26,6 +26,7 @@ void usage() {
          "         [--lidar-sigma DEG,M]\n"
          "         [--refine-iterations N] [--refine-smoothed-rounds N]\n"
          "         [--deskew 0|1] [--keep-rings N] [--depth-prior SIGMA] [--free-depth-rounds N]\n"
+         "         [--consistent-sample 0|1]\n"
          "         [--rematch-deg X] [--lidar-first 0|1] [--features 0|1] [--propagate-stereo "
          "0|1]\n"
          "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo "
@@ -85,6 +86,9 @@ void usage() {
          "sequences, which KITTI compensated, and the generator's default output).\n"
          "--keep-rings N: keep every Nth laser ring of each scan (a sparser LiDAR from the same\n"
          "drive: 64 rings with N = 2 are 32, with N = 4 16 rings about 1.7 deg apart).\n"
+         "--consistent-sample 0|1: draw each mesh's faces by their place in the range image\n"
+         "(LidarMeshSettings::consistent_sample; default 0: evenly strided over the faces in\n"
+         "view, which moves with the initial guess' view cone).\n"
          "--check-halves 0|1: the split-window check of the LiDAR-stereo noise model after a\n"
          "converged solve (LidarStereoSettings::check_window_halves; on by default).\n"
          "--measure-offset 0|1: measure the disparity offset the LiDAR-stereo residuals show and\n"
@@ -174,6 +178,8 @@ bool parse(int argc, char** argv, Args* a) {
       a->stereo_scale = cli::toSwitch(v);
     else if (k == "--deskew")
       a->deskew = cli::toSwitch(v);
+    else if (k == "--consistent-sample")
+      a->consistent_sample = cli::toSwitch(v);
     else if (k == "--keep-rings") {
       a->keep_rings = cli::toInt(v);
       if (a->keep_rings < 1) throw std::invalid_argument(v);

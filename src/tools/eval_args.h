@@ -46,6 +46,7 @@ struct Args {
   /// De-skew the scans with the motion registered against a neighbouring frame: 0/1; -1: when
   /// the sequence's scans are swept (sweptScans).
   int deskew = -1;
+  bool consistent_sample = false;  ///< LidarMeshSettings::consistent_sample
   /// Keep every Nth laser ring of each scan (renumbered 0, 1, ...): a sparser LiDAR from the same
   /// drive (a 64-ring scan with N = 4: 16 rings 1.7 deg apart, about a VLP-16's 2 deg).
   int keep_rings = 1;

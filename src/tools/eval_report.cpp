@@ -363,7 +363,8 @@ bool report(const Args& args, const EvalData& d, const LidarStereoSettings& solv
        << ", \"init_stereo_trans_m\": " << args.init_stereo_trans_m
        << ", \"refinement\": {\"iterations\": " << d.used_refinement.iterations
        << ", \"smoothed_rounds\": " << d.used_refinement.smoothed_gradient_rounds
-       << "}, \"trials\": [\n";
+       << "}, \"consistent_sample\": " << (args.consistent_sample ? "true" : "false")
+       << ", \"trials\": [\n";
     for (size_t i = 0; i < trials.size(); ++i) {
       js << trialJson(args, estimated, trials[i]) << (i + 1 < trials.size() ? ",\n" : "\n");
     }

@@ -62,6 +62,7 @@ bool loadData(const Args& args, EvalData* d) {
   // normal: it needs every face's normal fitted, not only the solvers' sample (held-out starts:
   // 81.5 % with every face fitted, 72.2 % with the sample).
   if (args.mode == "joint") d->kfs.mesh.sampled_faces = 0;
+  d->kfs.mesh.consistent_sample = args.consistent_sample;
   // The command line's refinement rounds, over the LiDAR-stereo clouds' default and over the one
   // co / joint match their clouds with (co-calibration's own: one exact round).
   auto withRefineArgs = [&](DisparityRefinementSettings r) {

@@ -47,6 +47,14 @@ struct LidarMeshSettings {
   /// 4000 per keyframe); <= 0: every face. Fitting all ~73k faces in view of a 64-ring scan was
   /// most of the mesh's cost. Solvers that want more faces than the sample get the sample.
   int sampled_faces = 4000;
+  /// Draw the sample, and the solvers' faces from it, with `consistentSample` (by each face's
+  /// place in the range image) instead of evenly strided over the faces in view. The strided
+  /// sample depends on the view cone, i.e. on the initial guess: a cone a degree wider shifts
+  /// the stride, other faces are drawn, and the LiDAR-stereo estimate moves by about its
+  /// statistical sigma with the guess (session 39, doc/lidar_stereo.md, "Face samples and the
+  /// initial guess"). Off by default: the covariances' model errors were fitted with the strided
+  /// sample, and every benchmark figure moves with the draw.
+  bool consistent_sample = false;
   /// Keep only faces whose centroid lies within this half-angle (deg) of `view_axis` (LiDAR
   /// frame); <= 0 keeps everything. Used to keep the part of the scan the cameras can see.
   double view_half_angle_deg = 0.0;
@@ -61,20 +69,38 @@ struct MeshFace {
   Eigen::Vector3f centroid;  ///< (a + b + c) / 3
   Eigen::Vector3f normal;    ///< unit normal, oriented towards the sensor
   float range = 0.f;         ///< distance of the centroid from the sensor, m
+  /// The face's place in the range image, ring << 16 | (azimuth bin * 2 + triangle): the same
+  /// whatever the view cone (the initial guess) let into the mesh. Samples are drawn by it.
+  uint32_t key = 0;
 };
 
 struct LidarMesh {
   std::vector<MeshFace> faces;
-  /// Indices into `faces`, increasing and evenly strided (evenlyStrided): the faces whose normals
-  /// are fitted (every face when `sampled_faces` <= 0). The other faces keep their own normal
-  /// (degrees off under range noise): use them for their vertices, draw normals from the sample.
+  /// Indices into `faces`, increasing (evenly strided, or consistentSample): the faces whose
+  /// normals are fitted (every face when `sampled_faces` <= 0). The other faces keep their own
+  /// normal (degrees off under range noise): use them for their vertices, draw normals from the
+  /// sample.
   std::vector<uint32_t> sample;
+  bool consistent_sample = false;  ///< LidarMeshSettings::consistent_sample it was built with
 };
 
 /// min(n, k) indices of [0, n), evenly strided: i * n / k for i < k (every index when n <= k).
 std::vector<size_t> evenlyStrided(size_t n, int k);
 
-/// At most k faces of `mesh.sample`, evenly strided: indices into `mesh.faces`.
+/// At most k faces of `candidates` (indices into `faces`), as increasing indices, chosen by their
+/// keys alone: each ring of the range image is cut into runs of S azimuth positions (S the
+/// largest power of two with candidates / S >= k), each run gives its candidate whose key hashes
+/// lowest, and of those the k with the lowest hashes are kept. A stratified random sample: as
+/// even as a stride, without a stride's regular pattern. Whether a face is drawn does not depend
+/// on the candidates outside its run (unless S or the k-th lowest hash moves), so meshes of one
+/// scan built with different view cones (different initial guesses) share their sample where
+/// they overlap (an evenly strided sample of the faces in view shifts with the cone).
+/// All of them when there are at most k; k <= 0: none.
+std::vector<size_t> consistentSample(const std::vector<MeshFace>& faces,
+                                     const std::vector<size_t>& candidates, int k);
+
+/// At most k faces of `mesh.sample`, evenly strided (consistentSample of it when the mesh was
+/// built with `consistent_sample`): indices into `mesh.faces`.
 std::vector<size_t> sampleFaces(const LidarMesh& mesh, int k);
 
 /// Keeps every nth laser ring of `scan` (rings 0, n, 2n, ...), renumbered 0, 1, 2, ...: a sparser
