@@ -33,9 +33,10 @@ std::vector<size_t> consistentSample(const std::vector<MeshFace>& faces,
                                      const std::vector<size_t>& candidates, int k) {
   if (k <= 0) return {};
   if (candidates.size() <= static_cast<size_t>(k)) return candidates;
-  // Stratified: the range image's rings cut into runs of S faces (S a power of two, the largest
-  // that leaves at least k runs with a candidate), from each run the face whose key hashes
-  // lowest (as even as a stride, without a stride's regular pattern), and of those the k lowest.
+  // Stratified: the range image's rings cut into runs of S azimuth positions (S a power of two,
+  // the largest with candidates / S >= k), from each run the face whose key hashes lowest (as
+  // even as a stride over dense candidates, without a stride's regular pattern), and of those
+  // the k lowest.
   uint32_t S = 1;
   while (candidates.size() / (2 * S) >= static_cast<size_t>(k)) S *= 2;
   struct Drawn {

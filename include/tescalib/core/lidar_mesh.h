@@ -42,10 +42,11 @@ struct LidarMeshSettings {
   /// averaged face normals, 1-3 cm with fitted ones).
   int smooth_cols = 6;
   double smooth_max_angle_deg = 60.0;
-  /// Normals are fitted only for an evenly strided sample of at most this many faces
-  /// (`LidarMesh::sample`), the faces the solvers draw from (the LiDAR-stereo solver takes at most
-  /// 4000 per keyframe); <= 0: every face. Fitting all ~73k faces in view of a 64-ring scan was
-  /// most of the mesh's cost. Solvers that want more faces than the sample get the sample.
+  /// Normals are fitted only for a sample (evenly strided, or `consistent_sample`) of at most
+  /// this many faces (`LidarMesh::sample`), the faces the solvers draw from (the LiDAR-stereo
+  /// solver takes at most 4000 per keyframe); <= 0: every face. Fitting all ~73k faces in view of a
+  /// 64-ring scan was most of the mesh's cost. Solvers that want more faces than the sample get the
+  /// sample.
   int sampled_faces = 4000;
   /// Draw the sample, and the solvers' faces from it, with `consistentSample` (by each face's
   /// place in the range image) instead of evenly strided over the faces in view. The strided

@@ -17,7 +17,7 @@ namespace tescalib {
 struct LidarStereoSettings {
   // Coarse stage (eq. KD6 association, eq. point_plane_normal_obj).
   bool run_coarse = true;
-  /// LiDAR faces per keyframe, evenly strided over the mesh's sample (`LidarMesh::sample`, the
+  /// LiDAR faces per keyframe drawn from the mesh's sample by sampleFaces (`LidarMesh::sample`, the
   /// faces with fitted normals; LidarMeshSettings::sampled_faces, 4000 by default).
   int coarse_faces_per_keyframe = 1500;
   /// ... and at most this many over the window: the coarse stage only brings the estimate into
