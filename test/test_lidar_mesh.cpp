@@ -269,6 +269,53 @@ TEST(LidarMesh, AConsistentSampleDoesNotDependOnTheViewCone) {
                         mw.faces, std::vector<size_t>(mw.sample.begin(), mw.sample.end()), 750));
 }
 
+// Faces with keys only (ring << 16 | azimuth position), `rings` x `positions`: what
+// consistentSample reads.
+std::vector<tescalib::MeshFace> keyedFaces(int rings, int positions) {
+  std::vector<tescalib::MeshFace> faces;
+  for (int r = 0; r < rings; ++r)
+    for (int p = 0; p < positions; ++p) {
+      faces.emplace_back();
+      faces.back().key = static_cast<uint32_t>(r) << 16 | static_cast<uint32_t>(p);
+    }
+  return faces;
+}
+
+TEST(LidarMesh, AConsistentSampleOfASparseSampleIsStratified) {
+  using tescalib::consistentSample;
+  const std::vector<tescalib::MeshFace> faces = keyedFaces(4, 4096);
+  std::vector<size_t> all(faces.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+  // Edge cases: nothing asked, or no more candidates than asked (returned as they are).
+  EXPECT_TRUE(consistentSample(faces, all, 0).empty());
+  EXPECT_TRUE(consistentSample(faces, all, -3).empty());
+  const std::vector<size_t> few = {7, 3, 4100};
+  EXPECT_EQ(consistentSample(faces, few, 3), few);
+  EXPECT_EQ(consistentSample(faces, few, 10), few);
+  // Every 8th position of each ring (2048 candidates), 256 asked: one face from each run of 64
+  // positions. A rule that set the runs by the number of candidates (2048 / 8 >= 256: runs of 8,
+  // one candidate each) drew the 256 lowest hashes anywhere, leaving runs of 64 empty.
+  std::vector<size_t> sparse;
+  for (size_t i = 0; i < all.size(); i += 8) sparse.push_back(i);
+  const std::vector<size_t> drawn = consistentSample(faces, sparse, 256);
+  ASSERT_EQ(drawn.size(), 256u);
+  std::vector<int> per_run(4 * 64, 0);
+  for (size_t f : drawn) {
+    EXPECT_EQ(f % 8, 0u) << f;  // a candidate
+    ++per_run[(faces[f].key >> 16) * 64 + (faces[f].key & 0xFFFFu) / 64];
+  }
+  EXPECT_EQ(std::count(per_run.begin(), per_run.end(), 1), 256);
+  // The order of the candidates does not matter.
+  std::vector<size_t> shuffled = sparse;
+  std::shuffle(shuffled.begin(), shuffled.end(), std::mt19937(5));
+  EXPECT_EQ(consistentSample(faces, shuffled, 256), drawn);
+  // A draw from a sample nests: 1024 from the 4096-face sample (one per run of 4) are the 1024
+  // drawn from every face (one per run of 16), as sampleFaces relies on.
+  const std::vector<size_t> sample = consistentSample(faces, all, 4096);
+  ASSERT_EQ(sample.size(), 4096u);
+  EXPECT_EQ(consistentSample(faces, sample, 1024), consistentSample(faces, all, 1024));
+}
+
 // One revolution of a 16-ring sensor (elevations -15..+15 deg, 2 deg apart, as a VLP-16; 1800
 // returns per ring): `range(d)` is the distance along the unit ray d to the scene (rays beyond
 // 80 m or with an infinite range return nothing).

@@ -34,11 +34,28 @@ std::vector<size_t> consistentSample(const std::vector<MeshFace>& faces,
   if (k <= 0) return {};
   if (candidates.size() <= static_cast<size_t>(k)) return candidates;
   // Stratified: the range image's rings cut into runs of S azimuth positions (S a power of two,
-  // the largest with candidates / S >= k), from each run the face whose key hashes lowest (as
-  // even as a stride over dense candidates, without a stride's regular pattern), and of those
-  // the k lowest.
+  // the largest at which at least k runs hold a candidate), from each run the face whose key
+  // hashes lowest (as even as a stride over dense candidates, without a stride's regular
+  // pattern), and of those the k lowest. S is set by the runs that hold candidates, not by their
+  // number: candidates that are themselves a sample (sampleFaces draws from LidarMesh::sample,
+  // one face per run of the mesh's S) are stratified at a multiple of that S, and a run's lowest
+  // hash is the lowest of its halves' lowest, so the draw nests in the sample.
+  std::vector<uint32_t> keys;
+  keys.reserve(candidates.size());
+  for (size_t i : candidates) keys.push_back(faces[i].key);
+  std::sort(keys.begin(), keys.end());
+  const auto runsAt = [&keys](uint32_t s) {
+    size_t runs = 0;
+    uint32_t last = 0;
+    for (size_t j = 0; j < keys.size(); ++j) {
+      const uint32_t run = (keys[j] >> 16) << 16 | (keys[j] & 0xFFFFu) / s;
+      if (j == 0 || run != last) ++runs;
+      last = run;
+    }
+    return runs;
+  };
   uint32_t S = 1;
-  while (candidates.size() / (2 * S) >= static_cast<size_t>(k)) S *= 2;
+  while (S < (1u << 16) && runsAt(2 * S) >= static_cast<size_t>(k)) S *= 2;
   struct Drawn {
     uint32_t run;
     uint64_t hash;

@@ -163,6 +163,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("lidar_stereo/measure_disparity_offset", &p->online.co.lidar.measure_disparity_offset);
   get("lidar_stereo/search_deg", &p->online.co.lidar.search_step_deg);
   get("lidar_stereo/search_min_keyframes", &p->online.search_min_keyframes);
+  get("lidar_stereo/consistent_sample", &p->online.keyframe.mesh.consistent_sample);
   get("photometric/pyramid_levels", &p->online.co.stereo.pyramid_levels);
   get("photometric/huber", &p->online.co.stereo.huber);
   get("initial/T_cam_lidar", &p->initial_T_cam_lidar);

@@ -90,12 +90,14 @@ std::vector<size_t> evenlyStrided(size_t n, int k);
 
 /// At most k faces of `candidates` (indices into `faces`), as increasing indices, chosen by their
 /// keys alone: each ring of the range image is cut into runs of S azimuth positions (S the
-/// largest power of two with candidates / S >= k), each run gives its candidate whose key hashes
-/// lowest, and of those the k with the lowest hashes are kept. A stratified random sample: as
-/// even as a stride, without a stride's regular pattern. Whether a face is drawn does not depend
-/// on the candidates outside its run (unless S or the k-th lowest hash moves), so meshes of one
-/// scan built with different view cones (different initial guesses) share their sample where
-/// they overlap (an evenly strided sample of the faces in view shifts with the cone).
+/// largest power of two at which at least k runs hold a candidate), each run gives its candidate
+/// whose key hashes lowest, and of those the k with the lowest hashes are kept. A stratified
+/// random sample: as even as a stride, without a stride's regular pattern, also when the
+/// candidates are a sparse sample themselves (a draw from LidarMesh::sample is stratified at a
+/// multiple of the sample's S and nests in it). Whether a face is drawn does not depend on the
+/// candidates outside its run (unless S or the k-th lowest hash moves), so meshes of one scan
+/// built with different view cones (different initial guesses) share their sample where they
+/// overlap (an evenly strided sample of the faces in view shifts with the cone).
 /// All of them when there are at most k; k <= 0: none.
 std::vector<size_t> consistentSample(const std::vector<MeshFace>& faces,
                                      const std::vector<size_t>& candidates, int k);
