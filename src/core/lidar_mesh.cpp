@@ -27,6 +27,9 @@ uint64_t mixKey(uint64_t x) {
   x = (x ^ (x >> 27)) * 0x94D049BB133111EBULL;
   return x ^ (x >> 31);
 }
+
+/// The run of s azimuth positions a face key (ring << 16 | position) falls in.
+uint32_t runOf(uint32_t key, uint32_t s) { return (key >> 16) << 16 | (key & 0xFFFFu) / s; }
 }  // namespace
 
 std::vector<size_t> consistentSample(const std::vector<MeshFace>& faces,
@@ -48,7 +51,7 @@ std::vector<size_t> consistentSample(const std::vector<MeshFace>& faces,
     size_t runs = 0;
     uint32_t last = 0;
     for (size_t j = 0; j < keys.size(); ++j) {
-      const uint32_t run = (keys[j] >> 16) << 16 | (keys[j] & 0xFFFFu) / s;
+      const uint32_t run = runOf(keys[j], s);
       if (j == 0 || run != last) ++runs;
       last = run;
     }
@@ -65,7 +68,7 @@ std::vector<size_t> consistentSample(const std::vector<MeshFace>& faces,
   drawn.reserve(candidates.size());
   for (size_t i : candidates) {
     const uint32_t key = faces[i].key;
-    drawn.push_back({(key >> 16) << 16 | (key & 0xFFFFu) / S, mixKey(key), i});
+    drawn.push_back({runOf(key, S), mixKey(key), i});
   }
   std::sort(drawn.begin(), drawn.end(), [](const Drawn& x, const Drawn& y) {
     return x.run != y.run ? x.run < y.run : x.hash < y.hash;
