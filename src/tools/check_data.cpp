@@ -16,12 +16,13 @@
 
 int main(int argc, char** argv) {
   const char* usage =
-      "usage: rosrun tescalib tescalib_check_data DIR [DIR...]\n"
-      "  DIR: a KITTI sequence (odometry or raw layout, or tescalib_simulate output). Prints the\n"
-      "  frames, keyframes and rings the reader sees, how well the data's own calibration\n"
-      "  predicts the stereo disparity (SGBM minus the LiDAR-predicted disparity by depth) and\n"
-      "  whether the right image's rows are where that calibration puts them, and the pair's\n"
-      "  contrast, clipped pixels and sharpness as the online node's image check sees them.\n";
+      "usage: rosrun tescalib tescalib_check_data DIR [DIR...] DIR: a KITTI sequence\n"
+      "  (odometry or raw layout, or tescalib_simulate output). Prints the frames,\n"
+      "  keyframes and rings the reader sees, how well the data's own calibration\n"
+      "  predicts the stereo disparity (SGBM minus the LiDAR-predicted disparity by\n"
+      "  depth) and whether the right image's rows are where that calibration puts\n"
+      "  them, and the pair's contrast, clipped pixels and sharpness as the online\n"
+      "  node's image check sees them.\n";
   if (argc < 2) {
     std::cout << usage;
     return 2;

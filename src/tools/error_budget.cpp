@@ -28,18 +28,18 @@ using namespace tescalib;
 namespace {
 
 void usage() {
-  std::cout
-      << "usage: rosrun tescalib tescalib_error_budget [--scenario urban|residential|highway]\n"
-         "         [--seed S] [--keyframes K] [--noise default|none|high] [--refine-iterations N]\n"
-         "         [--refine-smoothed-rounds N] [--keep-rings N]\n"
-         "  Generates the drive (keyframes 0.5 s apart; default urban, seed 1, 20 keyframes,\n"
-         "  default noise) and prints, at the ground truth, how far the fine stage's residuals\n"
-         "  pull T_cam_lidar: all of them, the stereo clouds' disparity error alone and the LiDAR\n"
-         "  mesh's error alone (one Gauss-Newton step, camera axes), then both parts by\n"
-         "  surface (road: normal within 37 deg of vertical; facing: within 14 deg of the optical\n"
-         "  axis; lateral: within 45 deg of camera x; other) and depth. --keep-rings N keeps "
-         "every\n"
-         "  Nth laser ring (a sparser LiDAR: N = 4 leaves 16 rings).\n";
+  std::cout << "usage: rosrun tescalib tescalib_error_budget\n"
+               "         [--scenario urban|residential|highway] [--seed S] [--keyframes K]\n"
+               "         [--noise default|none|high] [--refine-iterations N]\n"
+               "         [--refine-smoothed-rounds N] [--keep-rings N]\n"
+               "  Generates the drive (keyframes 0.5 s apart; default urban, seed 1, 20\n"
+               "  keyframes, default noise) and prints, at the ground truth, how far the fine\n"
+               "  stage's residuals pull T_cam_lidar: all of them, the stereo clouds' disparity\n"
+               "  error alone and the LiDAR mesh's error alone (one Gauss-Newton step, camera\n"
+               "  axes), then both parts by surface (road: normal within 37 deg of vertical;\n"
+               "  facing: within 14 deg of the optical axis; lateral: within 45 deg of camera x;\n"
+               "  other) and depth. --keep-rings N keeps every Nth laser ring (a sparser LiDAR:\n"
+               "  N = 4 leaves 16 rings).\n";
 }
 
 struct Part {

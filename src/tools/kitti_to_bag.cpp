@@ -17,25 +17,25 @@
 
 namespace {
 void usage() {
-  std::cout
-      << "usage: rosrun tescalib kitti_to_bag --in DIR[,DIR...] --out FILE.bag [--max-frames N]\n"
-         "         [--like-kitti2bag 0|1] [--stamp-offset-ns N]\n"
-         "  DIR: a KITTI odometry sequence (calib.txt, times.txt, image_2/, image_3/,\n"
-         "       velodyne/) or a KITTI raw drive folder (image_02/data, image_03/data,\n"
-         "       velodyne_points/data; calib_*.txt in it or in its parent).\n"
-         "  Several DIRs (one rig: the same calibration and image size) are written one after\n"
-         "  the other. A raw drive keeps its stamps and odometry stamps (from 0 s) are shifted\n"
-         "  to start at 1317384000 s (ROS times must be positive), unless that would not start\n"
-         "  at least 1 s after the last frame written: then the DIR starts 1 s after it.\n"
-         "  Topics: /kitti/velo/pointcloud (velo_link; x y z intensity ring),\n"
-         "          /kitti/camera_color_{left,right}/{image_raw,camera_info} (P = the data's\n"
-         "          P2 / P3), /tf_static (base_link -> velo_link -> cameras)\n"
-         "  --like-kitti2bag 1: as kitti2bag's raw mode lays a bag out (imu_link above\n"
-         "  velo_link and the cameras, bgr8 images, x y z i clouds without ring), to check a\n"
-         "  pipeline against such bags.\n"
-         "  --max-frames N: at most the first N frames of each DIR (not of the whole bag).\n"
-         "  --stamp-offset-ns N: add N nanoseconds (0-999999999) to every stamp, so that they\n"
-         "  are not on the files' 0.1 s grid (tests of stamp handling).\n";
+  std::cout << "usage: rosrun tescalib kitti_to_bag --in DIR[,DIR...] --out FILE.bag\n"
+               "         [--max-frames N] [--like-kitti2bag 0|1] [--stamp-offset-ns N]\n"
+               "  DIR: a KITTI odometry sequence (calib.txt, times.txt, image_2/, image_3/,\n"
+               "       velodyne/) or a KITTI raw drive folder (image_02/data, image_03/data,\n"
+               "       velodyne_points/data; calib_*.txt in it or in its parent).\n"
+               "  Several DIRs (one rig: the same calibration and image size) are written one\n"
+               "  after the other. A raw drive keeps its stamps and odometry stamps (from 0 s)\n"
+               "  are shifted to start at 1317384000 s (ROS times must be positive), unless that\n"
+               "  would not start at least 1 s after the last frame written: then the DIR starts\n"
+               "  1 s after it.\n"
+               "  Topics: /kitti/velo/pointcloud (velo_link; x y z intensity ring),\n"
+               "          /kitti/camera_color_{left,right}/{image_raw,camera_info} (P = the\n"
+               "          data's P2 / P3), /tf_static (base_link -> velo_link -> cameras)\n"
+               "  --like-kitti2bag 1: as kitti2bag's raw mode lays a bag out (imu_link above\n"
+               "  velo_link and the cameras, bgr8 images, x y z i clouds without ring), to check\n"
+               "  a pipeline against such bags.\n"
+               "  --max-frames N: at most the first N frames of each DIR (not of the whole bag).\n"
+               "  --stamp-offset-ns N: add N nanoseconds (0-999999999) to every stamp, so that\n"
+               "  they are not on the files' 0.1 s grid (tests of stamp handling).\n";
 }
 }  // namespace
 

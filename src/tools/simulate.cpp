@@ -12,24 +12,29 @@
 namespace {
 
 void usage() {
-  std::cout
-      << "usage: rosrun tescalib tescalib_simulate --scenario urban|residential|highway\n"
-         "         --frames N --seed S --out DIR [--calib FILE] [--noise default|none|high]\n"
-         "         [--size WxH] [--threads T] [--lidar-sweep 0|1]\n"
-         "  Writes a KITTI odometry sequence to DIR: calib.txt (P0-P3, Tr: the ground truth),\n"
-         "  times.txt (10 Hz), image_2/ image_3/ (8-bit RGB PNG), velodyne/*.bin (HDL-64E-like,\n"
-         "  KITTI ring order), poses.txt (cam0 poses, KITTI convention), sim_info.txt.\n"
-         "  --calib FILE  KITTI calib.txt whose P2, P3 and Tr become the rig (default: KITTI-like\n"
-         "                fx 718.856, 0.54 m baseline, the 2011_09_30 Tr)\n"
-         "  --noise       sensor noise preset (default: LiDAR 2 cm range, 0.03 deg direction,\n"
-         "                image sigma 2 grey levels; high: 5 cm, 0.1 deg, 6; none)\n"
-         "  --size WxH    image size (default 1241x376); the intrinsics (P2, P3) stay as they\n"
-         "                are: a smaller size crops the top-left of the view, it does not scale\n"
-         "  --threads T   worker threads (default: all cores); the output does not depend on it\n"
-         "  --lidar-sweep 1  sweep each scan over its 0.1 s revolution (clockwise, forward at the\n"
-         "                frame's stamp) as a raw driver delivers it: motion-skewed scans to\n"
-         "                de-skew (default 0: every beam from the pose at the stamp)\n"
-         "  The same arguments give the same bytes.\n";
+  std::cout << "usage: rosrun tescalib tescalib_simulate --scenario urban|residential|highway\n"
+               "         --frames N --seed S --out DIR [--calib FILE]\n"
+               "         [--noise default|none|high] [--size WxH] [--threads T]\n"
+               "         [--lidar-sweep 0|1]\n"
+               "  Writes a KITTI odometry sequence to DIR: calib.txt (P0-P3, Tr: the ground\n"
+               "  truth), times.txt (10 Hz), image_2/ image_3/ (8-bit RGB PNG), velodyne/*.bin\n"
+               "  (HDL-64E-like, KITTI ring order), poses.txt (cam0 poses, KITTI convention),\n"
+               "  sim_info.txt.\n"
+               "  --calib FILE  KITTI calib.txt whose P2, P3 and Tr become the rig (default:\n"
+               "                KITTI-like fx 718.856, 0.54 m baseline, the 2011_09_30 Tr)\n"
+               "  --noise       sensor noise preset (default: LiDAR 2 cm range, 0.03 deg\n"
+               "                direction, image sigma 2 grey levels; high: 5 cm, 0.1 deg, 6;\n"
+               "                none)\n"
+               "  --size WxH    image size (default 1241x376); the intrinsics (P2, P3) stay as\n"
+               "                they are: a smaller size crops the top-left of the view, it does\n"
+               "                not scale\n"
+               "  --threads T   worker threads (default: all cores); the output does not depend\n"
+               "                on it\n"
+               "  --lidar-sweep 1  sweep each scan over its 0.1 s revolution (clockwise, forward\n"
+               "                at the frame's stamp) as a raw driver delivers it: motion-skewed\n"
+               "                scans to de-skew (default 0: every beam from the pose at the\n"
+               "                stamp)\n"
+               "  The same arguments give the same bytes.\n";
 }
 
 }  // namespace
