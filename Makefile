@@ -5,6 +5,9 @@ BUILD := $(ROOT)/build
 # Debian's python3 must come before any pyenv python3 (catkin needs catkin_pkg from Debian).
 export PATH := /usr/bin:/bin:/usr/sbin:/sbin:$(PATH)
 JOBS ?= 2
+# ccache, when installed, makes rebuilds and builds of other work trees of the repository cheap.
+CCACHE := $(shell command -v ccache 2>/dev/null)
+export CCACHE_BASEDIR := $(abspath ..)
 # The devel space lives in .devel and build/devel links to it: rosrun ignores every path under
 # <package>/build/, and the package is the repository root.
 DEVEL := $(ROOT)/.devel
@@ -24,7 +27,8 @@ $(BUILD)/Makefile: CMakeLists.txt package.xml
 	@mkdir -p $(DEVEL)/lib/python3/dist-packages
 	cd $(BUILD) && cmake $(ROOT) -DCMAKE_BUILD_TYPE=Release \
 	  -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 \
-	  -DCATKIN_DEVEL_PREFIX=$(DEVEL) -DCATKIN_ENABLE_TESTING=ON > $(BUILD)/cmake.log \
+	  -DCATKIN_DEVEL_PREFIX=$(DEVEL) -DCATKIN_ENABLE_TESTING=ON \
+	  $(if $(CCACHE),-DCMAKE_CXX_COMPILER_LAUNCHER=$(CCACHE)) > $(BUILD)/cmake.log \
 	  || (cat $(BUILD)/cmake.log; exit 1)
 
 build: deps $(BUILD)/Makefile
