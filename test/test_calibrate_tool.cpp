@@ -17,10 +17,10 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "tescalib/core/calibration_io.h"
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/kitti_reader.h"
-#include "tescalib/core/simulator.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/io/calibration_io.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/sim/simulator.h"
 #include "tescalib/ros/kitti_bag_writer.h"
 #include "test_util.h"
 

@@ -13,11 +13,12 @@
 
 #include <gtest/gtest.h>
 
-#include "tescalib/core/co_calibration.h"
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/joint_calibration.h"
-#include "tescalib/core/keyframe.h"
-#include "tescalib/core/simulator.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/sim/simulator.h"
+#include "tescalib/core/solvers/co_calibration.h"
+#include "tescalib/core/solvers/joint_calibration.h"
+#include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/uncertainty/trust.h"
 
 using namespace tescalib;
 

@@ -3,8 +3,9 @@
 
 #include <gtest/gtest.h>
 
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/overlay.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/eval/overlay.h"
+#include "tescalib/core/uncertainty/trust.h"
 
 using namespace tescalib;
 

@@ -6,7 +6,7 @@
 #include <ros/time.h>
 #include <tf2_ros/buffer.h>
 
-#include "tescalib/core/geometry.h"
+#include "tescalib/core/common/geometry.h"
 #include "tescalib/ros/conversions.h"
 #include "tescalib/ros/initial_rig.h"
 

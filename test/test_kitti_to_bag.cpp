@@ -18,9 +18,10 @@
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_msgs/TFMessage.h>
 
-#include "tescalib/core/error.h"
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/simulator.h"
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/sim/simulator.h"
+#include "tescalib/core/uncertainty/trust.h"
 #include "tescalib/ros/bag_sets.h"
 #include "tescalib/ros/conversions.h"
 #include "tescalib/ros/kitti_bag_writer.h"

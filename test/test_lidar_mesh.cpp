@@ -12,8 +12,8 @@
 #include <set>
 #include <vector>
 
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/lidar_mesh.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/lidar/lidar_mesh.h"
 
 namespace {
 

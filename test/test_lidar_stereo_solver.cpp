@@ -10,10 +10,10 @@
 
 #include <gtest/gtest.h>
 
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/keyframe.h"
-#include "tescalib/core/kitti_reader.h"
-#include "tescalib/core/lidar_stereo_solver.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/solvers/lidar_stereo_solver.h"
 #include "test_util.h"
 
 using namespace tescalib;

@@ -13,11 +13,11 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "tescalib/core/error.h"
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/kitti_reader.h"
-#include "tescalib/core/online_calibrator.h"
-#include "tescalib/core/simulator.h"
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/online/online_calibrator.h"
+#include "tescalib/core/sim/simulator.h"
 #include "test_util.h"
 
 using namespace tescalib;

@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tescalib/core/parallel.h"
+#include "tescalib/core/common/parallel.h"
 
 using namespace tescalib;
 

@@ -9,10 +9,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/keyframe.h"
-#include "tescalib/core/kitti_reader.h"
-#include "tescalib/core/photometric_solver.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/solvers/photometric_solver.h"
 #include "test_util.h"
 
 using namespace tescalib;

@@ -10,18 +10,19 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "tescalib/core/co_calibration.h"
-#include "tescalib/core/consistency.h"
-#include "tescalib/core/error.h"
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/keyframe.h"
-#include "tescalib/core/lidar_mesh.h"
-#include "tescalib/core/lidar_stereo_solver.h"
-#include "tescalib/core/mesh_depth.h"
-#include "tescalib/core/online_calibrator.h"
-#include "tescalib/core/photometric_solver.h"
-#include "tescalib/core/simulator.h"
-#include "tescalib/core/stereo_cloud.h"
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/eval/lidar_stereo_agreement.h"
+#include "tescalib/core/lidar/lidar_mesh.h"
+#include "tescalib/core/lidar/mesh_depth.h"
+#include "tescalib/core/online/online_calibrator.h"
+#include "tescalib/core/sim/simulator.h"
+#include "tescalib/core/solvers/co_calibration.h"
+#include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/solvers/lidar_stereo_solver.h"
+#include "tescalib/core/solvers/photometric_solver.h"
+#include "tescalib/core/stereo/image_quality.h"
+#include "tescalib/core/stereo/stereo_cloud.h"
 
 namespace tescalib {
 namespace {

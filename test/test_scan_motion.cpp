@@ -5,10 +5,10 @@
 #include <cmath>
 #include <limits>
 
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/kitti_reader.h"
-#include "tescalib/core/scan_motion.h"
-#include "tescalib/core/simulator.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/lidar/scan_motion.h"
+#include "tescalib/core/sim/simulator.h"
 #include "test_util.h"
 
 using namespace tescalib;

@@ -15,14 +15,15 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "tescalib/core/consistency.h"
-#include "tescalib/core/error.h"
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/kitti_reader.h"
-#include "tescalib/core/scan_motion.h"
-#include "tescalib/core/simulator.h"
-#include "tescalib/core/simulator_camera.h"
-#include "tescalib/core/stereo_cloud.h"
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/eval/lidar_stereo_agreement.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/lidar/scan_motion.h"
+#include "tescalib/core/sim/simulator.h"
+#include "tescalib/core/sim/simulator_camera.h"
+#include "tescalib/core/stereo/row_alignment.h"
+#include "tescalib/core/stereo/stereo_cloud.h"
 #include "test_util.h"
 
 using namespace tescalib;

@@ -11,10 +11,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/kitti_reader.h"
-#include "tescalib/core/simulator.h"
-#include "tescalib/core/stereo_features.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/sim/simulator.h"
+#include "tescalib/core/solvers/stereo_features.h"
 #include "test_util.h"
 
 using namespace tescalib;

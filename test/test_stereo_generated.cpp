@@ -12,14 +12,15 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "tescalib/core/co_calibration.h"
-#include "tescalib/core/disparity_refinement.h"
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/keyframe.h"
-#include "tescalib/core/lidar_stereo_solver.h"
-#include "tescalib/core/mesh_depth.h"
-#include "tescalib/core/photometric_solver.h"
-#include "tescalib/core/simulator.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/lidar/mesh_depth.h"
+#include "tescalib/core/sim/simulator.h"
+#include "tescalib/core/solvers/co_calibration.h"
+#include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/solvers/lidar_stereo_solver.h"
+#include "tescalib/core/solvers/photometric_solver.h"
+#include "tescalib/core/stereo/disparity_refinement.h"
+#include "tescalib/core/uncertainty/trust.h"
 
 using namespace tescalib;
 

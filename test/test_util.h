@@ -12,8 +12,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/kitti_reader.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/io/kitti_reader.h"
 
 namespace tescalib_test {
 

@@ -7,7 +7,7 @@
 #include <rosbag/view.h>
 #include <tf2_msgs/TFMessage.h>
 
-#include "tescalib/core/error.h"
+#include "tescalib/core/common/error.h"
 
 namespace tescalib {
 

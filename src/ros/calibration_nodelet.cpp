@@ -8,8 +8,9 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <pluginlib/class_list_macros.hpp>
 
-#include "tescalib/core/calibration_io.h"
-#include "tescalib/core/geometry.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/io/calibration_io.h"
+#include "tescalib/core/uncertainty/trust.h"
 #include "tescalib/ros/conversions.h"
 #include "tescalib/ros/initial_rig.h"
 

@@ -9,7 +9,8 @@
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <opencv2/imgproc.hpp>
 
-#include "tescalib/core/kitti_reader.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/uncertainty/trust.h"
 
 namespace tescalib {
 namespace ros_conv {

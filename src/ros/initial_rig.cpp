@@ -5,7 +5,7 @@
 
 #include <tf2_eigen/tf2_eigen.h>
 
-#include "tescalib/core/geometry.h"
+#include "tescalib/core/common/geometry.h"
 #include "tescalib/ros/conversions.h"
 
 namespace tescalib {

@@ -9,8 +9,9 @@
 #include <ros/names.h>
 #include <pluginlib/class_list_macros.hpp>
 
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/overlay.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/eval/overlay.h"
+#include "tescalib/core/uncertainty/trust.h"
 #include "tescalib/ros/conversions.h"
 
 namespace tescalib {

@@ -22,12 +22,13 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "tescalib/core/calibration_io.h"
-#include "tescalib/core/error.h"
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/kitti_reader.h"
-#include "tescalib/core/online_calibrator.h"
-#include "tescalib/core/overlay.h"
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/eval/overlay.h"
+#include "tescalib/core/io/calibration_io.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/online/online_calibrator.h"
+#include "tescalib/core/uncertainty/trust.h"
 #include "tescalib/ros/bag_sets.h"
 #include "tescalib/ros/conversions.h"
 

@@ -8,11 +8,13 @@
 #include <set>
 #include <string>
 
-#include "tescalib/core/consistency.h"
-#include "tescalib/core/error.h"
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/kitti_reader.h"
-#include "tescalib/core/stereo_cloud.h"
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/eval/lidar_stereo_agreement.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/stereo/image_quality.h"
+#include "tescalib/core/stereo/row_alignment.h"
+#include "tescalib/core/stereo/stereo_cloud.h"
 
 int main(int argc, char** argv) {
   const char* usage =

@@ -15,13 +15,13 @@
 #include <vector>
 
 #include "cli.h"
-#include "tescalib/core/error.h"
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/keyframe.h"
-#include "tescalib/core/lidar_stereo_solver.h"
-#include "tescalib/core/scene_builder.h"
-#include "tescalib/core/simulator.h"
-#include "tescalib/core/simulator_camera.h"
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/sim/scene_builder.h"
+#include "tescalib/core/sim/simulator.h"
+#include "tescalib/core/sim/simulator_camera.h"
+#include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/solvers/lidar_stereo_solver.h"
 
 using namespace tescalib;
 

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "cli.h"
-#include "tescalib/core/lidar_stereo_solver.h"
+#include "tescalib/core/solvers/lidar_stereo_solver.h"
 
 namespace tescalib::eval {
 

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "tescalib/core/lidar_stereo_solver.h"
+#include "tescalib/core/solvers/lidar_stereo_solver.h"
 
 #include "eval_args.h"
 #include "eval_trial.h"

@@ -10,15 +10,16 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "tescalib/core/co_calibration.h"
-#include "tescalib/core/error.h"
-#include "tescalib/core/gicp_baseline.h"
-#include "tescalib/core/joint_calibration.h"
-#include "tescalib/core/kitti_reader.h"
-#include "tescalib/core/parallel.h"
-#include "tescalib/core/photometric_solver.h"
-#include "tescalib/core/scan_motion.h"
-#include "tescalib/core/stereo_features.h"
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/common/parallel.h"
+#include "tescalib/core/eval/gicp_baseline.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/lidar/scan_motion.h"
+#include "tescalib/core/solvers/co_calibration.h"
+#include "tescalib/core/solvers/joint_calibration.h"
+#include "tescalib/core/solvers/photometric_solver.h"
+#include "tescalib/core/solvers/stereo_features.h"
+#include "tescalib/core/uncertainty/trust.h"
 
 namespace tescalib::eval {
 

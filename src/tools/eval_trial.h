@@ -10,10 +10,11 @@
 
 #include <Eigen/Geometry>
 
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/keyframe.h"
-#include "tescalib/core/lidar_stereo_solver.h"
-#include "tescalib/core/types.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/common/types.h"
+#include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/solvers/lidar_stereo_solver.h"
+#include "tescalib/core/uncertainty/trust.h"
 
 #include "eval_args.h"
 

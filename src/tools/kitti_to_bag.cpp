@@ -11,8 +11,8 @@
 #include <rosbag/exceptions.h>
 
 #include "cli.h"
-#include "tescalib/core/error.h"
-#include "tescalib/core/geometry.h"
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/common/geometry.h"
 #include "tescalib/ros/kitti_bag_writer.h"
 
 namespace {

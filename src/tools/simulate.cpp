@@ -1,13 +1,13 @@
 // tescalib_simulate: writes a generated driving sequence with exact ground truth in the KITTI
-// odometry layout (see include/tescalib/core/simulator.h and --help).
+// odometry layout (see include/tescalib/core/sim/simulator.h and --help).
 #include <chrono>
 #include <iostream>
 #include <limits>
 #include <string>
 
-#include "tescalib/core/error.h"
-#include "tescalib/core/kitti_reader.h"
-#include "tescalib/core/simulator.h"
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/sim/simulator.h"
 
 namespace {
 

@@ -34,7 +34,7 @@
 #include <std_srvs/Trigger.h>
 #include <tescalib/Save.h>
 
-#include "tescalib/core/online_calibrator.h"
+#include "tescalib/core/online/online_calibrator.h"
 #include "tescalib/ros/params.h"
 
 namespace tescalib {

@@ -14,10 +14,11 @@
 #include <visualization_msgs/Marker.h>
 #include <opencv2/core.hpp>
 
-#include "tescalib/core/geometry.h"
-#include "tescalib/core/lidar_mesh.h"
-#include "tescalib/core/stereo_cloud.h"
-#include "tescalib/core/types.h"
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/common/types.h"
+#include "tescalib/core/lidar/lidar_mesh.h"
+#include "tescalib/core/stereo/stereo_cloud.h"
+#include "tescalib/core/uncertainty/trust.h"
 
 namespace tescalib {
 namespace ros_conv {

@@ -10,7 +10,7 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/buffer.h>
 
-#include "tescalib/core/types.h"
+#include "tescalib/core/common/types.h"
 #include "tescalib/ros/params.h"
 
 namespace tescalib {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "tescalib/core/kitti_reader.h"
+#include "tescalib/core/io/kitti_reader.h"
 
 namespace tescalib {
 

@@ -7,7 +7,7 @@
 
 #include <ros/node_handle.h>
 
-#include "tescalib/core/online_calibrator.h"
+#include "tescalib/core/online/online_calibrator.h"
 
 namespace tescalib {
 

@@ -1,0 +1,282 @@
+// LiDAR-stereo calibration over a window of keyframes (paper, "Coarse Calibration" and "Fine
+// Calibration"): T_cam_lidar from the LiDAR meshes and the stereo clouds.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/uncertainty/trust.h"
+
+namespace tescalib {
+
+struct LidarStereoSettings {
+  // Coarse stage (eq. KD6 association, eq. point_plane_normal_obj).
+  bool run_coarse = true;
+  /// LiDAR faces per keyframe drawn from the mesh's sample by sampleFaces (`LidarMesh::sample`, the
+  /// faces with fitted normals; LidarMeshSettings::sampled_faces, 4000 by default).
+  int coarse_faces_per_keyframe = 1500;
+  /// ... and at most this many over the window: the coarse stage only brings the estimate into
+  /// the fine stage's basin, and 15000 faces do that as well as 30000 (a 20-keyframe generated
+  /// window: the same success from 10 deg / 1 m and the same final errors, coarse stage 1.5x
+  /// faster). Windows of up to 10 keyframes keep 1500 per keyframe.
+  int coarse_faces_per_window = 15000;
+  int coarse_stereo_points_per_keyframe = 8000;  ///< stereo points in the 6-D search tree
+  double normal_weight = 0.5;                    ///< w of eq. KD6 (m per unit normal difference)
+  double normal_residual_weight = 0.5;           ///< w of eq. point_plane_normal_obj
+  std::vector<double> coarse_gates = {2.0, 1.0, 0.5};  ///< 6-D association gate per stage, m
+  int coarse_reassociations = 8;   ///< per stage, until the update is below the threshold
+  double coarse_loss_scale = 2.0;  ///< Cauchy scale (normalised residual units)
+  // Fine stage (eq. point_point_normal_obj, projective association).
+  bool run_fine = true;
+  int fine_faces_per_keyframe = 4000;  ///< from the mesh's sample, like the coarse faces
+  int fine_reassociations = 12;
+  double fine_huber = 1.5;       ///< Huber threshold in sigma units
+  double fine_gate_sigma = 8.0;  ///< associations beyond this many sigma are dropped
+  double max_depth = 40.0;       ///< m; farther LiDAR faces are not associated
+  /// Also estimate a scale of the stereo clouds (= true baseline / the baseline they were
+  /// computed with). Used by co-calibration; off, the scale is held at 1.
+  bool estimate_stereo_scale = false;
+  /// The scale stays within [1 / max_stereo_scale, max_stereo_scale]: a baseline 30 % off is
+  /// beyond any stereo rig's calibration, and a free scale can collapse a LiDAR-stereo solve that
+  /// starts far off (seen on KITTI: scale 0.5 and the LiDAR 2 m away). A solve whose scale ends
+  /// on the bound is not converged (its minimum is the bound's, not the data's).
+  double max_stereo_scale = 1.3;
+  /// Also estimate a yaw of the right camera relative to the rectification the clouds were
+  /// computed with (it shifts every disparity by f yaw (1 + x_r^2), a depth error growing with
+  /// depth squared that the rigid T would otherwise absorb along the optical axis). Used by
+  /// co-calibration, where the clouds' rectification is itself being estimated; within
+  /// +-max_stereo_yaw_deg.
+  bool estimate_stereo_yaw = false;
+  double max_stereo_yaw_deg = 1.0;
+  /// The coarse stage estimates the stereo scale and yaw too (when they are estimated at all);
+  /// off, it holds them at their start values and only the fine stage estimates them. From a far
+  /// start the coarse stage can otherwise slide along the valley where the LiDAR's forward offset,
+  /// the clouds' scale and their yaw trade against each other (session 16: a co-calibration start
+  /// 3 deg / 0.3 m off ended 1.6 m off along z).
+  bool coarse_estimates_stereo_nuisances = false;
+  /// Start of the yaw (rad): a warm start knows it from the previous solve; starting at 0 with
+  /// clouds 0.3 deg off in yaw, the fine stage's gate can reject nearly every association.
+  double initial_stereo_yaw_rad = 0.0;
+  /// Start of the scale (with estimate_stereo_scale, clamped to its bounds): re-solves on the
+  /// clouds of a solve that estimated it (the split-window halves, co-calibration's sensitivity
+  /// and second opinion) start from that solve's scale, not from 1 (session 32 review).
+  double initial_stereo_scale = 1.0;
+  // Noise model (paper eq. lidar_noise and the disparity noise).
+  double lidar_range_sigma = 0.02;     ///< m
+  double lidar_beam_sigma_deg = 0.02;  ///< beam direction, deg
+  double disparity_sigma = 0.35;       ///< px
+  // Termination and honesty.
+  int ceres_iterations = 8;
+  double converge_rot_deg = 2e-4;  ///< stop re-associating below this update
+  double converge_trans_m = 2e-5;
+  double fine_settle_rot_deg = 1e-3;  ///< the fine stage has settled below this update
+  double fine_settle_trans_m = 3e-4;
+  int min_inliers = 300;
+  /// An axis whose sigma is looser than this (1 sigma; the statistical part plus the common
+  /// biases through this window's sensitivity with the clouds' scale and yaw held,
+  /// LidarStereoResult::bias_sensitivity_held, without the per-axis floor) is unconstrained. With
+  /// the nuisances estimated this sigma can exceed the published one's (which marginalises them).
+  double max_sigma_rot_deg = 0.1;
+  double max_sigma_trans_m = 0.01;
+  // Covariance: clusters of the sandwich estimator (image cells per keyframe), and the model
+  // error added to it (errors shared by the whole window, which no residual statistic sees):
+  // window-common measurement biases of unknown sign (one disparity offset for every stereo
+  // point, one range offset for every LiDAR point), propagated through this window's geometry
+  // (LidarStereoResult::bias_sensitivity), so a scene that constrains an axis weakly also lets
+  // such a bias move it further; plus a 1-sigma floor per camera axis. Calibrated on independent
+  // generated urban, residential and highway windows (doc/uncertainty.md); real data may need
+  // larger values.
+  int cov_cells_x = 8;
+  int cov_cells_y = 3;
+  double model_sigma_disparity_px = 0.05;
+  /// Measure the window-common disparity offset the fine residuals show
+  /// (LidarStereoResult::disparity_offset_px) and, where the window determines it
+  /// (disparityOffsetMeasured: beyond `disparity_offset_significance` times its own sigma, and
+  /// that sigma within `max_disparity_offset_sigma_px`) and it is larger than
+  /// `model_sigma_disparity_px`, use it as the bias term's sigma. Generated windows show at most
+  /// 0.04 px (sigma 0.005-0.01), real KITTI windows (clouds rectified with KITTI's own
+  /// calibration) 0.15-0.27 px (sigma 0.03-0.065); a road-only window cannot tell an offset from
+  /// a tilted road (sigma 5 px).
+  bool measure_disparity_offset = true;
+  double disparity_offset_significance = 3.0;
+  double max_disparity_offset_sigma_px = 0.25;
+  double model_sigma_range_m = 0.004;
+  std::array<double, 3> model_sigma_rot_deg = {0.0112, 0.0077, 0.0112};
+  std::array<double, 3> model_sigma_trans_m = {0.0021, 0.00105, 0.00455};
+  double max_correction_rot_deg = 25.0;  ///< a larger correction from the start is divergence
+  double max_correction_trans_m = 2.5;
+  /// Split-window check of the noise model (checkWindowHalves), run after a converged solve:
+  /// the first and the second half of the window (at least `min_keyframes_per_half` keyframes
+  /// each) are solved again on their own, fine stage only, from the estimate; when their
+  /// difference is beyond `halves_chi2_limit` (chi-square, 6 DoF, of their summed covariances;
+  /// 22.46 is the 99.9 % quantile) the data hold an error the model does not explain, and the
+  /// covariance is scaled by chi2 / 6 (the trust flags are evaluated again with it).
+  bool check_window_halves = true;
+  int min_keyframes_per_half = 2;
+  double halves_chi2_limit = 22.46;
+  /// Wide-basin search (solveLidarStereoSearch; 0: off; co-calibration's LiDAR-stereo solves do
+  /// not search): when the solve from the initial guess does not converge, solve again from the
+  /// guess turned by +-`search_step_deg` about the camera's x axis, its y axis and both (8 more
+  /// starts). Beyond about 15 deg a pitch error
+  /// puts the LiDAR's faces outside the image (0 associations) and a yaw error slides along the
+  /// yaw / lateral-translation valley into a wrong minimum; both are not declared converged.
+  /// Generated urban, window 20: from 20 deg / 2 m 90 % instead of 50 %, from 15 deg / 1.5 m
+  /// 100 % instead of 65 % (README, "Benchmarks").
+  double search_step_deg = 10.0;
+  static constexpr double kMaxSearchStepDeg = 20.0;  ///< the largest step the callers accept
+  int threads = 2;
+  /// When set and true: stop at the next re-association or search start, not converged, message
+  /// "cancelled" (a node shutting down does not wait for a long solve).
+  const std::atomic<bool>* cancel = nullptr;
+  bool cancelled() const { return cancel && cancel->load(std::memory_order_relaxed); }
+};
+
+struct LidarStereoResult {
+  Eigen::Isometry3d T_cam_lidar = Eigen::Isometry3d::Identity();  ///< estimate
+  Eigen::Isometry3d T_after_coarse = Eigen::Isometry3d::Identity();
+  bool converged = false;  ///< fine stage settled, enough inliers, every axis constrained
+  bool settled = false;    ///< the fine stage settled (its updates fell below fine_settle_*)
+  int iterations = 0;      ///< re-associations, coarse + fine
+  double final_cost = 0;   ///< mean squared normalised fine residual (Huber-weighted)
+  int coarse_inliers = 0;  ///< associations in the last coarse solve
+  int fine_inliers = 0;    ///< associations in the last fine solve
+  /// J^T W J of the final fine problem over the pose (with the stereo scale and yaw, when
+  /// estimated, marginalised out: the Schur complement).
+  Matrix6d information = Matrix6d::Zero();
+  /// Each keyframe's share of the pose's information (window order): what it constrains. The
+  /// pose block of its Gauss-Newton information before the clouds' scale and yaw (when
+  /// estimated) are marginalised, so with them free the shares add up to more than
+  /// `information` along what they absorb (the optical axis).
+  std::vector<Matrix6d> keyframe_information;
+  double stereo_scale = 1.0;  ///< estimated stereo scale (1 unless estimate_stereo_scale)
+  /// Variance of `stereo_scale` (0 unless estimated): the same cluster-robust sandwich as
+  /// `covariance_statistical` plus the common biases' share, scaled with the covariances by the
+  /// split-window check. Co-calibration takes the baseline length from the scale and gives the
+  /// left-right covariance this variance along the baseline.
+  double stereo_scale_variance = 0.0;
+  double stereo_yaw_rad = 0.0;  ///< estimated right-camera yaw (0 unless estimate_stereo_yaw)
+  /// Disparity offset (px, added to every stereo disparity) that best explains the fine
+  /// residuals at the estimate, the pose re-solved with it (a linearised step; 0 when not
+  /// measured: LidarStereoSettings::measure_disparity_offset off, or the clouds' yaw estimated).
+  /// Where the window determines it (disparityOffsetMeasured), the covariance's disparity bias
+  /// term uses max(model_sigma_disparity_px, |offset|).
+  double disparity_offset_px = 0.0;
+  double disparity_offset_sigma_px = 0.0;  ///< its cluster-robust sigma (0: not measured)
+  double residual_scale = 1.0;  ///< robust std of the normalised residuals (1 if the model fits)
+  /// Published covariance over [phi; tau] (rad, m): cluster-robust sandwich (see the solver).
+  /// Without `covariance_known` a placeholder (identity, or 1e6 I), not an uncertainty.
+  Matrix6d covariance = Matrix6d::Identity();
+  /// The covariances were computed (false: no associations, or the information matrix was
+  /// singular; then no axis is observable and a NEES of the placeholder means nothing).
+  bool covariance_known = false;
+  /// The paper's eq. residual_uncertainty, information^-1 (independent residuals assumed).
+  Matrix6d covariance_model = Matrix6d::Identity();
+  /// `covariance` without the model error: what this window's residuals alone constrain (scene
+  /// comparisons use it; the `observable` flags add the bias terms, see max_sigma_*).
+  Matrix6d covariance_statistical = Matrix6d::Identity();
+  /// How window-common measurement biases move the estimate ([phi; tau] per unit bias, the
+  /// nuisance parameters marginalised): column 0 per px of disparity offset of every stereo
+  /// point, column 1 per m of range offset of every LiDAR point. The published covariance adds
+  /// h h^T sigma_b^2 for each (LidarStereoSettings::model_sigma_disparity_px, _range_m).
+  Eigen::Matrix<double, 6, 2> bias_sensitivity = Eigen::Matrix<double, 6, 2>::Zero();
+  /// The same with the stereo scale and yaw held at their estimates (equal to
+  /// `bias_sensitivity` when neither is estimated). The nuisances absorb a perfectly uniform
+  /// offset, which a matcher's bias is not (generated clouds: -0.03 px on camera-facing surfaces
+  /// only), so what the window constrains (the `observable` flags) takes these when the
+  /// nuisances are estimated: on a 5-keyframe generated urban window whose forward offset the
+  /// clouds' scale and yaw leave loose, the marginalised sensitivity called tz trusted at
+  /// 3-7 cm error (sigma 0.5-0.9 cm; session 23).
+  Eigen::Matrix<double, 6, 2> bias_sensitivity_held = Eigen::Matrix<double, 6, 2>::Zero();
+  /// Per axis: constrained within max_sigma_* (false: do not trust this axis of the estimate),
+  /// judged with the common biases through `bias_sensitivity_held`.
+  bool observable[6] = {false, false, false, false, false, false};
+  /// What the window constrains, in directions: the eigen-directions of the covariance the
+  /// `observable` flags judge, in units of max_sigma_* (weakDirections), the weakest first; a
+  /// ratio above 1 is not constrained. The message of a degenerate window names the weakest.
+  /// Empty when the covariance is not known.
+  std::vector<WeakDirection> weak_directions;
+  WeakDirection weakest() const { return weakestOf(weak_directions); }
+  double seconds_coarse = 0, seconds_fine = 0;
+  /// solveLidarStereoSearch: the starts solved (1: the guess converged or no search) and the
+  /// rotation (camera axes, rad) of the start this result came from.
+  int search_starts = 1;
+  Eigen::Vector3d search_offset_rad = Eigen::Vector3d::Zero();
+  /// The split-window check (LidarStereoSettings::check_window_halves; `tested` false when it
+  /// did not run: check off, solve not converged, or too few keyframes).
+  struct Halves {
+    bool tested = false;
+    double chi2 = 0;                         ///< (x_a - x_b)^T (P_a + P_b)^-1 (x_a - x_b), 6 DoF
+    double covariance_scale = 1.0;           ///< applied to the covariances (1: consistent)
+    Vector6d difference = Vector6d::Zero();  ///< first half's estimate minus the second's
+    double seconds = 0;
+  } halves;
+  std::string message;  ///< why it did not converge, when it did not
+};
+
+/// Variance (m^2) of a LiDAR point along the unit normal n (camera frame): eq. lidar_noise
+/// projected, range noise along the beam direction, beam-direction noise times the range across it.
+double lidarVarianceAlong(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_dir, double range,
+                          const LidarStereoSettings& settings);
+
+/// 1 / sigma of a point-to-plane residual along the unit normal n between a LiDAR point (beam
+/// direction, range) and a stereo point of disparity d: the LiDAR point's variance along n
+/// (lidarVarianceAlong) plus the stereo point's, stereo_scale |n . p| / d per px of disparity
+/// noise (`disparity_sigma`), p the stereo point as triangulated.
+double pointPlaneInvSigma(const Eigen::Vector3d& n, const Eigen::Vector3d& beam_dir, double range,
+                          const Eigen::Vector3d& stereo_point, double disparity,
+                          double stereo_scale, double disparity_sigma,
+                          const LidarStereoSettings& settings);
+
+/// Solves T_cam_lidar over the window from `T_init`. Never throws on bad data: an empty window or
+/// a scene without structure gives converged = false and a message.
+LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
+                                   const Eigen::Isometry3d& T_init,
+                                   const LidarStereoSettings& settings = {});
+
+/// solveLidarStereo from `T_init` and, when that does not converge and
+/// `settings.search_step_deg` > 0, from the 8 starts turned by +-step about the camera's x and y
+/// axes (LidarStereoSettings::search_step_deg). Returns the converged solve with the most fine
+/// inliers, or, when none converged, the solve from `T_init` (its message says how many starts
+/// were tried). Each solve checks its divergence bound against its own start, which is at most
+/// 1.42 step from `T_init`.
+LidarStereoResult solveLidarStereoSearch(const std::vector<const Keyframe*>& window,
+                                         const Eigen::Isometry3d& T_init,
+                                         const LidarStereoSettings& settings);
+
+/// Whether `result` determines its disparity offset: measured, beyond
+/// settings.disparity_offset_significance times its sigma, and that sigma within
+/// settings.max_disparity_offset_sigma_px.
+bool disparityOffsetMeasured(const LidarStereoResult& result, const LidarStereoSettings& settings);
+
+/// The common disparity offset's sigma the covariance's bias term uses for `result`: the model's
+/// (settings.model_sigma_disparity_px), or the offset the residuals show when the window
+/// determines it (disparityOffsetMeasured) and it is larger.
+double disparityBiasSigma(const LidarStereoResult& result, const LidarStereoSettings& settings);
+
+/// Whether the bias term uses the measured offset instead of the model's (it is larger).
+bool disparityOffsetWidensBias(const LidarStereoResult& result,
+                               const LidarStereoSettings& settings);
+
+/// Per-axis trust flags (LidarStereoResult::observable) from a covariance over [phi; tau]: an
+/// axis is trusted when its sigma is within settings.max_sigma_*; true when every axis is.
+bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& settings,
+                bool observable[6]);
+
+/// The split-window check on a solve of `window` (`full`, with the settings it was solved with):
+/// solves each half again (fine stage only, from `full`'s estimate, stereo scale and yaw) and
+/// compares the two estimates against their summed covariances (a half that did not settle
+/// within twice the fine stage's budget still counts: its last updates are far below its sigma).
+/// Within the limit the result is unchanged apart from `halves`; beyond it `covariance` and
+/// `covariance_statistical` are scaled by chi2 / 6 (`covariance_model`, the paper's formula, is
+/// kept), the trust flags are evaluated again, and a solve that loses one is no longer converged.
+/// Real KITTI windows fail it (sequences of one day disagree by 3-6 sigma), generated ones pass.
+void checkWindowHalves(const std::vector<const Keyframe*>& window,
+                       const LidarStereoSettings& settings, LidarStereoResult* full);
+
+}  // namespace tescalib

@@ -1,0 +1,322 @@
+#include "tescalib/core/sim/simulator.h"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <mutex>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/common/parallel.h"
+#include "tescalib/core/sim/scene_culling.h"
+#include "tescalib/core/sim/simulator_camera.h"
+#include "tescalib/core/sim/simulator_lidar.h"
+#include "tescalib/core/sim/simulator_random.h"
+#include "tescalib/core/sim/simulator_trajectory.h"
+
+namespace fs = std::filesystem;
+
+namespace tescalib {
+namespace {
+
+constexpr double kFrameRate = 10.0;
+constexpr double kLidarHeight = 1.73;   // m above the ground, like KITTI's HDL-64E
+constexpr double kMaxSpeed = 14.0;      // m/s, bounds the route length
+constexpr double kRouteBehind = 100.0;  // m of world behind the start
+constexpr double kRouteAhead = 250.0;   // m of world beyond the last frame
+constexpr float kCameraRange = 250.f;   // m; primitives beyond are not drawn
+constexpr float kShadowRadius = 200.f;  // m; primitives within cast shadows
+
+std::string frameName(int i) {
+  char name[16];
+  std::snprintf(name, sizeof(name), "%06d", i);
+  return name;
+}
+
+void writeRow(std::ostream& out, const Eigen::Isometry3d& T) {
+  const Eigen::Matrix<double, 3, 4> M = T.matrix().topRows<3>();
+  char buf[32];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) {
+      std::snprintf(buf, sizeof(buf), "%.12e", M(r, c));
+      out << (r == 0 && c == 0 ? "" : " ") << buf;
+    }
+  out << "\n";
+}
+
+std::string yamlList(const Eigen::Isometry3d& T) {
+  std::ostringstream s;
+  s << std::setprecision(10) << "[";
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) s << (r == 0 && c == 0 ? "" : ", ") << T.matrix()(r, c);
+  s << "]";
+  return s.str();
+}
+
+void validate(const SimOptions& o) {
+  auto fail = [](const std::string& what) { throw DataError("tescalib_simulate: " + what); };
+  if (o.frames < 1 || o.frames > 1000000)
+    fail("frames must be between 1 and 1000000 (got " + std::to_string(o.frames) + ")");
+  if (o.width < 32 || o.height < 32 || o.width > 8192 || o.height > 8192)
+    fail("image size " + std::to_string(o.width) + "x" + std::to_string(o.height) +
+         " is out of range (32..8192 px)");
+  if (!(o.left_gain > 0) || !(o.right_gain > 0)) fail("camera gains must be positive");
+  const Eigen::Matrix3d K2 = o.calib.P[2].leftCols<3>(), K3 = o.calib.P[3].leftCols<3>();
+  if (!(K2(0, 0) > 0) || !(K2(1, 1) > 0)) fail("calibration P2 has a non-positive focal length");
+  if ((K2 - K3).cwiseAbs().maxCoeff() > 1e-6 * K2(0, 0))
+    fail("calibration P2 and P3 have different intrinsics; a rectified pair shares one K");
+  const Eigen::Matrix3d R = o.calib.Tr.leftCols<3>();
+  if ((R * R.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-3)
+    fail("calibration Tr is not a rotation (R R^T differs from I by more than 1e-3)");
+  if (o.calib.Tr.col(3).norm() > 5.0) fail("calibration Tr puts the LiDAR more than 5 m from cam0");
+  const double baseline = (K2.inverse() * (o.calib.P[3].col(3) - o.calib.P[2].col(3))).norm();
+  if (baseline < 0.01) fail("calibration P2/P3 give a baseline below 1 cm");
+}
+
+}  // namespace
+
+std::string noiseLevelName(NoiseLevel n) {
+  switch (n) {
+    case NoiseLevel::kNone:
+      return "none";
+    case NoiseLevel::kDefault:
+      return "default";
+    case NoiseLevel::kHigh:
+      return "high";
+  }
+  return "unknown";
+}
+
+bool parseNoiseLevel(const std::string& name, NoiseLevel* n) {
+  for (NoiseLevel c : {NoiseLevel::kNone, NoiseLevel::kDefault, NoiseLevel::kHigh})
+    if (name == noiseLevelName(c)) {
+      *n = c;
+      return true;
+    }
+  return false;
+}
+
+SimNoise SimNoise::forLevel(NoiseLevel level) {
+  SimNoise n;
+  switch (level) {
+    case NoiseLevel::kNone:
+      n.lidar_range_sigma_m = 0.0;
+      n.lidar_direction_sigma_deg = 0.0;
+      n.lidar_intensity_sigma = 0.0;
+      n.image_sigma = 0.0;
+      break;
+    case NoiseLevel::kDefault:
+      break;
+    case NoiseLevel::kHigh:
+      n.lidar_range_sigma_m = 0.05;
+      n.lidar_direction_sigma_deg = 0.1;
+      n.lidar_intensity_sigma = 0.03;
+      n.image_sigma = 6.0;
+      break;
+  }
+  return n;
+}
+
+KittiOdometryCalib defaultSimCalib() {
+  KittiOdometryCalib c;
+  const double fx = 718.856, cx = 607.1928, cy = 185.2157;
+  Eigen::Matrix<double, 3, 4> P;
+  P << fx, 0, cx, 0, 0, fx, cy, 0, 0, 0, 1, 0;
+  const double cam2_x = 0.06, baseline = 0.54;  // cam2 6 cm left of cam0, like KITTI
+  for (int i = 0; i < 4; ++i) c.P[i] = P;
+  c.P[1](0, 3) = -fx * baseline;
+  c.P[2](0, 3) = fx * cam2_x;
+  c.P[3](0, 3) = fx * (cam2_x - baseline);
+  // Tr (velodyne -> rectified cam0) of the 2011_09_30 recordings (KITTI odometry 04-10).
+  c.Tr << -1.857739385241e-03, -9.999659513510e-01, -8.039975204516e-03, -4.784029760483e-03,
+      -6.481465826011e-03, 8.051860151134e-03, -9.999466081774e-01, -7.337429464231e-02,
+      9.999773098287e-01, -1.805528627661e-03, -6.496203536139e-03, -3.339968064433e-01;
+  return c;
+}
+
+struct Simulator::Impl {
+  std::unique_ptr<sim::VehicleTrajectory> trajectory;
+  Eigen::Isometry3d T_cam0_lidar;  ///< from Tr
+  Eigen::Isometry3d T_cam2_lidar;  ///< ground truth as the reader recovers it
+  Eigen::Isometry3d T_cam3_lidar;
+  sim::LidarModel lidar = sim::LidarModel::hdl64e();
+  sim::LidarNoise lidar_noise;
+};
+
+Simulator::Simulator(const SimOptions& options)
+    : options_(options), impl_(std::make_unique<Impl>()) {
+  validate(options_);
+  rig_ = rigFromOdometryCalib(options_.calib);
+  rig_.left.width = rig_.right.width = options_.width;
+  rig_.left.height = rig_.right.height = options_.height;
+  impl_->T_cam2_lidar = rig_.T_cam_lidar;
+  impl_->T_cam3_lidar = rig_.T_right_left * rig_.T_cam_lidar;
+  // cam0 = cam2 shifted back by K^-1 P2[:,3] (the reader's definition of cam2).
+  Eigen::Isometry3d T_cam0_cam2 = Eigen::Isometry3d::Identity();
+  T_cam0_cam2.translation() =
+      -options_.calib.P[2].leftCols<3>().inverse() * options_.calib.P[2].col(3);
+  impl_->T_cam0_lidar = T_cam0_cam2 * impl_->T_cam2_lidar;
+  const double route = kMaxSpeed / kFrameRate * (options_.frames - 1);
+  world_ = std::make_unique<sim::SceneWorld>(
+      sim::buildScene(options_.scenario, options_.seed, -kRouteBehind, route + kRouteAhead));
+  impl_->trajectory = std::make_unique<sim::VehicleTrajectory>(*world_->road, world_->lane_offset,
+                                                               options_.seed, kLidarHeight);
+  const SimNoise n = noise();
+  impl_->lidar_noise.range_sigma = n.lidar_range_sigma_m;
+  impl_->lidar_noise.direction_sigma_rad = n.lidar_direction_sigma_deg * M_PI / 180.0;
+  impl_->lidar_noise.intensity_sigma = n.lidar_intensity_sigma;
+}
+
+Simulator::~Simulator() = default;
+
+Eigen::Isometry3d Simulator::worldFromLidar(int i) const { return worldFromLidarAt(stamp(i)); }
+
+Eigen::Isometry3d Simulator::worldFromLidarAt(double t) const {
+  return impl_->trajectory->worldFromLidar(t);
+}
+
+Eigen::Isometry3d Simulator::cam0Pose(int i) const {
+  const Eigen::Isometry3d lidar_cam0 = impl_->T_cam0_lidar.inverse();
+  const Eigen::Isometry3d w0 = worldFromLidar(0) * lidar_cam0;
+  return w0.inverse() * (worldFromLidar(i) * lidar_cam0);
+}
+
+LidarScan Simulator::renderScan(int i, int threads) const {
+  const int t = resolveThreads(threads > 0 ? threads : options_.threads);
+  const uint64_t seed = sim::subSeed(options_.seed, 4 * uint64_t(i) + 3);
+  if (options_.lidar_sweep) {
+    const double t0 = stamp(i);
+    return sim::simulateSweptLidarScan(
+        *world_, [&](double dt) { return worldFromLidarAt(t0 + dt); }, impl_->lidar,
+        impl_->lidar_noise, seed, t);
+  }
+  return sim::simulateLidarScan(*world_, worldFromLidar(i), impl_->lidar, impl_->lidar_noise, seed,
+                                t);
+}
+
+Frame Simulator::renderFrame(int i, int threads) const {
+  const int t = resolveThreads(threads > 0 ? threads : options_.threads);
+  const Eigen::Isometry3d T_wl = worldFromLidar(i);
+  const sim::SunShadowGrid shadows(world_->prims, world_->sun, T_wl.translation().cast<float>(),
+                                   kShadowRadius);
+  sim::CameraRenderSettings settings;
+  settings.noise_sigma = static_cast<float>(noise().image_sigma);
+  settings.max_range = kCameraRange;
+  settings.threads = t;
+  Frame f;
+  f.index = i;
+  f.stamp = stamp(i);
+  settings.noise_seed = sim::subSeed(options_.seed, 4 * uint64_t(i) + 1);
+  f.left = sim::renderCamera(*world_, shadows, rig_.left, T_wl * impl_->T_cam2_lidar.inverse(),
+                             {float(options_.left_gain), float(options_.left_offset)}, settings);
+  settings.noise_seed = sim::subSeed(options_.seed, 4 * uint64_t(i) + 2);
+  f.right = sim::renderCamera(*world_, shadows, rig_.right, T_wl * impl_->T_cam3_lidar.inverse(),
+                              {float(options_.right_gain), float(options_.right_offset)}, settings);
+  f.scan = renderScan(i, t);
+  return f;
+}
+
+void Simulator::writeSequence(const std::string& dir) const {
+  const fs::path d(dir);
+  std::error_code ec;
+  if (fs::exists(d)) {
+    if (!fs::is_directory(d)) throw DataError(dir + ": exists and is not a folder");
+    const bool ours = fs::exists(d / "sim_info.txt");
+    if (!ours && fs::directory_iterator(d) != fs::directory_iterator())
+      throw DataError(dir +
+                      ": folder is not empty and is not an earlier tescalib_simulate output; "
+                      "refusing to overwrite it");
+    for (const char* sub : {"image_2", "image_3", "velodyne"}) fs::remove_all(d / sub, ec);
+  }
+  for (const char* sub : {"image_2", "image_3", "velodyne"}) {
+    fs::create_directories(d / sub, ec);
+    if (ec) throw DataError((d / sub).string() + ": cannot create folder: " + ec.message());
+  }
+  writeKittiOdometryCalib((d / "calib.txt").string(), options_.calib);
+  {
+    std::ofstream times(d / "times.txt");
+    std::ofstream poses(d / "poses.txt");
+    if (!times || !poses) throw DataError(dir + ": cannot write times.txt / poses.txt");
+    char buf[32];
+    for (int i = 0; i < options_.frames; ++i) {
+      std::snprintf(buf, sizeof(buf), "%.6e", stamp(i));
+      times << buf << "\n";
+      writeRow(poses, cam0Pose(i));
+    }
+  }
+  {
+    std::ofstream info(d / "sim_info.txt");
+    if (!info) throw DataError(dir + ": cannot write sim_info.txt");
+    const SimNoise n = noise();
+    const double a = options_.right_gain / options_.left_gain;
+    const double b = options_.right_offset - a * options_.left_offset;
+    info << std::setprecision(10)
+         << "# Parameters of a sequence generated by tescalib_simulate (YAML).\n"
+         << "generator: tescalib_simulate\n"
+         << "scenario: " << sim::scenarioName(options_.scenario) << "\n"
+         << "frames: " << options_.frames << "\n"
+         << "seed: " << options_.seed << "\n"
+         << "noise: " << noiseLevelName(options_.noise) << "\n"
+         << "frame_rate_hz: " << kFrameRate << "\n"
+         << "image_width: " << options_.width << "\n"
+         << "image_height: " << options_.height << "\n"
+         << "lidar_beams: " << impl_->lidar.elevation_deg.size() << "\n"
+         << "lidar_points_per_ring: " << impl_->lidar.points_per_ring << "\n"
+         << "lidar_max_range_m: " << impl_->lidar.max_range << "\n"
+         << "lidar_height_m: " << kLidarHeight << "\n"
+         << "# 1: each scan swept over its revolution (clockwise, 10 Hz, forward at the frame's\n"
+         << "# stamp) as a raw driver delivers it; 0: every beam from the pose at the stamp\n"
+         << "lidar_sweep: " << (options_.lidar_sweep ? 1 : 0) << "\n"
+         << "lidar_range_sigma_m: " << n.lidar_range_sigma_m << "\n"
+         << "lidar_direction_sigma_deg: " << n.lidar_direction_sigma_deg << "\n"
+         << "lidar_intensity_sigma: " << n.lidar_intensity_sigma << "\n"
+         << "image_noise_sigma: " << n.image_sigma << "\n"
+         << "# pixel = gain * scene_value + offset + noise; scene_value is shared by both cameras\n"
+         << "left_gain: " << options_.left_gain << "\n"
+         << "left_offset: " << options_.left_offset << "\n"
+         << "right_gain: " << options_.right_gain << "\n"
+         << "right_offset: " << options_.right_offset << "\n"
+         << "# right = brightness_a * left + brightness_b (before noise and rounding)\n"
+         << "brightness_a: " << a << "\n"
+         << "brightness_b: " << b << "\n"
+         << "# ground truth as KittiSequence reads it from calib.txt (3x4, row major)\n"
+         << "T_cam_lidar: " << yamlList(rig_.T_cam_lidar) << "\n"
+         << "T_right_left: " << yamlList(rig_.T_right_left) << "\n"
+         << "sun_direction_world: [" << world_->sun.x() << ", " << world_->sun.y() << ", "
+         << world_->sun.z() << "]\n"
+         << "poses: cam0 pose of each frame in the cam0 frame of frame 0 (KITTI convention)\n"
+         << "lidar_motion: "
+         << (options_.lidar_sweep
+                 ? "swept (each scan over its 0.1 s revolution, clockwise, facing forward at the "
+                   "camera trigger: a raw, motion-skewed scan)\n"
+                 : "none (each scan is taken at its frame's pose)\n");
+  }
+  std::mutex error_mutex;
+  std::string error;
+  const std::vector<int> png_params = {cv::IMWRITE_PNG_COMPRESSION, 1};
+  parallelFor(options_.frames, resolveThreads(options_.threads), [&](int i) {
+    try {
+      const Frame f = renderFrame(i, 1);
+      const std::string name = frameName(i);
+      const std::string left = (d / "image_2" / (name + ".png")).string();
+      const std::string right = (d / "image_3" / (name + ".png")).string();
+      if (!cv::imwrite(left, f.left, png_params)) throw DataError(left + ": cannot write image");
+      if (!cv::imwrite(right, f.right, png_params)) throw DataError(right + ": cannot write image");
+      writeVelodyneBin((d / "velodyne" / (name + ".bin")).string(), f.scan);
+    } catch (const std::exception& e) {
+      const std::lock_guard<std::mutex> lock(error_mutex);
+      if (error.empty()) error = e.what();
+    }
+  });
+  if (!error.empty()) throw DataError(error);
+}
+
+void simulateSequence(const SimOptions& options, const std::string& out_dir) {
+  Simulator(options).writeSequence(out_dir);
+}
+
+}  // namespace tescalib
