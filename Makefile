@@ -12,7 +12,7 @@ export CCACHE_BASEDIR := $(abspath ..)
 # <package>/build/, and the package is the repository root.
 DEVEL := $(ROOT)/.devel
 
-.PHONY: all deps build test demo bench install-check format clean
+.PHONY: all deps build test test-fast demo bench install-check format clean
 
 all: build
 
@@ -42,6 +42,11 @@ build: deps $(BUILD)/Makefile
 test: build
 	@bash scripts/install_deps.sh --dev
 	@bash scripts/run_tests.sh
+
+# The gtests that take seconds, for everyday work (make test runs everything, as CI does).
+test-fast: build
+	@bash scripts/install_deps.sh --dev
+	@bash scripts/run_tests.sh --fast
 
 demo: build
 	@bash scripts/demo.sh

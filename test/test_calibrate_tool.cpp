@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/io/calibration_io.h"
 #include "tescalib/core/io/kitti_reader.h"
@@ -142,6 +143,46 @@ TEST(CalibrationIo, FilesReadBackAsTheEstimate) {
   EXPECT_NEAR(y, t.y(), 1e-9);
   EXPECT_NEAR(z, t.z(), 1e-9);
   EXPECT_NE(launch.find(" my_lidar tescalib_left\"/>"), std::string::npos) << launch;
+}
+
+TEST(CalibrationIo, TheResultYamlReadsBackAsTheEstimate) {
+  TempDir tmp;
+  const std::string base = tmp.str() + "/result";
+  OnlineEstimate e = someEstimate();
+  CalibrationFrames frames;
+  frames.lidar = "my_lidar";
+  std::string msg;
+  ASSERT_TRUE(writeCalibrationFiles(base, rigFromOdometryCalib(tescalib_test::syntheticCalib()), e,
+                                    frames, &msg))
+      << msg;
+  const CalibrationFile f = readCalibrationYaml(base + ".yaml");
+  EXPECT_LT(poseError(f.T_cam_lidar, e.T_cam_lidar).norm(), 1e-9);
+  EXPECT_LT(poseError(f.T_right_left, e.T_right_left).norm(), 1e-9);
+  EXPECT_TRUE(f.cov_lidar_known && f.cov_stereo_known);
+  EXPECT_LT((f.cov_lidar - e.cov_lidar).norm(), 1e-9 * e.cov_lidar.norm());
+  EXPECT_LT((f.cov_stereo - e.cov_stereo).norm(), 1e-9 * e.cov_stereo.norm());
+  EXPECT_EQ(f.frames.lidar, "my_lidar");
+  EXPECT_EQ(f.frames.left, frames.left);
+  EXPECT_EQ(f.frames.right, frames.right);
+  EXPECT_TRUE(f.converged);
+  EXPECT_NEAR(f.stamp, e.stamp, 1e-6);
+
+  // An unknown covariance (null) reads back as unknown, not as numbers.
+  e.cov_stereo_known = false;
+  std::ofstream(base + "_unknown.yaml") << calibrationYaml(e, frames);
+  EXPECT_FALSE(readCalibrationYaml(base + "_unknown.yaml").cov_stereo_known);
+  EXPECT_TRUE(readCalibrationYaml(base + "_unknown.yaml").cov_lidar_known);
+
+  // What is not a result file is named with the file.
+  std::ofstream(base + "_bad.yaml") << "T_cam_lidar:\n  translation: [1, 2]\n";
+  try {
+    readCalibrationYaml(base + "_bad.yaml");
+    ADD_FAILURE() << "a translation of two numbers was read";
+  } catch (const DataError& err) {
+    EXPECT_NE(std::string(err.what()).find("_bad.yaml: T_cam_lidar.translation"), std::string::npos)
+        << err.what();
+  }
+  EXPECT_THROW(readCalibrationYaml(base + "_missing.yaml"), DataError);
 }
 
 TEST(CalibrationIo, UnwritableFolderIsNamed) {
@@ -459,6 +500,11 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
   r = runCalibrate("--sequences " + tmp.str() + "/seq --init " + tmp.str() + "/missing.txt");
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("missing.txt"), std::string::npos) << r.output;
+  // A result file (BASE.yaml) is an --init too; one that is not is named.
+  std::ofstream(tmp.str() + "/bad.yaml") << "converged: true\n";
+  r = runCalibrate("--sequences " + tmp.str() + "/seq --init " + tmp.str() + "/bad.yaml");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("bad.yaml: no T_cam_lidar entry"), std::string::npos) << r.output;
   // An --init file is checked as a sequence's calib.txt is: an all-zero Tr is refused up front
   // (before, it was re-orthonormalised into some rotation and every frame was then rejected).
   KittiOdometryCalib zero = readKittiOdometryCalib(tmp.str() + "/seq/calib.txt");

@@ -604,6 +604,8 @@ TEST(Conversions, KeyframeCloudAndMeshForRviz) {
     MeshFace f;
     f.a = Eigen::Vector3f(5.0f + i, 0, 0), f.b = f.a + Eigen::Vector3f(0, 0.1f, 0);
     f.c = f.a + Eigen::Vector3f(0, 0, 0.1f);
+    f.centroid = (f.a + f.b + f.c) / 3.0f;
+    f.normal = Eigen::Vector3f(-1, 0, 0);
     f.range = 5.0f + 10.0f * i;
     mesh.faces.push_back(f);
   }

@@ -123,7 +123,7 @@ inline void writeSyntheticRawDrive(const fs::path& parent, const std::string& na
   }
   cv::Mat img(240, 640, CV_8UC3, cv::Scalar(40, 90, 200));
   for (size_t i = 0; i < stamps.size(); ++i) {
-    char id[16];
+    char id[32];
     std::snprintf(id, sizeof(id), "%010zu", i);
     cv::imwrite((drive / "image_02" / "data" / (std::string(id) + ".png")).string(), img);
     cv::imwrite((drive / "image_03" / "data" / (std::string(id) + ".png")).string(), img);

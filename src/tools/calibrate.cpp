@@ -520,8 +520,15 @@ struct Session {
   }
 };
 
-/// The extrinsics of a KITTI calib.txt (--init) over the rig's; its intrinsics are not used.
+/// The extrinsics of --init over the rig's: a result file (BASE.yaml) or a KITTI calib.txt (e.g.
+/// BASE_calib.txt), whose intrinsics are not used.
 void applyInit(const std::string& path, StereoRig* rig) {
+  if (path.size() > 5 && path.compare(path.size() - 5, 5, ".yaml") == 0) {
+    const CalibrationFile init = readCalibrationYaml(path);
+    rig->T_cam_lidar = init.T_cam_lidar;
+    rig->T_right_left = init.T_right_left;
+    return;
+  }
   const StereoRig init = readCheckedOdometryRig(path);
   if (std::fabs(init.left.fx - rig->left.fx) > 1e-3)
     std::printf("note: %s has fx %.3f, the data %.3f: only its extrinsics are used\n", path.c_str(),

@@ -9,9 +9,12 @@
 #include <iomanip>
 #include <sstream>
 #include <utility>
+#include <vector>
 
+#include <yaml-cpp/yaml.h>
 #include <Eigen/Geometry>
 
+#include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/uncertainty/trust.h"
 
@@ -23,53 +26,59 @@ namespace {
 /// stays readable (17 would print 0.001 as 0.0010000000000000002).
 constexpr int kDigits = 12;
 
-/// A YAML float: NaN and infinities in YAML's spelling (.nan, .inf), not C++'s "nan".
-struct YamlNumber {
-  double v;
-};
-std::ostream& operator<<(std::ostream& os, YamlNumber n) {
-  if (std::isnan(n.v)) return os << ".nan";
-  if (std::isinf(n.v)) return os << (n.v > 0 ? ".inf" : "-.inf");
-  return os << n.v;
+void yamlList(YAML::Emitter& yaml, const char* key, const double* v, int n) {
+  yaml << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (int i = 0; i < n; ++i) yaml << v[i];
+  yaml << YAML::EndSeq;
 }
 
-void yamlBlock(std::ostream& yaml, const std::string& name, const std::string& parent,
+void yamlBlock(YAML::Emitter& yaml, const std::string& name, const std::string& parent,
                const std::string& child, const Eigen::Isometry3d& T, const Matrix6d& cov,
                bool cov_known, const bool observable[6], bool estimated,
                const WeakDirection& weakest) {
   const Eigen::Quaterniond q(T.linear());
-  yaml << name << ":\n  parent_frame: " << parent << "\n  child_frame: " << child
-       << "\n  estimated: " << (estimated ? "true" : "false") << "\n  translation: ["
-       << YamlNumber{T.translation().x()} << ", " << YamlNumber{T.translation().y()} << ", "
-       << YamlNumber{T.translation().z()} << "]\n  rotation_xyzw: [" << YamlNumber{q.x()} << ", "
-       << YamlNumber{q.y()} << ", " << YamlNumber{q.z()} << ", " << YamlNumber{q.w()} << "]\n";
+  const double xyzw[4] = {q.x(), q.y(), q.z(), q.w()};
+  yaml << YAML::Key << name << YAML::Value << YAML::BeginMap;
+  yaml << YAML::Key << "parent_frame" << YAML::Value << parent;
+  yaml << YAML::Key << "child_frame" << YAML::Value << child;
+  yaml << YAML::Key << "estimated" << YAML::Value << estimated;
+  yamlList(yaml, "translation", T.translation().data(), 3);
+  yamlList(yaml, "rotation_xyzw", xyzw, 4);
   // A solve that ended before its covariance has none (the topics' sigma -1): null here, and no
   // axis trusted, rather than the placeholder's numbers.
-  yaml << "  covariance_known: " << (cov_known ? "true" : "false") << "\n";
+  yaml << YAML::Key << "covariance_known" << YAML::Value << cov_known;
+  double sigma[6];
+  bool trusted[6];
+  for (int i = 0; i < 6; ++i) {
+    sigma[i] = std::sqrt(cov(i, i)) * (i < 3 ? kDegPerRad : 1.0);
+    // A given extrinsic constrains nothing from the data (as on the topics): no axis is trusted.
+    trusted[i] = cov_known && estimated && observable[i];
+  }
+  if (cov_known) {
+    yamlList(yaml, "sigma_rot_deg", sigma, 3);
+    yamlList(yaml, "sigma_trans_m", sigma + 3, 3);
+  } else {
+    yaml << YAML::Key << "sigma_rot_deg" << YAML::Value << YAML::Null;
+    yaml << YAML::Key << "sigma_trans_m" << YAML::Value << YAML::Null;
+  }
+  yaml << YAML::Key << "trusted_axes" << YAML::Value << YAML::Flow << YAML::BeginSeq;  // rx..tz
+  for (bool t : trusted) yaml << t;
+  yaml << YAML::EndSeq;
   if (!cov_known) {
-    yaml << "  sigma_rot_deg: null\n  sigma_trans_m: null\n  trusted_axes: [false, false, false, "
-            "false, false, false]\n  covariance_phi_tau: null\n";
+    yaml << YAML::Key << "covariance_phi_tau" << YAML::Value << YAML::Null << YAML::EndMap;
     return;
   }
-  yaml << "  sigma_rot_deg: [";
-  for (int i = 0; i < 3; ++i)
-    yaml << (i ? ", " : "") << YamlNumber{std::sqrt(cov(i, i)) * kDegPerRad};
-  yaml << "]\n  sigma_trans_m: [";
-  for (int i = 3; i < 6; ++i) yaml << (i > 3 ? ", " : "") << YamlNumber{std::sqrt(cov(i, i))};
-  yaml << "]\n  trusted_axes: [";  // rx ry rz tx ty tz
-  // A given extrinsic constrains nothing from the data (as on the topics): no axis is trusted.
-  for (int i = 0; i < 6; ++i)
-    yaml << (i ? ", " : "") << (estimated && observable[i] ? "true" : "false");
-  yaml << "]\n  covariance_phi_tau: [";
-  for (int i = 0; i < 36; ++i) yaml << (i ? ", " : "") << YamlNumber{cov(i / 6, i % 6)};
-  yaml << "]\n";
+  const Eigen::Matrix<double, 6, 6, Eigen::RowMajor> cov_rows = cov;
+  yamlList(yaml, "covariance_phi_tau", cov_rows.data(), 36);
   if (weakest.ratio > 0) {  // what the window constrained least, in trust-limit units
-    yaml << "  weakest_direction:\n    ratio_to_trust_limit: " << YamlNumber{weakest.ratio}
-         << "\n    in_words: \"" << describeDirection(weakest.direction)
-         << "\"\n    direction_scaled_phi_tau: [";
-    for (int i = 0; i < 6; ++i) yaml << (i ? ", " : "") << YamlNumber{weakest.direction[i]};
-    yaml << "]\n";
+    yaml << YAML::Key << "weakest_direction" << YAML::Value << YAML::BeginMap;
+    yaml << YAML::Key << "ratio_to_trust_limit" << YAML::Value << weakest.ratio;
+    yaml << YAML::Key << "in_words" << YAML::Value << YAML::DoubleQuoted
+         << describeDirection(weakest.direction);
+    yamlList(yaml, "direction_scaled_phi_tau", weakest.direction.data(), 6);
+    yaml << YAML::EndMap;
   }
+  yaml << YAML::EndMap;
 }
 
 void staticPublisher(std::ostream& launch, const std::string& name, const std::string& parent,
@@ -84,21 +93,86 @@ void staticPublisher(std::ostream& launch, const std::string& name, const std::s
 }  // namespace
 
 std::string calibrationYaml(const OnlineEstimate& e, const CalibrationFrames& frames) {
-  std::ostringstream yaml;
-  yaml << std::setprecision(kDigits)
-       << "# tescalib calibration (T_a_b maps points from b into a; covariance over\n"
-       << "# [phi_x phi_y phi_z tau_x tau_y tau_z] in rad and m, R = Exp(phi) R_est, t = t_est + "
-          "tau)\n"
-       << "converged: " << (e.converged ? "true" : "false")
-       << "\nkeyframes_used: " << e.keyframes_used << "\nstamp: " << std::fixed
-       << std::setprecision(9) << e.stamp << std::defaultfloat << std::setprecision(kDigits)
-       << "\n";
+  YAML::Emitter yaml;
+  yaml.SetDoublePrecision(kDigits);
+  yaml.SetNullFormat(YAML::LowerNull);
+  yaml << YAML::Comment("tescalib calibration (T_a_b maps points from b into a; covariance over")
+       << YAML::Newline
+       << YAML::Comment(
+              "[phi_x phi_y phi_z tau_x tau_y tau_z] in rad and m, R = Exp(phi) R_est, "
+              "t = t_est + tau)")
+       << YAML::Newline;
+  char stamp[64];
+  std::snprintf(stamp, sizeof stamp, "%.9f", e.stamp);  // seconds since 1970 to the nanosecond
+  yaml << YAML::BeginMap << YAML::Key << "converged" << YAML::Value << e.converged;
+  yaml << YAML::Key << "keyframes_used" << YAML::Value << e.keyframes_used;
+  yaml << YAML::Key << "stamp" << YAML::Value << stamp;
   yamlBlock(yaml, "T_cam_lidar", frames.left, frames.lidar, e.T_cam_lidar, e.cov_lidar,
             e.cov_lidar_known, e.observable_lidar, true, e.weakest_lidar);
   yamlBlock(yaml, "T_right_left", frames.right, frames.left, e.T_right_left, e.cov_stereo,
             e.cov_stereo_known, e.observable_stereo, e.stereo_estimated,
             e.stereo_estimated ? e.weakest_stereo : WeakDirection());
-  return yaml.str();
+  yaml << YAML::EndMap;
+  return std::string(yaml.c_str()) + "\n";
+}
+
+namespace {
+
+/// The `n` numbers of the list `key` of `block`; throws DataError naming the entry.
+std::vector<double> yamlNumbers(const YAML::Node& block, const std::string& name, const char* key,
+                                size_t n) {
+  const YAML::Node list = block[key];
+  if (!list.IsDefined() || !list.IsSequence() || list.size() != n)
+    throw DataError(name + "." + key + ": expected a list of " + std::to_string(n) + " numbers");
+  std::vector<double> v;
+  for (const YAML::Node& x : list) v.push_back(x.as<double>());
+  return v;
+}
+
+/// One extrinsic's block: its transform, frames and covariance (when known).
+void readYamlBlock(const YAML::Node& root, const std::string& name, Eigen::Isometry3d* T,
+                   std::string* parent, std::string* child, Matrix6d* cov, bool* cov_known,
+                   bool* estimated) {
+  const YAML::Node block = root[name];
+  if (!block.IsDefined() || !block.IsMap()) throw DataError("no " + name + " entry");
+  *parent = block["parent_frame"].as<std::string>("");
+  *child = block["child_frame"].as<std::string>("");
+  *estimated = block["estimated"].as<bool>(true);
+  const std::vector<double> t = yamlNumbers(block, name, "translation", 3);
+  const std::vector<double> q = yamlNumbers(block, name, "rotation_xyzw", 4);
+  const Eigen::Quaterniond quat(q[3], q[0], q[1], q[2]);
+  if (!std::isfinite(quat.norm()) || std::fabs(quat.norm() - 1.0) > 1e-6)
+    throw DataError(name + ".rotation_xyzw is not a unit quaternion");
+  T->setIdentity();
+  T->linear() = quat.normalized().toRotationMatrix();
+  T->translation() = Eigen::Vector3d(t[0], t[1], t[2]);
+  const YAML::Node cov_list = block["covariance_phi_tau"];
+  *cov_known =
+      block["covariance_known"].as<bool>(false) && cov_list.IsDefined() && !cov_list.IsNull();
+  cov->setZero();
+  if (!*cov_known) return;
+  const std::vector<double> c = yamlNumbers(block, name, "covariance_phi_tau", 36);
+  for (int i = 0; i < 36; ++i) (*cov)(i / 6, i % 6) = c[i];
+}
+
+}  // namespace
+
+CalibrationFile readCalibrationYaml(const std::string& path) {
+  CalibrationFile f;
+  try {
+    const YAML::Node root = YAML::LoadFile(path);
+    f.converged = root["converged"].as<bool>(false);
+    f.stamp = root["stamp"].as<double>(0.0);
+    readYamlBlock(root, "T_cam_lidar", &f.T_cam_lidar, &f.frames.left, &f.frames.lidar,
+                  &f.cov_lidar, &f.cov_lidar_known, &f.stereo_estimated);
+    readYamlBlock(root, "T_right_left", &f.T_right_left, &f.frames.right, &f.frames.left,
+                  &f.cov_stereo, &f.cov_stereo_known, &f.stereo_estimated);
+  } catch (const YAML::Exception& e) {
+    throw DataError(path + ": not a tescalib result file: " + e.what());
+  } catch (const DataError& e) {
+    throw DataError(path + ": " + e.what());
+  }
+  return f;
 }
 
 std::string staticTransformLaunch(const OnlineEstimate& e, const CalibrationFrames& frames) {

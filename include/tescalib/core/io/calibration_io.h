@@ -1,4 +1,4 @@
-// Writing a calibration result (ROS-free, plain text): the files the online node's ~save service
+// Writing and reading a calibration result (ROS-free): the files the online node's ~save service
 // and tescalib_calibrate write, so that a result of either can be read back the same way.
 //   BASE.yaml              both extrinsics (translation, quaternion xyzw), their 6x6 covariances
 //                          over [phi; tau], per-axis sigma and trust flags, converged
@@ -10,6 +10,9 @@
 
 #include <string>
 
+#include <Eigen/Geometry>
+
+#include "tescalib/core/common/geometry.h"
 #include "tescalib/core/common/types.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/online/online_calibrator.h"
@@ -27,6 +30,24 @@ std::string calibrationYaml(const OnlineEstimate& e, const CalibrationFrames& fr
 std::string staticTransformLaunch(const OnlineEstimate& e, const CalibrationFrames& frames);
 /// The rig's intrinsics with the estimate's extrinsics (see the file comment).
 KittiOdometryCalib calibrationAsKitti(const StereoRig& rig, const OnlineEstimate& e);
+
+/// A result file (BASE.yaml) read back: both extrinsics, their covariances over [phi; tau] and
+/// frames. A covariance the file gives as null (unknown) is left at zero with its flag false.
+struct CalibrationFile {
+  CalibrationFrames frames;
+  bool converged = false;
+  double stamp = 0;
+  Eigen::Isometry3d T_cam_lidar = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_right_left = Eigen::Isometry3d::Identity();
+  Matrix6d cov_lidar = Matrix6d::Zero(), cov_stereo = Matrix6d::Zero();
+  bool cov_lidar_known = false, cov_stereo_known = false;
+  bool stereo_estimated = false;
+};
+
+/// Reads a BASE.yaml that calibrationYaml wrote. Throws DataError naming the file and the entry
+/// that is missing or invalid (a rotation that is not a unit quaternion, a covariance not 36
+/// numbers).
+CalibrationFile readCalibrationYaml(const std::string& path);
 
 /// What is wrong with BASE as the files' common name ("" when nothing): empty, or a folder (a
 /// trailing '/'). writeCalibrationFiles refuses such a BASE with this message.
