@@ -10,7 +10,8 @@ PKGS=(ros-core rosbash libnodeletlib-dev libnodeletlib-tools libtf2-ros-dev libt
   librosbag-dev python3-rostest librostest-dev libgtest-dev python3-stereo-msgs
   python3-visualization-msgs python3-geometry-msgs python3-sensor-msgs
   libdiagnostic-updater-dev python3-diagnostic-msgs libdiagnostic-msgs-dev rviz python3-tf2-msgs
-  libstd-srvs-dev ros-std-srvs python3-std-srvs tf2-tools python3-rosgraph-msgs libyaml-cpp-dev cmake g++ make)
+  libstd-srvs-dev ros-std-srvs python3-std-srvs tf2-tools python3-rosgraph-msgs libyaml-cpp-dev
+  libcli11-dev nlohmann-json3-dev cmake g++ make)
 [ "${1:-}" = "--dev" ] && PKGS+=(clang-format catkin-lint)
 missing=()
 for p in "${PKGS[@]}"; do

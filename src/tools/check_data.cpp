@@ -7,7 +7,9 @@
 #include <iostream>
 #include <set>
 #include <string>
+#include <vector>
 
+#include "cli.h"
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/eval/lidar_stereo_agreement.h"
@@ -16,96 +18,112 @@
 #include "tescalib/core/stereo/row_alignment.h"
 #include "tescalib/core/stereo/stereo_cloud.h"
 
-int main(int argc, char** argv) {
-  const char* usage =
-      "usage: rosrun tescalib tescalib_check_data DIR [DIR...] DIR: a KITTI sequence\n"
-      "  (odometry or raw layout, or tescalib_simulate output). Prints the frames,\n"
-      "  keyframes and rings the reader sees, how well the data's own calibration\n"
-      "  predicts the stereo disparity (SGBM minus the LiDAR-predicted disparity by\n"
-      "  depth) and whether the right image's rows are where that calibration puts\n"
-      "  them, and the pair's contrast, clipped pixels and sharpness as the online\n"
-      "  node's image check sees them.\n";
-  if (argc < 2) {
-    std::cout << usage;
-    return 2;
-  }
-  for (int a = 1; a < argc; ++a)
-    if (std::string(argv[a]) == "-h" || std::string(argv[a]) == "--help") {
-      std::cout << usage;
-      return 0;
-    }
-  for (int a = 1; a < argc; ++a)
-    if (std::string(argv[a]).rfind("--", 0) == 0) {
-      std::cerr << "tescalib_check_data: unknown option " << argv[a] << " (give folders only)\n"
-                << usage;
-      return 2;
-    }
-  int bad = 0;
-  for (int a = 1; a < argc; ++a) {
-    try {
-      const tescalib::KittiSequence seq(argv[a]);
-      const auto& rig = seq.rig();
-      const auto kf = seq.keyframes(0.5);
-      const tescalib::Frame f = seq.load(0);
-      std::set<int> rings;
-      for (const auto& p : f.scan) rings.insert(p.ring);
-      const auto agree =
-          tescalib::lidarDisparityAgreement(f.scan, f.left, f.right, rig, rig.T_cam_lidar);
-      const Eigen::Vector3d rpy = tescalib::logSO3(rig.T_cam_lidar.linear()) * tescalib::kDegPerRad;
-      std::cout << std::fixed << std::setprecision(4) << argv[a] << "\n"
-                << "  layout "
-                << (seq.layout() == tescalib::KittiLayout::kOdometry ? "odometry" : "raw") << ", "
-                << seq.size() << " frames, " << kf.size() << " keyframes (>= 0.5 s apart), "
-                << rig.left.width << "x" << rig.left.height << ", fx " << rig.left.fx
-                << ", baseline " << rig.baseline() << " m\n"
-                << (seq.incompleteFrames().empty()
-                        ? ""
-                        : "  note: frames left out, their files or stamp incomplete (" +
-                              seq.incompleteFrames() + ")\n")
-                << "  T_cam_lidar: rotation vector [" << rpy.transpose() << "] deg, translation ["
-                << rig.T_cam_lidar.translation().transpose() << "] m\n"
-                << "  frame " << f.index << ": " << f.scan.size() << " LiDAR points, "
-                << rings.size() << " rings\n"
-                << "  LiDAR-predicted disparity vs images: " << agree.points << " textured points, "
-                << 100.0 * agree.fraction_within_1px << " % agree within 1 px, best global shift "
-                << agree.best_global_shift << " px\n";
-      {
-        const tescalib::StereoCloud sc =
-            tescalib::computeStereoCloud(f.left, f.right, rig, rig.T_right_left);
-        const tescalib::VerticalAlignment va =
-            tescalib::verticalAlignment(f.left, f.right, sc, rig, rig.T_right_left);
-        const tescalib::DisparityResidual dr =
-            tescalib::lidarDisparityResidual(f.scan, sc, rig.T_cam_lidar);
-        std::cout
-            << "  stereo (SGBM) minus LiDAR-predicted disparity at the dataset's calibration: "
+namespace {
+
+const char* const kUsage = "usage: rosrun tescalib tescalib_check_data DIR [DIR...]";
+const char* const kDescription =
+    "DIR: a KITTI sequence (odometry or raw layout, or tescalib_simulate output). Prints the "
+    "frames, keyframes and rings the reader sees, how well the data's own calibration predicts "
+    "the stereo disparity (SGBM minus the LiDAR-predicted disparity by depth) and whether the "
+    "right image's rows are where that calibration puts them, and the pair's contrast, clipped "
+    "pixels and sharpness as the online node's image check sees them.";
+
+/// What the reader sees: layout, frames, keyframes, image size, the calibration and the first
+/// frame's scan, and whether the calibration predicts the LiDAR points' disparity.
+void printReader(const std::string& dir, const tescalib::KittiSequence& seq,
+                 const tescalib::Frame& f) {
+  const auto& rig = seq.rig();
+  const auto kf = seq.keyframes(0.5);
+  std::set<int> rings;
+  for (const auto& p : f.scan) rings.insert(p.ring);
+  const auto agree =
+      tescalib::lidarDisparityAgreement(f.scan, f.left, f.right, rig, rig.T_cam_lidar);
+  const Eigen::Vector3d rpy = tescalib::logSO3(rig.T_cam_lidar.linear()) * tescalib::kDegPerRad;
+  std::cout << std::fixed << std::setprecision(4) << dir << "\n"
+            << "  layout "
+            << (seq.layout() == tescalib::KittiLayout::kOdometry ? "odometry" : "raw") << ", "
+            << seq.size() << " frames, " << kf.size() << " keyframes (>= 0.5 s apart), "
+            << rig.left.width << "x" << rig.left.height << ", fx " << rig.left.fx << ", baseline "
+            << rig.baseline() << " m\n"
+            << (seq.incompleteFrames().empty()
+                    ? ""
+                    : "  note: frames left out, their files or stamp incomplete (" +
+                          seq.incompleteFrames() + ")\n")
+            << "  T_cam_lidar: rotation vector [" << rpy.transpose() << "] deg, translation ["
+            << rig.T_cam_lidar.translation().transpose() << "] m\n"
+            << "  frame " << f.index << ": " << f.scan.size() << " LiDAR points, " << rings.size()
+            << " rings\n"
+            << "  LiDAR-predicted disparity vs images: " << agree.points << " textured points, "
+            << 100.0 * agree.fraction_within_1px << " % agree within 1 px, best global shift "
+            << agree.best_global_shift << " px\n";
+}
+
+/// The stereo pair at the data's calibration: SGBM against the LiDAR-predicted disparity by
+/// depth, the right image's rows against the calibration, and the images' quality.
+void printStereo(const tescalib::StereoRig& rig, const tescalib::Frame& f) {
+  const tescalib::StereoCloud sc =
+      tescalib::computeStereoCloud(f.left, f.right, rig, rig.T_right_left);
+  const tescalib::VerticalAlignment va =
+      tescalib::verticalAlignment(f.left, f.right, sc, rig, rig.T_right_left);
+  const tescalib::DisparityResidual dr =
+      tescalib::lidarDisparityResidual(f.scan, sc, rig.T_cam_lidar);
+  std::cout << "  stereo (SGBM) minus LiDAR-predicted disparity at the dataset's calibration: "
             << dr.points << " points, median " << std::showpos << dr.median_px << " px;"
             << std::noshowpos;
-        for (int b = 0; b < tescalib::DisparityResidual::kBins; ++b)
-          std::cout << std::defaultfloat << " " << tescalib::DisparityResidual::kBinEdges[b] << "-"
-                    << tescalib::DisparityResidual::kBinEdges[b + 1] << " m: " << std::fixed
-                    << std::setprecision(3) << std::showpos << dr.bin_median_px[b] << std::noshowpos
-                    << " (" << dr.bin_points[b] << ")";
-        std::cout << std::setprecision(4) << "\n";
-        std::cout << "  right-image rows vs the calibration (found - predicted v): " << va.points
-                  << " corners, median " << std::showpos << va.median_px << " px, fit "
-                  << va.offset_px << " " << va.slope_x_px << " x " << va.slope_y_px << " y px"
-                  << std::noshowpos << " (x, y normalised), spread " << va.spread_px << " px\n";
-        if (va.points > 0 && std::fabs(va.median_px) > 0.25)
-          std::cout << "  note: the rows disagree with the calibration by more than 0.25 px; SGBM "
-                       "matches along rows, so the disparities of oblique texture are biased\n";
-        tescalib::ImageQuality ql, qr;
-        const std::string problem = tescalib::pairQualityProblem(
-            f.left, f.right, tescalib::ImageQualitySettings{}, &ql, &qr);
-        std::cout << std::setprecision(2) << "  frame " << f.index
-                  << " images, left / right: contrast (grey std dev) " << ql.contrast << " / "
-                  << qr.contrast << ", black or saturated " << 100 * ql.clipped_fraction << " / "
-                  << 100 * qr.clipped_fraction << " %; sharpness right / left "
-                  << qr.sharpness / std::max(ql.sharpness, 1e-9) << std::setprecision(4) << "\n";
-        if (!problem.empty())
-          std::cout << "  note: with the default images/ parameters the online node would refuse "
-                       "this frame's pair: "
-                    << problem << "\n";
-      }
+  for (int b = 0; b < tescalib::DisparityResidual::kBins; ++b)
+    std::cout << std::defaultfloat << " " << tescalib::DisparityResidual::kBinEdges[b] << "-"
+              << tescalib::DisparityResidual::kBinEdges[b + 1] << " m: " << std::fixed
+              << std::setprecision(3) << std::showpos << dr.bin_median_px[b] << std::noshowpos
+              << " (" << dr.bin_points[b] << ")";
+  std::cout << std::setprecision(4) << "\n";
+  std::cout << "  right-image rows vs the calibration (found - predicted v): " << va.points
+            << " corners, median " << std::showpos << va.median_px << " px, fit " << va.offset_px
+            << " " << va.slope_x_px << " x " << va.slope_y_px << " y px" << std::noshowpos
+            << " (x, y normalised), spread " << va.spread_px << " px\n";
+  if (va.points > 0 && std::fabs(va.median_px) > 0.25)
+    std::cout << "  note: the rows disagree with the calibration by more than 0.25 px; SGBM "
+                 "matches along rows, so the disparities of oblique texture are biased\n";
+  tescalib::ImageQuality ql, qr;
+  const std::string problem =
+      tescalib::pairQualityProblem(f.left, f.right, tescalib::ImageQualitySettings{}, &ql, &qr);
+  std::cout << std::setprecision(2) << "  frame " << f.index
+            << " images, left / right: contrast (grey std dev) " << ql.contrast << " / "
+            << qr.contrast << ", black or saturated " << 100 * ql.clipped_fraction << " / "
+            << 100 * qr.clipped_fraction << " %; sharpness right / left "
+            << qr.sharpness / std::max(ql.sharpness, 1e-9) << std::setprecision(4) << "\n";
+  if (!problem.empty())
+    std::cout << "  note: with the default images/ parameters the online node would refuse "
+                 "this frame's pair: "
+              << problem << "\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app(kDescription, "tescalib_check_data");
+  tescalib::cli::setUp(&app, kUsage, "Options");
+  std::vector<std::string> dirs;
+  // Not ->required(): an unknown option alone is named as such, not as a missing DIR.
+  app.add_option("DIR", dirs, "KITTI sequences")->type_name("");
+  if (argc < 2) {
+    std::cout << app.help();
+    return 2;
+  }
+  if (!tescalib::cli::parse(&app, argc, argv)) {
+    std::cerr << "tescalib_check_data: --help lists the options\n";
+    return 2;
+  }
+  if (dirs.empty()) {
+    std::cerr << "tescalib_check_data: give at least one DIR (--help lists the options)\n";
+    return 2;
+  }
+  int bad = 0;
+  for (const std::string& dir : dirs) {
+    try {
+      const tescalib::KittiSequence seq(dir);
+      const tescalib::Frame f = seq.load(0);
+      printReader(dir, seq, f);
+      printStereo(seq.rig(), f);
     } catch (const tescalib::DataError& e) {
       std::cerr << "tescalib_check_data: " << e.what() << "\n";
       ++bad;

@@ -1,4 +1,6 @@
-// The command-line walk the tools share: "--key value" pairs, -h / --help, comma lists.
+// The tools' command lines: CLI11 apps whose options read their values whole (whole numbers,
+// finite numbers, 0|1 switches, comma lists), a help wrapped at 80 columns, and usage errors
+// reported on stderr as "TOOL: reason".
 #pragma once
 
 #include <cmath>
@@ -11,7 +13,10 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include <CLI/CLI.hpp>
 
 namespace tescalib::cli {
 
@@ -51,6 +56,16 @@ inline double toNonNegative(const std::string& s) {
   if (v < 0) throw std::invalid_argument(s);
   return v;
 }
+/// A whole number >= `min`.
+inline std::function<int(const std::string&)> atLeast(int min) {
+  return [min](const std::string& s) {
+    const int v = toInt(s);
+    if (v < min) throw std::invalid_argument(s);
+    return v;
+  };
+}
+/// The value as it is given (a name, a path).
+inline std::string text(const std::string& s) { return s; }
 
 /// A seed: decimal digits only, at most 2^53 (a JSON reader's double holds it exactly); "-1"
 /// (which std::stoull wraps to 2^64 - 1) or "1.5" throw std::invalid_argument.
@@ -69,33 +84,101 @@ inline std::string missingFolder(const std::string& path) {
   return !folder.empty() && !std::filesystem::is_directory(folder) ? folder.string() : "";
 }
 
-/// Calls `option(key, value)` for every "--key value" pair of argv; -h / --help prints `usage`
-/// and exits with 0. `option` returns false for a key it does not know; an exception from it
-/// (std::stoi on "abc", or thrown for a value out of range) is a bad value. Every problem is
-/// reported on stderr, prefixed with `tool`, and makes the result false.
-inline bool parseOptions(
-    int argc, char** argv, const char* tool, void (*usage)(),
-    const std::function<bool(const std::string& key, const std::string& value)>& option) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    if (k == "-h" || k == "--help") {
-      usage();
-      std::exit(0);
-    }
-    if (i + 1 >= argc) {
-      std::cerr << tool << ": " << k << " has no value, or is not an option (--help lists them)\n";
-      return false;
-    }
-    const std::string v = argv[++i];
-    try {
-      if (!option(k, v)) {
-        std::cerr << tool << ": unknown option " << k << "\n";
-        return false;
+/// `text` broken at spaces into lines of at most `width` characters; a longer word is broken
+/// after a "::" (a C++ name), else keeps its own line. The text's own line breaks are kept.
+inline std::string wrap(const std::string& text, size_t width) {
+  std::string out;
+  std::stringstream paragraphs(text);
+  for (std::string paragraph; std::getline(paragraphs, paragraph);) {
+    std::string line;
+    std::stringstream words(paragraph);
+    for (std::string word; words >> word;) {
+      // Pieces of one word follow each other without a space.
+      for (bool first_piece = true; !word.empty(); first_piece = false) {
+        const size_t scope = word.find("::");
+        const size_t cut =
+            word.size() > width && scope != std::string::npos ? scope + 2 : word.size();
+        const std::string piece = word.substr(0, cut);
+        word.erase(0, cut);
+        const size_t gap = line.empty() || !first_piece ? 0 : 1;
+        if (!line.empty() && line.size() + gap + piece.size() > width) {
+          out += line + "\n";
+          line.clear();
+        }
+        line += (line.empty() || !first_piece ? "" : " ") + piece;
       }
-    } catch (const std::exception&) {
-      std::cerr << tool << ": bad value '" << v << "' for " << k << "\n";
-      return false;
     }
+    out += line + "\n";
+  }
+  if (!out.empty()) out.pop_back();
+  return out;
+}
+
+/// The help: the usage line (as it is given), the tool's description, the options by group (their
+/// descriptions wrapped into the right-hand column) and the footer, all within 80 columns.
+class HelpFormatter : public CLI::Formatter {
+ public:
+  static constexpr size_t kColumns = 80;
+  explicit HelpFormatter(std::string usage) : usage_(std::move(usage)) { column_width(30); }
+  std::string make_help(const CLI::App* app, std::string, CLI::AppFormatMode mode) const override {
+    std::string help = usage_ + "\n" + wrap(app->get_description(), kColumns) + "\n" +
+                       make_positionals(app) + make_groups(app, mode);
+    if (!app->get_footer().empty()) help += "\n" + wrap(app->get_footer(), kColumns) + "\n";
+    // One blank line between groups (CLI11 puts two).
+    for (size_t at; (at = help.find("\n\n\n")) != std::string::npos;) help.erase(at, 1);
+    return help;
+  }
+  std::string make_option_desc(const CLI::Option* opt) const override {
+    return wrap(opt->get_description(), kColumns - get_column_width());
+  }
+
+ private:
+  std::string usage_;
+};
+
+/// An app for `tool`: `usage` and `description` head its help, an option given twice takes its
+/// last value, and -h / --help belongs to `help_group`.
+inline void setUp(CLI::App* app, const std::string& usage, const std::string& help_group) {
+  app->formatter(std::make_shared<HelpFormatter>(usage));
+  app->option_defaults()->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
+  app->get_help_ptr()->description("print this help and exit")->group(help_group);
+}
+
+/// Adds the option `name` (a value named `value_name` in the help) whose value `set` takes: an
+/// exception from it is "bad value 'VALUE' for NAME" unless it is a CLI::Error with its own
+/// reason.
+inline CLI::Option* add(CLI::App* app, const std::string& name, const std::string& value_name,
+                        std::function<void(const std::string&)> set, const std::string& help) {
+  auto callback = [name, set = std::move(set)](const std::string& value) {
+    try {
+      set(value);
+    } catch (const CLI::Error&) {
+      throw;
+    } catch (const std::exception&) {
+      throw CLI::ValidationError("bad value '" + value + "' for " + name);
+    }
+  };
+  return app->add_option_function<std::string>(name, callback, help)->type_name(value_name);
+}
+
+/// A setter that stores `convert(value)` in *target.
+template <class T, class Convert>
+std::function<void(const std::string&)> to(T* target, Convert convert) {
+  return [target, convert](const std::string& value) { *target = convert(value); };
+}
+
+/// Parses argv with `app`: -h / --help prints the help and exits with 0; a usage error (an unknown
+/// option, a missing or bad value) is reported on stderr, prefixed with the tool's name, and
+/// makes the result false.
+inline bool parse(CLI::App* app, int argc, char** argv) {
+  try {
+    app->parse(argc, argv);
+  } catch (const CLI::CallForHelp&) {
+    std::cout << app->help();
+    std::exit(0);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << app->get_name() << ": " << e.what() << "\n";
+    return false;
   }
   return true;
 }

@@ -54,9 +54,8 @@ struct Args {
   std::string windows = "first";  ///< first: the first W keyframes; disjoint: every W in turn
 };
 
-void usage();
-/// Parses argv into `a`; false (with the reason on stderr) for an unknown option, a bad value or
-/// a combination the tool refuses.
+/// Parses argv into `a` (--help prints the options and exits); false (with the reason on stderr)
+/// for an unknown option, a bad value or a combination the tool refuses.
 bool parse(int argc, char** argv, Args* a);
 
 }  // namespace tescalib::eval

@@ -14,11 +14,6 @@ namespace tescalib::eval {
 
 /// Median of v; NaN when v is empty.
 double median(std::vector<double> v);
-/// A JSON array of n numbers; a number that is not finite is written as null, never 0 (which
-/// would read as exact).
-std::string jsonArray(const double* v, int n);
-/// A number, or null when there is none (not a number).
-std::string jsonNumber(double v);
 
 /// Prints the summary of the trials and, with --json, writes the JSON; false (with the reason on
 /// stderr) when the JSON cannot be written.

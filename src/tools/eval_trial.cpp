@@ -8,13 +8,9 @@
 #include <memory>
 #include <random>
 
-#include <opencv2/imgproc.hpp>
-
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/parallel.h"
 #include "tescalib/core/eval/gicp_baseline.h"
-#include "tescalib/core/io/kitti_reader.h"
-#include "tescalib/core/lidar/scan_motion.h"
 #include "tescalib/core/solvers/co_calibration.h"
 #include "tescalib/core/solvers/joint_calibration.h"
 #include "tescalib/core/solvers/photometric_solver.h"
@@ -24,121 +20,6 @@
 namespace tescalib::eval {
 
 using Clock = std::chrono::steady_clock;
-
-bool loadData(const Args& args, EvalData* d) {
-  std::vector<std::unique_ptr<KittiSequence>> seqs;
-  std::vector<std::pair<size_t, size_t>> picked;  // (sequence, frame index) of the windows
-  try {
-    seqs = openSequences(args.sequences);
-    for (size_t si = 0; si < seqs.size(); ++si)
-      for (size_t i : seqs[si]->keyframes(0.5)) {
-        ++d->available;
-        if (args.windows == "disjoint" || static_cast<int>(picked.size()) < args.window)
-          picked.emplace_back(si, i);
-      }
-  } catch (const DataError& e) {
-    std::cerr << "tescalib_eval: " << e.what() << "\n";
-    return false;
-  }
-  d->rig = seqs.front()->rig();
-  d->window_size = args.windows == "disjoint" ? static_cast<size_t>(args.window) : picked.size();
-  d->n_windows = d->window_size > 0 ? picked.size() / d->window_size : 0;
-  if (d->n_windows == 0) {
-    std::cerr << "tescalib_eval: not enough keyframes (" << picked.size() << ") for one window of "
-              << d->window_size << "\n";
-    return false;
-  }
-  picked.resize(d->n_windows * d->window_size);
-  std::cout << "tescalib_eval: mode " << args.mode << ", method " << args.method << ", "
-            << picked.size() << " of the " << d->available << " keyframes of " << seqs.size()
-            << " sequence(s), " << d->n_windows << " window(s) of " << d->window_size << ", "
-            << args.trials << " trials, init " << args.init_rot_deg << " deg / "
-            << args.init_trans_m << " m, seed " << args.seed << "\n";
-
-  // Stereo clouds do not depend on the LiDAR extrinsic: computed once (stereo fixed at the
-  // ground truth in lidar_stereo mode). Meshes depend on the view filter of the initial guess and
-  // are rebuilt per trial.
-  d->kfs = KeyframeSettings{};
-  // The joint problem's photometric residuals intersect rays with any key point's face along its
-  // normal: it needs every face's normal fitted, not only the solvers' sample (held-out starts:
-  // 81.5 % with every face fitted, 72.2 % with the sample).
-  if (args.mode == "joint") d->kfs.mesh.sampled_faces = 0;
-  d->kfs.mesh.consistent_sample = args.consistent_sample;
-  // The command line's refinement rounds, over the LiDAR-stereo clouds' default and over the one
-  // co / joint match their clouds with (co-calibration's own: one exact round).
-  auto withRefineArgs = [&](DisparityRefinementSettings r) {
-    if (args.refine_iterations >= 0) r.iterations = args.refine_iterations;
-    if (args.refine_smoothed >= 0) r.smoothed_gradient_rounds = args.refine_smoothed;
-    return r;
-  };
-  d->kfs.stereo.refinement = withRefineArgs(d->kfs.stereo.refinement);
-  d->co_refinement = withRefineArgs(CoCalibrationSettings{}.stereo_cloud.refinement);
-  const bool co_clouds = args.mode == "co" || args.mode == "joint";
-  d->used_refinement = co_clouds ? d->co_refinement : d->kfs.stereo.refinement;
-  if (args.mode != "stereo")  // stereo mode matches no clouds
-    std::cout << "  stereo clouds: disparity refinement " << d->used_refinement.iterations
-              << " round(s), " << d->used_refinement.smoothed_gradient_rounds
-              << " of them with the smoothed gradient\n";
-  std::vector<Frame> frames;
-  try {
-    for (const auto& [si, fi] : picked) {
-      frames.push_back(seqs[si]->load(fi));
-      if (args.deskew > 0 || (args.deskew < 0 && seqs[si]->sweptScans())) {
-        // Constant velocity from this scan to the next frame's (or from the previous one's).
-        const KittiSequence& seq = *seqs[si];
-        if (seq.size() < 2) throw DataError(seq.dir() + ": --deskew needs two frames");
-        const size_t j = fi + 1 < seq.size() ? fi + 1 : fi - 1;
-        const LidarScan other = seq.loadScan(j);
-        const auto t_dk = std::chrono::steady_clock::now();
-        const ScanMotion m =
-            j > fi ? estimateScanMotion(frames.back().scan, other, seq.stamp(j) - seq.stamp(fi))
-                   : estimateScanMotion(other, frames.back().scan, seq.stamp(fi) - seq.stamp(j));
-        const double s_dk =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t_dk).count();
-        if (m.valid)
-          std::printf(
-              "  keyframe %zu: de-skewed, %.2f m/s, %.2f deg/s (registered with frame %d, "
-              "RMS %.3f m, %.2f s)\n",
-              frames.size() - 1, m.velocity.norm(), m.angular_velocity.norm() * kDegPerRad,
-              seq.frameId(j), m.rms_m, s_dk);
-        else
-          std::printf("  keyframe %zu: not de-skewed: %s\n", frames.size() - 1, m.message.c_str());
-        deskewScan(&frames.back().scan, m);  // Velodyne: clockwise, 10 Hz, triggered forward
-      }
-      keepEveryNthRing(&frames.back().scan, args.keep_rings);
-      Keyframe kf;
-      kf.stamp = frames.back().stamp;
-      kf.scan = frames.back().scan;
-      cv::cvtColor(frames.back().left, kf.left_gray, cv::COLOR_BGR2GRAY);
-      cv::cvtColor(frames.back().right, kf.right_gray, cv::COLOR_BGR2GRAY);
-      d->keyframes.push_back(std::move(kf));
-    }
-  } catch (const DataError& e) {
-    std::cerr << "tescalib_eval: " << e.what() << "\n";
-    return false;
-  }
-  if (args.mode == "lidar_stereo") {  // stereo: no cloud needed; co: computed per trial
-    // One keyframe per core at a time (as a window is preprocessed in a batch); the time
-    // charged to each window is its share of the wall-clock time.
-    const auto t_stereo = Clock::now();
-    parallelFor(static_cast<int>(d->keyframes.size()), resolveThreads(d->kfs.stereo.threads),
-                [&](int k) {
-                  d->keyframes[k].stereo = computeStereoCloud(
-                      frames[k].left, frames[k].right, d->rig, d->rig.T_right_left, d->kfs.stereo);
-                  d->keyframes[k].T_right_left_used = d->rig.T_right_left;
-                });
-    d->stereo_seconds = std::chrono::duration<double>(Clock::now() - t_stereo).count();
-    for (size_t k = 0; k < d->keyframes.size(); ++k) {
-      d->kf_stereo_seconds.push_back(d->stereo_seconds / d->keyframes.size());
-      const cv::Mat& disp = d->keyframes[k].stereo.disparity;
-      const double valid = double(cv::countNonZero(disp == disp)) / disp.total();  // NaN != NaN
-      std::printf("  keyframe %zu: %zu stereo points, %.0f %% valid disparity, SGBM %.3f s\n", k,
-                  d->keyframes[k].stereo.points.size(), 100 * valid,
-                  d->keyframes[k].stereo.seconds_sgbm);
-    }
-  }
-  return true;
-}
 
 LidarStereoSettings lidarSettings(const Args& args, const KeyframeSettings& kfs) {
   LidarStereoSettings solver_settings;
@@ -326,46 +207,51 @@ Eigen::Isometry3d solveLidar(const LidarStereoSettings& solver_settings,
 
 }  // namespace
 
-Trial runTrial(const Args& args, int t, const LidarStereoSettings& solver_settings, EvalData* dp) {
-  EvalData& d = *dp;
-  Trial tr;
-  tr.seed = args.seed * 1000003ULL + t;
-  std::mt19937_64 rng(tr.seed);
+namespace {
+
+/// Trial `t`'s initial guesses (seeded by --seed and t); returns the initial T_cam_lidar.
+Eigen::Isometry3d drawInitialGuess(const Args& args, int t, const EvalData& d, Trial* tr) {
+  tr->seed = args.seed * 1000003ULL + t;
+  std::mt19937_64 rng(tr->seed);
   const bool stereo_mode = args.mode == "stereo";
   const bool co_mode = args.mode == "co" || args.mode == "joint";
   const Vector6d main_delta =
       randomPerturbation(args.init_rot_deg / kDegPerRad, args.init_trans_m, rng);
-  Eigen::Isometry3d T_init = d.rig.T_cam_lidar;
   if (co_mode) {
-    tr.lidar.init = main_delta;
-    tr.stereo.init =
+    tr->lidar.init = main_delta;
+    tr->stereo.init =
         randomPerturbation(args.init_stereo_rot_deg / kDegPerRad, args.init_stereo_trans_m, rng);
   } else if (stereo_mode) {
-    tr.stereo.init = main_delta;
-    tr.lidar.init = randomPerturbation(args.lidar_rot_deg / kDegPerRad, args.lidar_trans_m, rng);
+    tr->stereo.init = main_delta;
+    tr->lidar.init = randomPerturbation(args.lidar_rot_deg / kDegPerRad, args.lidar_trans_m, rng);
   } else {
-    tr.lidar.init = main_delta;
+    tr->lidar.init = main_delta;
   }
-  T_init = perturb(d.rig.T_cam_lidar, tr.lidar.init);
   // The extrinsic the mode does not estimate is given: its error is where it was put.
-  if (stereo_mode) tr.lidar.estimated = false, tr.lidar.err = tr.lidar.init;
-  if (!stereo_mode && !co_mode) tr.stereo.estimated = false;
-  // Per-trial meshes, view-filtered with the initial guess (never the ground truth).
+  if (stereo_mode) tr->lidar.estimated = false, tr->lidar.err = tr->lidar.init;
+  if (!stereo_mode && !co_mode) tr->stereo.estimated = false;
+  return perturb(d.rig.T_cam_lidar, tr->lidar.init);
+}
+
+/// The trial's window (its keyframes in `mwin`, read-only in the result) with per-trial meshes,
+/// view-filtered with the initial guess (never the ground truth); sets the preprocessing time.
+std::vector<const Keyframe*> prepareWindow(const Args& args, int t, const Eigen::Isometry3d& T_init,
+                                           EvalData* dp, Trial* tr, std::vector<Keyframe*>* mwin) {
+  EvalData& d = *dp;
   const auto t_pre = Clock::now();
   const LidarMeshSettings ms = meshSettingsForView(d.rig, T_init, d.kfs);
-  tr.window_index = static_cast<int>(t % d.n_windows);
-  const size_t first = tr.window_index * d.window_size;
-  std::vector<Keyframe*> mwin;
+  tr->window_index = static_cast<int>(t % d.n_windows);
+  const size_t first = tr->window_index * d.window_size;
   double window_stereo_seconds = 0;
   for (size_t k = first; k < first + d.window_size; ++k) {
-    mwin.push_back(&d.keyframes[k]);
+    mwin->push_back(&d.keyframes[k]);
     if (k < d.kf_stereo_seconds.size()) window_stereo_seconds += d.kf_stereo_seconds[k];
   }
   // Co-calibration re-rectifies the keyframes' clouds in place and keeps its SGBM matches to
   // re-triangulate them: each trial starts from none, as if it were the only one (otherwise a
   // trial's start depended on the trials before it and --first-trial did not reproduce it).
-  if (co_mode)
-    for (Keyframe* kf : mwin) {
+  if (args.mode == "co" || args.mode == "joint")
+    for (Keyframe* kf : *mwin) {
       kf->stereo = StereoCloud{};
       kf->stereo_matched = StereoCloud{};
       kf->T_right_left_used = kf->T_right_left_matched = Eigen::Isometry3d::Identity();
@@ -373,38 +259,44 @@ Trial runTrial(const Args& args, int t, const LidarStereoSettings& solver_settin
   std::vector<const Keyframe*> window;
   LidarMeshSettings ms_one = ms;
   ms_one.threads = 1;  // one keyframe per core instead
-  parallelFor(static_cast<int>(mwin.size()), resolveThreads(ms.threads),
-              [&](int k) { mwin[k]->mesh = buildLidarMesh(mwin[k]->scan, ms_one); });
-  for (Keyframe* kfp : mwin) {
+  std::vector<Keyframe*>& w = *mwin;
+  parallelFor(static_cast<int>(w.size()), resolveThreads(ms.threads),
+              [&](int k) { w[k]->mesh = buildLidarMesh(w[k]->scan, ms_one); });
+  for (Keyframe* kfp : w) {
     if (t == args.first_trial)
       std::printf("  keyframe %zu: %zu LiDAR faces in view\n", window.size(),
                   kfp->mesh.faces.size());
     window.push_back(kfp);
   }
-  tr.preprocess =
+  tr->preprocess =
       std::chrono::duration<double>(Clock::now() - t_pre).count() + window_stereo_seconds;
-  const auto t_solve = Clock::now();
-  Eigen::Isometry3d T_est = T_init;
+  return window;
+}
+
+/// The mode's and method's solve; returns the LiDAR estimate (the initial guess where the mode
+/// does not estimate it). A solver that throws fails its trial, not the run.
+Eigen::Isometry3d solveTrial(const Args& args, const EvalData& d,
+                             const LidarStereoSettings& solver_settings,
+                             const std::vector<Keyframe*>& mwin,
+                             const std::vector<const Keyframe*>& window,
+                             const Eigen::Isometry3d& T_init, Trial& tr) {
   try {
-    if (co_mode) {
-      T_est = solveCo(args, d, solver_settings, mwin, T_init, tr);
-    } else if (stereo_mode) {
+    if (args.mode == "co" || args.mode == "joint")
+      return solveCo(args, d, solver_settings, mwin, T_init, tr);
+    if (args.mode == "stereo") {
       if (args.method == "features")
         solveStereoFeatures(d, window, tr);
       else
         solveStereo(args, d, window, T_init, tr);
-    } else if (args.method == "tescalib") {
-      T_est = solveLidar(solver_settings, window, T_init, tr);
-    } else {
-      const GicpBaselineResult r = solveGicpBaseline(window, T_init);
-      T_est = r.T_cam_lidar;
-      tr.converged = r.converged;
-      tr.lidar.cov = Matrix6d::Constant(std::nan(""));
+      return T_init;
     }
+    if (args.method == "tescalib") return solveLidar(solver_settings, window, T_init, tr);
+    const GicpBaselineResult r = solveGicpBaseline(window, T_init);
+    tr.converged = r.converged;
+    tr.lidar.cov = Matrix6d::Constant(std::nan(""));
+    return r.T_cam_lidar;
   } catch (const std::exception& ex) {
-    // A solver that throws fails its trial, not the run: the estimates stay where they started,
-    // with no covariance (left out of the NEES).
-    T_est = T_init;
+    // The estimates stay where they started, with no covariance (left out of the NEES).
     tr.converged = false;
     tr.message = std::string("the solve failed: ") + ex.what();
     tr.lidar.cov = tr.lidar.cov_stat = Matrix6d::Constant(std::nan(""));
@@ -412,7 +304,22 @@ Trial runTrial(const Args& args, int t, const LidarStereoSettings& solver_settin
       tr.stereo.err = tr.stereo.init;
       tr.stereo.cov = Matrix6d::Constant(std::nan(""));
     }
+    return T_init;
   }
+}
+
+}  // namespace
+
+Trial runTrial(const Args& args, int t, const LidarStereoSettings& solver_settings, EvalData* dp) {
+  const EvalData& d = *dp;
+  Trial tr;
+  const bool stereo_mode = args.mode == "stereo";
+  const bool co_mode = args.mode == "co" || args.mode == "joint";
+  const Eigen::Isometry3d T_init = drawInitialGuess(args, t, d, &tr);
+  std::vector<Keyframe*> mwin;
+  const std::vector<const Keyframe*> window = prepareWindow(args, t, T_init, dp, &tr, &mwin);
+  const auto t_solve = Clock::now();
+  const Eigen::Isometry3d T_est = solveTrial(args, d, solver_settings, mwin, window, T_init, tr);
   tr.solve = std::chrono::duration<double>(Clock::now() - t_solve).count();
   ExtrinsicOutcome& est = stereo_mode ? tr.stereo : tr.lidar;
   if (!stereo_mode) tr.lidar.err = poseError(T_est, d.rig.T_cam_lidar);

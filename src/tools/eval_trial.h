@@ -1,5 +1,5 @@
-// tescalib_eval's trials: the keyframes loaded once, one solve per perturbed initial guess, and
-// what each trial measured against the ground truth.
+// tescalib_eval's trials: one solve per perturbed initial guess, and what each trial measured
+// against the ground truth.
 #pragma once
 
 #include <cmath>
@@ -17,6 +17,7 @@
 #include "tescalib/core/uncertainty/trust.h"
 
 #include "eval_args.h"
+#include "eval_data.h"
 
 namespace tescalib::eval {
 
@@ -36,8 +37,6 @@ struct ExtrinsicOutcome {
   bool success() const {
     return err.head<3>().norm() * kDegPerRad < 0.2 && err.tail<3>().norm() < 0.03;
   }
-  /// This extrinsic's block of a trial in the JSON (eval_report.cpp).
-  std::string json() const;
 };
 
 struct Trial {
@@ -68,25 +67,6 @@ struct Trial {
   std::string message;
 };
 
-/// The evaluation's keyframes, loaded (and de-skewed) once; in lidar_stereo mode with their stereo
-/// clouds, which do not depend on the LiDAR extrinsic. Meshes depend on the view filter of each
-/// trial's initial guess and are rebuilt per trial.
-struct EvalData {
-  StereoRig rig;
-  std::vector<Keyframe> keyframes;
-  size_t available = 0;  ///< keyframes in all the sequences (the windows may use fewer)
-  size_t window_size = 0, n_windows = 0;
-  double stereo_seconds = 0;              ///< wall-clock time of all the stereo clouds
-  std::vector<double> kf_stereo_seconds;  ///< each keyframe's share of it
-  KeyframeSettings kfs;
-  /// The refinement of the clouds co / joint match (co-calibration's own, with the command
-  /// line's rounds), and the one the mode's clouds use (printed and written to the JSON).
-  DisparityRefinementSettings co_refinement, used_refinement;
-};
-
-/// Opens the sequences, cuts them into windows, loads the keyframes; false (with the reason on
-/// stderr) when the data cannot be read or does not fill one window.
-bool loadData(const Args& args, EvalData* d);
 /// The LiDAR-stereo solver's settings with the command line's study options.
 LidarStereoSettings lidarSettings(const Args& args, const KeyframeSettings& kfs);
 /// Trial `t`: its initial guess (seeded by --seed and t), its window's meshes, the solve, and

@@ -1,9 +1,9 @@
 // kitti_to_bag: writes a KITTI odometry or raw sequence to a rosbag with kitti2bag's topic and
 // frame names. Usage: rosbag-free of a master; see --help.
-#include <cstdlib>
+#include <cstdint>
 #include <iostream>
 #include <memory>
-#include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -16,88 +16,85 @@
 #include "tescalib/ros/kitti_bag_writer.h"
 
 namespace {
-void usage() {
-  std::cout << "usage: rosrun tescalib kitti_to_bag --in DIR[,DIR...] --out FILE.bag\n"
-               "         [--max-frames N] [--like-kitti2bag 0|1] [--stamp-offset-ns N]\n"
-               "  DIR: a KITTI odometry sequence (calib.txt, times.txt, image_2/, image_3/,\n"
-               "       velodyne/) or a KITTI raw drive folder (image_02/data, image_03/data,\n"
-               "       velodyne_points/data; calib_*.txt in it or in its parent).\n"
-               "  Several DIRs (one rig: the same calibration and image size) are written one\n"
-               "  after the other. A raw drive keeps its stamps and odometry stamps (from 0 s)\n"
-               "  are shifted to start at 1317384000 s (ROS times must be positive), unless that\n"
-               "  would not start at least 1 s after the last frame written: then the DIR starts\n"
-               "  1 s after it.\n"
-               "  Topics: /kitti/velo/pointcloud (velo_link; x y z intensity ring),\n"
-               "          /kitti/camera_color_{left,right}/{image_raw,camera_info} (P = the\n"
-               "          data's P2 / P3), /tf_static (base_link -> velo_link -> cameras)\n"
-               "  --like-kitti2bag 1: as kitti2bag's raw mode lays a bag out (imu_link above\n"
-               "  velo_link and the cameras, bgr8 images, x y z i clouds without ring), to check\n"
-               "  a pipeline against such bags.\n"
-               "  --max-frames N: at most the first N frames of each DIR (not of the whole bag).\n"
-               "  --stamp-offset-ns N: add N nanoseconds (0-999999999) to every stamp, so that\n"
-               "  they are not on the files' 0.1 s grid (tests of stamp handling).\n";
+
+using tescalib::cli::add;
+using tescalib::cli::to;
+
+const char* const kUsage =
+    "usage: rosrun tescalib kitti_to_bag --in DIR[,DIR...] --out FILE.bag [OPTIONS]";
+const char* const kDescription =
+    "DIR: a KITTI odometry sequence (calib.txt, times.txt, image_2/, image_3/, velodyne/) or a "
+    "KITTI raw drive folder (image_02/data, image_03/data, velodyne_points/data; calib_*.txt in "
+    "it or in its parent).\n"
+    "Several DIRs (one rig: the same calibration and image size) are written one after the "
+    "other. A raw drive keeps its stamps and odometry stamps (from 0 s) are shifted to start at "
+    "1317384000 s (ROS times must be positive), unless that would not start at least 1 s after "
+    "the last frame written: then the DIR starts 1 s after it.\n"
+    "Topics: /kitti/velo/pointcloud (velo_link; x y z intensity ring), "
+    "/kitti/camera_color_{left,right}/{image_raw,camera_info} (P = the data's P2 / P3), "
+    "/tf_static (base_link -> velo_link -> cameras).";
+
+struct Args {
+  std::string in, out;
+  tescalib::KittiBagOptions options;
+};
+
+void addOptions(CLI::App* app, Args* a) {
+  add(app, "--in", "DIR[,DIR...]", to(&a->in, tescalib::cli::text), "the sequences")->required();
+  add(app, "--out", "FILE.bag", to(&a->out, tescalib::cli::text), "the bag")->required();
+  add(
+      app, "--max-frames", "N",
+      [a](const std::string& v) {
+        try {
+          a->options.max_frames = tescalib::cli::atLeast(1)(v);
+        } catch (const std::exception&) {
+          throw CLI::ValidationError("--max-frames needs a whole number >= 1, not '" + v + "'");
+        }
+      },
+      "at most the first N frames of each DIR (not of the whole bag)");
+  add(
+      app, "--like-kitti2bag", "0|1",
+      [a](const std::string& v) {
+        if (v != "0" && v != "1")
+          throw CLI::ValidationError("--like-kitti2bag takes 0 or 1, not '" + v + "'");
+        a->options.like_kitti2bag = v == "1";
+      },
+      "1: as kitti2bag's raw mode lays a bag out (imu_link above velo_link and the cameras, bgr8 "
+      "images, x y z i clouds without ring), to check a pipeline against such bags");
+  add(
+      app, "--stamp-offset-ns", "N",
+      [a](const std::string& v) {
+        try {
+          const int ns = tescalib::cli::toInt(v);
+          if (ns < 0 || ns > 999999999) throw std::invalid_argument(v);
+          a->options.stamp_offset_nsec = static_cast<uint32_t>(ns);
+        } catch (const std::exception&) {
+          throw CLI::ValidationError("--stamp-offset-ns needs a whole number 0-999999999, not '" +
+                                     v + "'");
+        }
+      },
+      "add N nanoseconds (0-999999999) to every stamp, so that they are not on the files' 0.1 s "
+      "grid (tests of stamp handling)");
 }
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string in, out;
-  tescalib::KittiBagOptions options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::cerr << "kitti_to_bag: " << a << " needs a value\n";
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "--in")
-      in = next();
-    else if (a == "--out")
-      out = next();
-    else if (a == "--max-frames") {
-      const std::string v = next();
-      try {
-        options.max_frames = tescalib::cli::toInt(v);
-        if (options.max_frames < 1) throw std::invalid_argument(v);
-      } catch (const std::exception&) {
-        std::cerr << "kitti_to_bag: --max-frames needs a whole number >= 1, not '" << v << "'\n";
-        return 2;
-      }
-    } else if (a == "--stamp-offset-ns") {
-      const std::string v = next();
-      try {
-        const int ns = tescalib::cli::toInt(v);
-        if (ns < 0 || ns > 999999999) throw std::invalid_argument(v);
-        options.stamp_offset_nsec = static_cast<uint32_t>(ns);
-      } catch (const std::exception&) {
-        std::cerr << "kitti_to_bag: --stamp-offset-ns needs a whole number 0-999999999, not '" << v
-                  << "'\n";
-        return 2;
-      }
-    } else if (a == "--like-kitti2bag") {
-      const std::string v = next();
-      if (v != "0" && v != "1") {
-        std::cerr << "kitti_to_bag: --like-kitti2bag takes 0 or 1, not '" << v << "'\n";
-        return 2;
-      }
-      options.like_kitti2bag = v == "1";
-    } else if (a == "-h" || a == "--help") {
-      usage();
-      return 0;
-    } else {
-      std::cerr << "kitti_to_bag: unknown argument " << a << " (--help lists the options)\n";
-      return 2;
-    }
-  }
-  if (in.empty() || out.empty()) {
-    if (argc == 1) {  // no arguments at all: what the tool takes
-      usage();
-      return 2;
-    }
-    std::cerr << "kitti_to_bag: --in and --out are required (--help lists the options)\n";
+  CLI::App app(kDescription, "kitti_to_bag");
+  tescalib::cli::setUp(&app, kUsage, "Options");
+  Args args;
+  addOptions(&app, &args);
+  if (argc == 1) {  // no arguments at all: what the tool takes
+    std::cout << app.help();
     return 2;
   }
+  if (!tescalib::cli::parse(&app, argc, argv)) {
+    std::cerr << "kitti_to_bag: --help lists the options\n";
+    return 2;
+  }
+  const std::string& in = args.in;
+  const std::string& out = args.out;
+  const tescalib::KittiBagOptions& options = args.options;
   ros::Time::init();
   try {
     const std::vector<std::string> dirs = tescalib::cli::splitList(in);
