@@ -42,7 +42,7 @@ std::vector<KeyPoint> selectKeyPoints(const Keyframe& kf, const MeshDepth& md,
   if (static_cast<int>(out.size()) > s.max_keypoints_per_keyframe) {
     std::vector<KeyPoint> kept;
     // Evenly over the list, exactly max_keypoints_per_keyframe of them (an accumulated
-    // floating-point step kept one more now and then).
+    // floating-point step would keep one more now and then).
     const size_t n = out.size(), m = static_cast<size_t>(s.max_keypoints_per_keyframe);
     kept.reserve(m);
     for (size_t k = 0; k < m; ++k) kept.push_back(out[k * n / m]);
