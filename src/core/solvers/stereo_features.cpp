@@ -7,7 +7,6 @@
 
 #include <ceres/ceres.h>
 #include <ceres/sphere_manifold.h>
-#include <Eigen/Eigenvalues>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/video/tracking.hpp>
@@ -16,6 +15,7 @@
 #include "tescalib/core/common/parallel.h"
 #include "tescalib/core/common/timing.h"
 #include "tescalib/core/solvers/residuals/sampson_epipolar.h"
+#include "tescalib/core/uncertainty/ceres_covariance.h"
 
 namespace tescalib {
 namespace {
@@ -82,56 +82,55 @@ double sampsonPx(const Match& m, const Eigen::Matrix3d& R, const Eigen::Vector3d
   return r;
 }
 
-}  // namespace
-
-FeatureStereoResult estimateStereoFromFeatures(const std::vector<const Keyframe*>& window,
-                                               const StereoRig& rig,
-                                               const Eigen::Isometry3d& T_right_left_guess,
-                                               const FeatureStereoSettings& s) {
-  const auto t0 = std::chrono::steady_clock::now();
-  FeatureStereoResult res;
-  res.T_right_left = T_right_left_guess;
-  const double length = T_right_left_guess.translation().norm();
-  auto done = [&](const std::string& why) {
-    res.message = why;
-    res.seconds = secondsSince(t0);
-    return res;
-  };
-  if (!rig.left.valid() || !rig.right.valid()) return done("invalid camera intrinsics");
-  if (!(length > 0) || !std::isfinite(length)) return done("the guess has no baseline length");
+/// Why the inputs give no estimate ("" when they can): intrinsics, the guess' baseline length,
+/// the settings' ranges and the keyframes' images.
+std::string inputProblem(const std::vector<const Keyframe*>& window, const StereoRig& rig,
+                         double length, const FeatureStereoSettings& s) {
+  if (!rig.left.valid() || !rig.right.valid()) return "invalid camera intrinsics";
+  if (!(length > 0) || !std::isfinite(length)) return "the guess has no baseline length";
   if (s.max_features_per_image < 8 || s.refine_window_px < 3 || !(s.ratio_test > 0) ||
       !(s.ratio_test <= 1) || !(s.max_forward_backward_px > 0) || !(s.ransac_threshold_px > 0) ||
       !(s.huber_px > 0) || s.min_inliers < 8)
-    return done(
-        "settings out of range (max_features_per_image >= 8, refine_window_px >= 3, ratio_test "
-        "in (0, 1], thresholds > 0, min_inliers >= 8)");
+    return "settings out of range (max_features_per_image >= 8, refine_window_px >= 3, ratio_test "
+           "in (0, 1], thresholds > 0, min_inliers >= 8)";
   for (const Keyframe* kf : window) {
     if (kf->left_gray.empty() && kf->right_gray.empty()) continue;  // no images: no matches
     if (kf->left_gray.type() != CV_8UC1 || kf->right_gray.type() != CV_8UC1 ||
         kf->left_gray.cols != rig.left.width || kf->left_gray.rows != rig.left.height ||
         kf->right_gray.cols != rig.right.width || kf->right_gray.rows != rig.right.height)
-      return done("a keyframe's grey images are not 8-bit or not of the rig's size");
+      return "a keyframe's grey images are not 8-bit or not of the rig's size";
   }
+  return "";
+}
 
+/// The matches of every keyframe of the window, in window order (matchKeyframe in parallel).
+std::vector<Match> matchWindow(const std::vector<const Keyframe*>& window, const StereoRig& rig,
+                               const FeatureStereoSettings& s) {
   std::vector<std::vector<Match>> per_kf(window.size());
-  try {
-    parallelFor(static_cast<int>(window.size()), resolveThreads(s.threads),
-                [&](int i) { per_kf[i] = matchKeyframe(*window[i], rig, s); });
-  } catch (const cv::Exception& e) {
-    return done(std::string("feature matching failed: ") + e.what());
-  }
+  parallelFor(static_cast<int>(window.size()), resolveThreads(s.threads),
+              [&](int i) { per_kf[i] = matchKeyframe(*window[i], rig, s); });
   std::vector<Match> all;
   for (const auto& v : per_kf) all.insert(all.end(), v.begin(), v.end());
-  res.matches = static_cast<int>(all.size());
-  if (res.matches < s.min_inliers) {
-    char buf[160];
-    std::snprintf(buf, sizeof buf, "%d left-right feature matches in the window (%d needed)",
-                  res.matches, s.min_inliers);
-    return done(buf);
-  }
+  return all;
+}
 
-  // Essential matrix by RANSAC in normalised coordinates.
-  const double f = 0.5 * (rig.left.fx + rig.right.fx);
+Eigen::Matrix3d toEigen(const cv::Mat& m) {
+  Eigen::Matrix3d e;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) e(r, c) = m.at<double>(r, c);
+  return e;
+}
+
+/// The epipolar geometry of the pair: the right camera's rotation and the unit baseline direction.
+struct Epipolar {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+};
+
+/// The essential matrix by RANSAC over the matches (normalised coordinates, focal length `f` for
+/// the pixel threshold) and of its four poses the one nearest `guess`; "" or why there is none.
+std::string essentialPose(const std::vector<Match>& all, double f, const Eigen::Isometry3d& guess,
+                          const FeatureStereoSettings& s, Epipolar* pose) {
   std::vector<cv::Point2d> pl(all.size()), pr(all.size());
   for (size_t i = 0; i < all.size(); ++i) {
     pl[i] = {all[i].x_l.x(), all[i].x_l.y()};
@@ -142,34 +141,59 @@ FeatureStereoResult estimateStereoFromFeatures(const std::vector<const Keyframe*
     E = cv::findEssentialMat(pl, pr, cv::Mat::eye(3, 3, CV_64F), cv::RANSAC, 0.999,
                              s.ransac_threshold_px / f, mask);
   } catch (const cv::Exception& e) {
-    return done(std::string("essential matrix: ") + e.what());
+    return std::string("essential matrix: ") + e.what();
   }
   // findEssentialMat stacks several 3x3 solutions when the 5-point solver finds more than one;
   // the first is RANSAC's best.
-  if (E.rows < 3 || E.cols != 3) return done("no essential matrix fits the matches");
+  if (E.rows < 3 || E.cols != 3) return "no essential matrix fits the matches";
   E = E.rowRange(0, 3).clone();
   // Of E's four poses, the rotation nearer the guess and the baseline on the guess' side: with
   // most matches far away, cheirality alone can pick the mirrored baseline (real KITTI 2011_10_03
   // did, its rotation 0.13 deg off).
   cv::Mat R1, R2, tcv;
   cv::decomposeEssentialMat(E, R1, R2, tcv);
-  auto toEigen = [](const cv::Mat& m) {
-    Eigen::Matrix3d e;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) e(r, c) = m.at<double>(r, c);
-    return e;
-  };
-  const Eigen::Matrix3d Rg = T_right_left_guess.linear();
+  const Eigen::Matrix3d Rg = guess.linear();
   const Eigen::Matrix3d Ra = toEigen(R1), Rb = toEigen(R2);
-  Eigen::Matrix3d R =
-      logSO3(Ra * Rg.transpose()).norm() <= logSO3(Rb * Rg.transpose()).norm() ? Ra : Rb;
-  Eigen::Vector3d t(tcv.at<double>(0), tcv.at<double>(1), tcv.at<double>(2));
-  if (t.dot(T_right_left_guess.translation()) < 0) t = -t;
+  pose->R = logSO3(Ra * Rg.transpose()).norm() <= logSO3(Rb * Rg.transpose()).norm() ? Ra : Rb;
+  pose->t = Eigen::Vector3d(tcv.at<double>(0), tcv.at<double>(1), tcv.at<double>(2));
+  if (pose->t.dot(guess.translation()) < 0) pose->t = -pose->t;
+  return "";
+}
 
-  // Sampson refinement on the inliers, twice (the inliers re-selected with the refined pose).
+/// The covariance of the Sampson refinement's rotation correction and baseline direction (its
+/// tangent space), for unit residual variance.
+struct EpipolarCovariance {
+  Eigen::Matrix3d rotation = Eigen::Matrix3d::Zero();
+  Eigen::Matrix2d direction = Eigen::Matrix2d::Zero();
+};
+
+/// Ceres' covariance of the solved refinement `problem` at `phi` (rotation) and `tv` (unit
+/// direction); a huge one when it cannot be computed.
+EpipolarCovariance epipolarCovariance(ceres::Problem* problem, const double* phi, const double* tv,
+                                      int threads) {
+  ceres::Covariance::Options co;
+  co.num_threads = threads;
+  std::vector<RowMajorMatrixXd> c;
+  EpipolarCovariance out;
+  if (blockCovariances(problem, {phi, tv}, co, &c)) {
+    // Ceres' row-major blocks read column-major (their transposes: symmetric up to rounding).
+    out.rotation = c[0].transpose();
+    out.direction = c[1].transpose();
+  } else {
+    out.rotation.setConstant(1e6), out.direction.setConstant(1e6);
+  }
+  return out;
+}
+
+/// Refines `pose` on the matches within the RANSAC threshold by the Sampson distance (Huber),
+/// twice, the inliers re-selected with the refined pose; returns the last inliers (fewer than
+/// min_inliers: `pose` and `cov` as the last full pass left them) and sets `cov` from the second.
+std::vector<int> refineSampson(const std::vector<Match>& all, double f,
+                               const FeatureStereoSettings& s, Epipolar* pose,
+                               EpipolarCovariance* cov) {
+  Eigen::Matrix3d& R = pose->R;
+  Eigen::Vector3d& t = pose->t;
   std::vector<int> inl;
-  Eigen::Matrix3d cov_phi = Eigen::Matrix3d::Zero();
-  Eigen::Matrix2d cov_dir = Eigen::Matrix2d::Zero();
   for (int pass = 0; pass < 2; ++pass) {
     inl.clear();
     for (size_t i = 0; i < all.size(); ++i)
@@ -189,22 +213,61 @@ FeatureStereoResult estimateStereoFromFeatures(const std::vector<const Keyframe*
     ceres::Solve(opt, &problem, &summary);
     R = expSO3(Eigen::Vector3d(phi[0], phi[1], phi[2])) * R;
     t = Eigen::Vector3d(tv[0], tv[1], tv[2]).normalized();
-    if (pass == 1) {
-      ceres::Covariance::Options co;
-      co.num_threads = opt.num_threads;
-      ceres::Covariance cov(co);
-      std::vector<std::pair<const double*, const double*>> blocks = {{phi, phi}, {tv, tv}};
-      if (cov.Compute(blocks, &problem)) {
-        double C[9], D[4];
-        cov.GetCovarianceBlockInTangentSpace(phi, phi, C);
-        cov.GetCovarianceBlockInTangentSpace(tv, tv, D);
-        cov_phi = Eigen::Map<Eigen::Matrix3d>(C);
-        cov_dir = Eigen::Map<Eigen::Matrix2d>(D);
-      } else {
-        cov_phi.setConstant(1e6), cov_dir.setConstant(1e6);
-      }
-    }
+    if (pass == 1) *cov = epipolarCovariance(&problem, phi, tv, opt.num_threads);
   }
+  return inl;
+}
+
+/// The inliers' RMS Sampson residual and the largest 1-sigma of the rotation and of the baseline
+/// direction (deg), Ceres' covariance scaled by the residuals' variance.
+void epipolarUncertainty(const std::vector<Match>& all, const std::vector<int>& inl,
+                         const Epipolar& pose, double f, const EpipolarCovariance& cov,
+                         FeatureStereoResult* res) {
+  double ss = 0;
+  for (int i : inl) ss += std::pow(sampsonPx(all[i], pose.R, pose.t, f), 2);
+  res->rms_px = std::sqrt(ss / inl.size());
+  // Ceres' covariance assumes unit residual variance: scale by the residuals' own.
+  const double var = res->rms_px * res->rms_px;
+  res->sigma_rot_deg = largestSigma<3>(cov.rotation * var) * kDegPerRad;
+  res->sigma_direction_deg = largestSigma<2>(cov.direction * var) * kDegPerRad;
+}
+
+}  // namespace
+
+FeatureStereoResult estimateStereoFromFeatures(const std::vector<const Keyframe*>& window,
+                                               const StereoRig& rig,
+                                               const Eigen::Isometry3d& T_right_left_guess,
+                                               const FeatureStereoSettings& s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  FeatureStereoResult res;
+  res.T_right_left = T_right_left_guess;
+  const double length = T_right_left_guess.translation().norm();
+  auto done = [&](const std::string& why) {
+    res.message = why;
+    res.seconds = secondsSince(t0);
+    return res;
+  };
+  const std::string input_problem = inputProblem(window, rig, length, s);
+  if (!input_problem.empty()) return done(input_problem);
+  std::vector<Match> all;
+  try {
+    all = matchWindow(window, rig, s);
+  } catch (const cv::Exception& e) {
+    return done(std::string("feature matching failed: ") + e.what());
+  }
+  res.matches = static_cast<int>(all.size());
+  if (res.matches < s.min_inliers) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "%d left-right feature matches in the window (%d needed)",
+                  res.matches, s.min_inliers);
+    return done(buf);
+  }
+  const double f = 0.5 * (rig.left.fx + rig.right.fx);
+  Epipolar pose;
+  const std::string no_pose = essentialPose(all, f, T_right_left_guess, s, &pose);
+  if (!no_pose.empty()) return done(no_pose);
+  EpipolarCovariance cov;
+  const std::vector<int> inl = refineSampson(all, f, s, &pose, &cov);
   res.inliers = static_cast<int>(inl.size());
   if (res.inliers < s.min_inliers) {
     char buf[160];
@@ -213,23 +276,9 @@ FeatureStereoResult estimateStereoFromFeatures(const std::vector<const Keyframe*
                   res.matches, s.min_inliers);
     return done(buf);
   }
-  double ss = 0;
-  for (int i : inl) ss += std::pow(sampsonPx(all[i], R, t, f), 2);
-  res.rms_px = std::sqrt(ss / inl.size());
-  // Ceres' covariance assumes unit residual variance: scale by the residuals' own.
-  const double var = res.rms_px * res.rms_px;
-  res.sigma_rot_deg =
-      std::sqrt(std::max(
-          0.0,
-          Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov_phi * var).eigenvalues().maxCoeff())) *
-      kDegPerRad;
-  res.sigma_direction_deg =
-      std::sqrt(std::max(
-          0.0,
-          Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(cov_dir * var).eigenvalues().maxCoeff())) *
-      kDegPerRad;
-  res.T_right_left.linear() = R;
-  res.T_right_left.translation() = t * length;
+  epipolarUncertainty(all, inl, pose, f, cov, &res);
+  res.T_right_left.linear() = pose.R;
+  res.T_right_left.translation() = pose.t * length;
   if (res.sigma_rot_deg > s.max_sigma_rot_deg ||
       res.sigma_direction_deg > s.max_sigma_direction_deg) {
     char buf[200];

@@ -11,8 +11,8 @@
 //   the matched pixel), so a change of T_right_left moves the stereo points inside the solve.
 //   What the linearisation leaves out (second order, the baseline direction, SGBM itself) is
 //   handled by re-rectifying between outer iterations when T_right_left's rotation or direction
-//   moved by more than `co.rerectify_deg`. Re-rectifying alone (no rotation term) was measured
-//   first: the outer loop then contracted by only ~0.7 per iteration, because the yaw of the
+//   moved by more than `co.rerectify_deg`. Re-rectifying alone (no rotation term) is not enough:
+//   the outer loop then contracts by only ~0.7 per iteration, because the yaw of the
 //   right camera (a constant disparity offset) and the LiDAR's forward offset pull on each other
 //   through the clouds, which a solve that holds the clouds fixed cannot see.
 #pragma once
@@ -36,19 +36,18 @@ struct JointCalibrationSettings {
   /// alternation's (in the joint problem each residual set also pulls the other extrinsic, with
   /// the model errors of its own). Fitted by the method of moments on the converged of the co
   /// benchmark's 30 starts (doc/co_calibration.md); the model_sigma_* below.
-  /// The co-calibration LiDAR model error these were fitted on top of (CoCalibrationSettings'
-  /// until session 29, when co-calibration began to propagate the stereo pair's uncertainty into
-  /// the LiDAR covariance, which the joint covariance solves do not); used instead of
+  /// The co-calibration LiDAR model error these were fitted on top of: the one of a
+  /// co-calibration that does not propagate the stereo pair's uncertainty into the LiDAR
+  /// covariance, as the joint covariance solves do not; used instead of
   /// CoCalibrationSettings::model_sigma_lidar_*.
   std::array<double, 3> co_model_sigma_lidar_rot_deg = {0.0187, 0.0063, 0.0186};
   std::array<double, 3> co_model_sigma_lidar_trans_m = {0.0019, 0.0019, 0.00275};
-  /// The same for the co-calibration stereo model error (CoCalibrationSettings' until session 30,
-  /// refitted there); used instead of CoCalibrationSettings::model_sigma_stereo_*.
+  /// The same for the co-calibration stereo model error the joint one was fitted on top of; used
+  /// instead of CoCalibrationSettings::model_sigma_stereo_*.
   std::array<double, 3> co_model_sigma_stereo_rot_deg = {0.0, 0.0, 0.0};
   std::array<double, 3> co_model_sigma_stereo_trans_m = {0.0007, 0.00027, 0.00019};
-  /// Session 35 (the two initial rounds below): refitted on the 29 converged of the benchmark's
-  /// 30 starts; held-out check, 54 starts: mean NEES 4.55 (2.99 with session 11's values, 6.98
-  /// without a joint model error).
+  /// Fitted with the two initial rounds below on the 29 converged of the benchmark's 30 starts;
+  /// held-out check, 54 starts: mean NEES 4.55 (6.98 without a joint model error).
   std::array<double, 3> model_sigma_lidar_rot_deg = {0.0099, 0.0106, 0.0};
   std::array<double, 3> model_sigma_lidar_trans_m = {0.00121, 0.00400, 0.0};
   std::array<double, 3> model_sigma_stereo_rot_deg = {0.0027, 0.0018, 0.0015};
@@ -63,13 +62,13 @@ struct JointCalibrationSettings {
 /// first. The rounds run without the alternation's yaw handover, split-window check, sensitivity
 /// to the pair and second opinion; the joint estimate gets the second opinion at the end (when
 /// it moved CoCalibrationSettings::confirm_beyond_* from the guess), and is converged only when
-/// its two covariance solves (below) converged at it. Session 35: one photometric-first round
-/// (until then) left 10 of the 30 benchmark starts unconverged (2 with too few LiDAR residuals
-/// after a round-1 pair 0.2-0.25 deg off, 8 still moving after 15 outer iterations); the two rounds
-/// converge on 29. Then it runs the joint outer iterations. Returns the co-calibration result type:
+/// its two covariance solves (below) converged at it. On the co benchmark's 30 starts the two
+/// rounds converge on 29; one photometric-first round leaves 10 unconverged (2 with too few LiDAR
+/// residuals after a round-1 pair 0.2-0.25 deg off, 8 still moving after 15 outer
+/// iterations). Then it runs the joint outer iterations. Returns the co-calibration result type:
 /// `lidar.T_cam_lidar`, `stereo.T_right_left`, their covariances (co-calibration's, evaluated at
 /// the joint estimate by one warm solve of each kind, plus the joint model error above; the joint
-/// problem's own marginals were over-confident), the trust flags of those solves, `rounds` = outer
+/// problem's own marginals are over-confident), the trust flags of those solves, `rounds` = outer
 /// iterations, `stable` = the last update was below the tolerance; `lidar_covariance_given_stereo`
 /// is the LiDAR covariance (the joint one does not propagate the pair's), `features`,
 /// `rectifications` and `rematches` count the initial rounds too, the alternation's other

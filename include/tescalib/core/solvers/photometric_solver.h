@@ -47,7 +47,7 @@ struct PhotometricSettings {
   std::array<double, 3> model_sigma_trans_m = {0.00016, 0.00028, 0.00018};
   /// Photo-consistency: a solve is declared converged only when its median key point pattern
   /// residual is at most this share of the same with the right image looked up 4 px off
-  /// (PhotometricResult::consistency_ratio). Measured (session 20): 0.14 on generated windows and
+  /// (PhotometricResult::consistency_ratio). Measured: 0.14 on generated windows and
   /// 0.25-0.29 on the real KITTI ones at their estimates, 0.94-0.995 for starts 2-3 deg off that
   /// matched nothing and whose covariance still said 0.003 deg.
   double max_consistency_ratio = 0.6;

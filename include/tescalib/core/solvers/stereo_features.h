@@ -1,8 +1,8 @@
 // A depth-free estimate of the stereo pair's rotation and baseline direction from left-right
 // feature matches (an addition to the paper). The photometric left-right solve needs key point
 // depth from the LiDAR; with the LiDAR extrinsic far off (10 deg / 1 m) that depth is so wrong that
-// the solve ends away from the truth (generated windows: the baseline direction up to 22 deg off,
-// session 27), and the stereo clouds rectified with it mislead the LiDAR-stereo solve. Matches
+// the solve ends away from the truth (generated windows: the baseline direction up to 22 deg
+// off), and the stereo clouds rectified with it mislead the LiDAR-stereo solve. Matches
 // between the left and the right image constrain R and the direction of t through the epipolar
 // constraint alone, whatever the LiDAR says; the baseline length stays the caller's.
 #pragma once
