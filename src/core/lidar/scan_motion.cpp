@@ -93,6 +93,66 @@ double translationConstraint(const Cloud& source, const pcl::KdTreeFLANN<pcl::Po
   const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(info).eigenvalues();
   return ev(2) > 0 ? ev(0) / ev(2) : 0.0;
 }
+
+/// Nearest-neighbour queries in scan `a` (the registration's target).
+struct NearTarget {
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  std::vector<int> idx = std::vector<int>(1);
+  std::vector<float> d2 = std::vector<float>(1);
+  explicit NearTarget(const Cloud::Ptr& a) { tree.setInputCloud(a); }
+  /// Whether `a` has a point within kInlierDistance of (x, y, z); its squared distance in d2[0].
+  bool near(float x, float y, float z) {
+    return tree.nearestKSearch(pcl::PointXYZ(x, y, z), 1, idx, d2) == 1 &&
+           d2[0] < kInlierDistance * kInlierDistance;
+  }
+};
+
+/// Forward motion can be metres between the scans, beyond GICP's basin on a road whose structure
+/// runs along it: GICP starts at the forward offset (0.25 m steps up to kMaxSpeed dt, and
+/// backwards a fifth of that) that puts most of a sample of `b` near `a`. Coarse steps of 1 m,
+/// then 0.25 m around the best: the count varies over about a metre (the inlier distance is
+/// 0.5 m); half the time of 0.25 m steps throughout, same velocities.
+double forwardOffset(const Cloud& b, NearTarget* a, double dt) {
+  const double reach = kMaxSpeed * dt;
+  auto overlap = [&](double x) {
+    int count = 0;
+    for (size_t i = 0; i < b.size(); i += 7) {
+      const auto& p = b[i];
+      if (a->near(p.x + float(x), p.y, p.z)) ++count;
+    }
+    return count;
+  };
+  double best_x = 0;
+  int best_count = -1;
+  auto consider = [&](double x) {
+    const int count = overlap(x);
+    if (count > best_count) best_count = count, best_x = x;
+  };
+  for (double x = -0.2 * reach; x <= reach + 1e-9; x += 1.0) consider(x);
+  const double coarse_x = best_x;
+  for (double dx : {-0.75, -0.5, -0.25, 0.25, 0.5, 0.75}) consider(coarse_x + dx);
+  return best_x;
+}
+
+/// The motion's checks, in order: overlap, fit, constraint in every direction, plausibility.
+void judgeMotion(size_t voxels, ScanMotion* m) {
+  if (m->inliers < kMinInlierFraction * voxels)
+    m->message = "the scans do not overlap after registration (" + std::to_string(m->inliers) +
+                 " of " + std::to_string(voxels) + " voxels within 0.5 m)";
+  else if (m->rms_m > kMaxRms)
+    m->message = "the scan registration fits poorly (RMS " + std::to_string(m->rms_m) + " m)";
+  else if (m->translation_constraint < kMinTranslationConstraint)
+    m->message =
+        "the scans do not constrain the motion in every direction (a road between guard rails "
+        "or a tunnel: translation constraint " +
+        std::to_string(m->translation_constraint) + ", at least " +
+        std::to_string(kMinTranslationConstraint) + " needed)";
+  else if (m->velocity.norm() > kMaxSpeed || m->angular_velocity.norm() > kMaxTurnRate)
+    m->message =
+        "implausible motion between the scans (" + std::to_string(m->velocity.norm()) + " m/s)";
+  else
+    m->valid = true;
+}
 }  // namespace
 
 double sweepTime(double azimuth_rad, const ScanSweep& sweep) {
@@ -121,72 +181,26 @@ ScanMotion estimateScanMotion(const LidarScan& a, const LidarScan& b, double dt)
     m.message = "too few LiDAR points beyond " + std::to_string(int(kMinRange)) + " m to register";
     return m;
   }
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
-  tree.setInputCloud(ca);
-  std::vector<int> idx(1);
-  std::vector<float> d2(1);
-  // Whether `a` has a point within kInlierDistance of (x, y, z); its squared distance in d2[0].
-  auto nearA = [&](float x, float y, float z) {
-    return tree.nearestKSearch(pcl::PointXYZ(x, y, z), 1, idx, d2) == 1 &&
-           d2[0] < kInlierDistance * kInlierDistance;
-  };
-  // Forward motion can be metres between the scans, beyond GICP's basin on a road whose
-  // structure runs along it: GICP starts at the forward offset (0.25 m steps up to kMaxSpeed dt,
-  // and backwards a fifth of that) that puts most of a sample of `b` near `a`.
-  const double reach = kMaxSpeed * dt;
-  // Coarse steps of 1 m, then 0.25 m around the best: the count varies over about a metre (the
-  // inlier distance is 0.5 m); half the time of 0.25 m steps throughout, same velocities.
-  auto overlap = [&](double x) {
-    int count = 0;
-    for (size_t i = 0; i < cb->size(); i += 7) {
-      const auto& p = (*cb)[i];
-      if (nearA(p.x + float(x), p.y, p.z)) ++count;
-    }
-    return count;
-  };
-  double best_x = 0;
-  int best_count = -1;
-  auto consider = [&](double x) {
-    const int count = overlap(x);
-    if (count > best_count) best_count = count, best_x = x;
-  };
-  for (double x = -0.2 * reach; x <= reach + 1e-9; x += 1.0) consider(x);
-  const double coarse_x = best_x;
-  for (double dx : {-0.75, -0.5, -0.25, 0.25, 0.5, 0.75}) consider(coarse_x + dx);
+  NearTarget near_a(ca);
   Eigen::Matrix4f T = Eigen::Matrix4f::Identity();
-  T(0, 3) = float(best_x);
+  T(0, 3) = float(forwardOffset(*cb, &near_a, dt));
   T = registerScans(cb, ca, T);
 
   // Inliers and their RMS, measured independently of GICP's own score.
   double sum = 0;
   for (const auto& p : cb->points) {
     const Eigen::Vector4f q = T * Eigen::Vector4f(p.x, p.y, p.z, 1.f);
-    if (nearA(q.x(), q.y(), q.z())) {
-      sum += d2[0];
+    if (near_a.near(q.x(), q.y(), q.z())) {
+      sum += near_a.d2[0];
       ++m.inliers;
     }
   }
-  m.translation_constraint = translationConstraint(*cb, tree, *ca, T);
+  m.translation_constraint = translationConstraint(*cb, near_a.tree, *ca, T);
   m.rms_m = m.inliers > 0 ? std::sqrt(sum / m.inliers) : std::numeric_limits<double>::infinity();
   const Eigen::Matrix4d Td = T.cast<double>();
   m.velocity = Td.topRightCorner<3, 1>() / dt;
   m.angular_velocity = logSO3(Td.topLeftCorner<3, 3>()) / dt;
-  if (m.inliers < kMinInlierFraction * cb->size())
-    m.message = "the scans do not overlap after registration (" + std::to_string(m.inliers) +
-                " of " + std::to_string(cb->size()) + " voxels within 0.5 m)";
-  else if (m.rms_m > kMaxRms)
-    m.message = "the scan registration fits poorly (RMS " + std::to_string(m.rms_m) + " m)";
-  else if (m.translation_constraint < kMinTranslationConstraint)
-    m.message =
-        "the scans do not constrain the motion in every direction (a road between guard rails "
-        "or a tunnel: translation constraint " +
-        std::to_string(m.translation_constraint) + ", at least " +
-        std::to_string(kMinTranslationConstraint) + " needed)";
-  else if (m.velocity.norm() > kMaxSpeed || m.angular_velocity.norm() > kMaxTurnRate)
-    m.message =
-        "implausible motion between the scans (" + std::to_string(m.velocity.norm()) + " m/s)";
-  else
-    m.valid = true;
+  judgeMotion(cb->size(), &m);
   return m;
 }
 

@@ -46,6 +46,149 @@ bool solveFirst(double a00, double a01, double a02, double a11, double a12, doub
   return true;
 }
 
+/// Kernels of the centred window moments: 1, (u' - u) and (u' - u)^2 along one axis.
+struct MomentKernels {
+  cv::Mat ones, lin, sq;
+  explicit MomentKernels(int r)
+      : ones(2 * r + 1, 1, CV_32F), lin(2 * r + 1, 1, CV_32F), sq(2 * r + 1, 1, CV_32F) {
+    for (int k = -r; k <= r; ++k) {
+      ones.at<float>(k + r) = 1.f;
+      lin.at<float>(k + r) = static_cast<float>(k);
+      sq.at<float>(k + r) = static_cast<float>(k * k);
+    }
+  }
+};
+
+/// The grey images in single precision and the right image's central-difference x gradient
+/// (warped along with it), also of the Gaussian-smoothed right image when `smoothed`.
+void prepareImages(const cv::Mat& left_gray, const cv::Mat& right_gray,
+                   const DisparityRefinementSettings& s, bool smoothed, Buffers* buf) {
+  left_gray.convertTo(buf->L, CV_32F);
+  right_gray.convertTo(buf->R, CV_32F);
+  const cv::Mat kernel = (cv::Mat_<float>(1, 3) << -0.5f, 0.f, 0.5f);
+  cv::filter2D(buf->R, buf->GR, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
+  if (smoothed) {
+    const int k =
+        2 * static_cast<int>(std::ceil(2.0 * s.smoothed_gradient_sigma)) + 1;  // +-2 sigma
+    cv::GaussianBlur(buf->R, buf->Rs, cv::Size(k, k), s.smoothed_gradient_sigma);
+    cv::filter2D(buf->Rs, buf->GRs, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
+  }
+}
+
+/// Valid pixels: a disparity that lands inside the right image. The refinement never invalidates
+/// a pixel, so the mask and the plane-fit moments that depend only on it are computed once.
+void validMaskAndMoments(const cv::Mat& d, int r, const MomentKernels& kern, Buffers* buf) {
+  cv::Mat &valid = buf->valid, &map_y = buf->map_y;
+  valid.create(d.size(), CV_32F);
+  map_y.create(d.size(), CV_32F);
+  for (int v = 0; v < d.rows; ++v) {
+    const float* dv = d.ptr<float>(v);
+    float* m = valid.ptr<float>(v);
+    float* my = map_y.ptr<float>(v);
+    for (int u = 0; u < d.cols; ++u) {
+      m[u] = std::isfinite(dv[u]) && u - dv[u] >= 1.f ? 1.f : 0.f;
+      my[u] = static_cast<float>(v);
+    }
+  }
+  windowSum(valid, r, &buf->s1);
+  windowMoment(valid, kern.lin, kern.ones, &buf->mx);
+  windowMoment(valid, kern.ones, kern.lin, &buf->my);
+  windowMoment(valid, kern.sq, kern.ones, &buf->mxx);
+  windowMoment(valid, kern.ones, kern.sq, &buf->myy);
+  windowMoment(valid, kern.lin, kern.lin, &buf->mxy);
+}
+
+/// The right image and its gradient warped by the current disparity (d0: the disparity, 0 where
+/// invalid); `smoothed_gradient` takes the smoothed image's gradient.
+void warpRight(const cv::Mat& d, bool smoothed_gradient, Buffers* buf) {
+  cv::Mat &d0 = buf->d0, &map_x = buf->map_x;
+  d0.create(d.size(), CV_32F);
+  map_x.create(d.size(), CV_32F);
+  for (int v = 0; v < d.rows; ++v) {
+    const float* dv = d.ptr<float>(v);
+    const float* m = buf->valid.ptr<float>(v);
+    float* z = d0.ptr<float>(v);
+    float* mxp = map_x.ptr<float>(v);
+    for (int u = 0; u < d.cols; ++u) {
+      z[u] = m[u] > 0.f ? dv[u] : 0.f;
+      mxp[u] = static_cast<float>(u) - z[u];
+    }
+  }
+  cv::remap(buf->R, buf->W, map_x, buf->map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  cv::remap(smoothed_gradient ? buf->GRs : buf->GR, buf->G, map_x, buf->map_y, cv::INTER_LINEAR,
+            cv::BORDER_REPLICATE);
+}
+
+/// Window sums of the photometric normal equations of W = G delta + alpha L + beta over the valid
+/// pixels (single precision suffices: grey values, 81-pixel windows).
+void normalEquationSums(int r, Buffers* buf) {
+  cv::Mat* terms = buf->terms;
+  const cv::Mat &valid = buf->valid, &G = buf->G, &L = buf->L, &W = buf->W;
+  const int rows = valid.rows, cols = valid.cols;
+  cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
+    for (int v = range.start; v < range.end; ++v) {
+      const float *m = valid.ptr<float>(v), *g = G.ptr<float>(v), *l = L.ptr<float>(v),
+                  *w = W.ptr<float>(v);
+      float* out[kTerms];
+      for (int k = 0; k < kTerms; ++k) out[k] = terms[k].ptr<float>(v);
+      for (int u = 0; u < cols; ++u) {
+        const float gm = g[u] * m[u], lm = l[u] * m[u];
+        out[kGG][u] = gm * g[u];
+        out[kGL][u] = gm * l[u];
+        out[kG][u] = gm;
+        out[kLL][u] = lm * l[u];
+        out[kL][u] = lm;
+        out[kGW][u] = gm * w[u];
+        out[kLW][u] = lm * w[u];
+        out[kW][u] = w[u] * m[u];
+      }
+    }
+  });
+  for (int k = 0; k < kTerms; ++k) windowSum(terms[k], r, &buf->sums[k]);
+}
+
+/// One round's update of every refinable pixel: d + delta, or in the last round the local plane
+/// fit d = c + a (u' - u) + b (v' - v) over the window plus delta (unbiased also where the window
+/// is only partly valid, and it averages out SGBM's per-pixel noise).
+void updateDisparity(const DisparityRefinementSettings& s, bool last, const Buffers& buf,
+                     cv::Mat* disparity) {
+  cv::Mat& d = *disparity;
+  const int r = s.window_radius;
+  const double n_window = (2.0 * r + 1) * (2.0 * r + 1);
+  const cv::Mat &s1 = buf.s1, &mx = buf.mx, &my = buf.my, &mxx = buf.mxx, &myy = buf.myy,
+                &mxy = buf.mxy;
+  const cv::Mat &sD = buf.sD, &xD = buf.xD, &yD = buf.yD;
+  const cv::Mat* sums = buf.sums;
+  cv::parallel_for_(cv::Range(0, d.rows), [&](const cv::Range& range) {
+    for (int v = range.start; v < range.end; ++v) {
+      float* dv = d.ptr<float>(v);
+      for (int u = 0; u < d.cols; ++u) {
+        if (!std::isfinite(dv[u])) continue;
+        const double n = s1.at<float>(v, u);
+        if (n < s.min_valid_fraction * n_window) continue;
+        const double gg = sums[kGG].at<float>(v, u), g = sums[kG].at<float>(v, u);
+        // Texture along x after removing the window's mean gradient.
+        if (gg / n - (g / n) * (g / n) < s.min_gradient * s.min_gradient) continue;
+        double delta = 0;
+        if (!solveFirst(gg, sums[kGL].at<float>(v, u), g, sums[kLL].at<float>(v, u),
+                        sums[kL].at<float>(v, u), n, sums[kGW].at<float>(v, u),
+                        sums[kLW].at<float>(v, u), sums[kW].at<float>(v, u), &delta))
+          continue;
+        delta = std::clamp(delta, -s.max_step, s.max_step);
+        if (!last) {
+          dv[u] = static_cast<float>(dv[u] + delta);
+          continue;
+        }
+        double c = 0;
+        if (solveFirst(n, mx.at<float>(v, u), my.at<float>(v, u), mxx.at<float>(v, u),
+                       mxy.at<float>(v, u), myy.at<float>(v, u), sD.at<float>(v, u),
+                       xD.at<float>(v, u), yD.at<float>(v, u), &c))
+          dv[u] = static_cast<float>(c + delta);
+      }
+    }
+  });
+}
+
 }  // namespace
 
 void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Mat* disparity,
@@ -54,135 +197,25 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
   CV_Assert(disparity->type() == CV_32F && left_gray.size() == disparity->size() &&
             right_gray.size() == disparity->size());
   thread_local Buffers buf;
-  cv::Mat &L = buf.L, &R = buf.R, &GR = buf.GR;
-  left_gray.convertTo(L, CV_32F);
-  right_gray.convertTo(R, CV_32F);
-  // Central-difference x gradient of the right image (warped along with it).
-  const cv::Mat kernel = (cv::Mat_<float>(1, 3) << -0.5f, 0.f, 0.5f);
-  cv::filter2D(R, GR, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
   const bool smoothed = s.smoothed_gradient_rounds > 0 && s.smoothed_gradient_sigma > 0;
-  if (smoothed) {
-    const int k =
-        2 * static_cast<int>(std::ceil(2.0 * s.smoothed_gradient_sigma)) + 1;  // +-2 sigma
-    cv::GaussianBlur(R, buf.Rs, cv::Size(k, k), s.smoothed_gradient_sigma);
-    cv::filter2D(buf.Rs, buf.GRs, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
-  }
-
-  const int rows = disparity->rows, cols = disparity->cols, r = s.window_radius;
-  const double n_window = (2.0 * r + 1) * (2.0 * r + 1);
+  prepareImages(left_gray, right_gray, s, smoothed, &buf);
+  const int r = s.window_radius;
   cv::Mat& d = *disparity;
-  // Kernels of the centred window moments: 1, (u' - u) and (u' - u)^2 along one axis.
-  cv::Mat ones(2 * r + 1, 1, CV_32F), lin(2 * r + 1, 1, CV_32F), sq(2 * r + 1, 1, CV_32F);
-  for (int k = -r; k <= r; ++k) {
-    ones.at<float>(k + r) = 1.f;
-    lin.at<float>(k + r) = static_cast<float>(k);
-    sq.at<float>(k + r) = static_cast<float>(k * k);
-  }
-  // Valid pixels: a disparity that lands inside the right image. The refinement never invalidates
-  // a pixel, so the mask and the plane-fit moments that depend only on it are computed once.
-  cv::Mat &valid = buf.valid, &map_y = buf.map_y;
-  valid.create(d.size(), CV_32F);
-  map_y.create(d.size(), CV_32F);
-  for (int v = 0; v < rows; ++v) {
-    const float* dv = d.ptr<float>(v);
-    float* m = valid.ptr<float>(v);
-    float* my = map_y.ptr<float>(v);
-    for (int u = 0; u < cols; ++u) {
-      m[u] = std::isfinite(dv[u]) && u - dv[u] >= 1.f ? 1.f : 0.f;
-      my[u] = static_cast<float>(v);
-    }
-  }
-  const cv::Mat &s1 = buf.s1, &mx = buf.mx, &my = buf.my, &mxx = buf.mxx, &myy = buf.myy,
-                &mxy = buf.mxy;
-  windowSum(valid, r, &buf.s1);
-  windowMoment(valid, lin, ones, &buf.mx);
-  windowMoment(valid, ones, lin, &buf.my);
-  windowMoment(valid, sq, ones, &buf.mxx);
-  windowMoment(valid, ones, sq, &buf.myy);
-  windowMoment(valid, lin, lin, &buf.mxy);
-
+  const MomentKernels kern(r);
+  validMaskAndMoments(d, r, kern, &buf);
   // Per-pixel products of the photometric normal equations (masked by `valid`).
-  cv::Mat* terms = buf.terms;
-  for (int k = 0; k < kTerms; ++k) terms[k].create(d.size(), CV_32F);
+  for (int k = 0; k < kTerms; ++k) buf.terms[k].create(d.size(), CV_32F);
   for (int it = 0; it < s.iterations; ++it) {
     const bool last = it + 1 == s.iterations;
-    cv::Mat &d0 = buf.d0, &map_x = buf.map_x;
-    d0.create(d.size(), CV_32F);
-    map_x.create(d.size(), CV_32F);
-    for (int v = 0; v < rows; ++v) {
-      const float* dv = d.ptr<float>(v);
-      const float* m = valid.ptr<float>(v);
-      float* z = d0.ptr<float>(v);
-      float* mxp = map_x.ptr<float>(v);
-      for (int u = 0; u < cols; ++u) {
-        z[u] = m[u] > 0.f ? dv[u] : 0.f;
-        mxp[u] = static_cast<float>(u) - z[u];
-      }
-    }
-    cv::Mat &W = buf.W, &G = buf.G;
-    cv::remap(R, W, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-    cv::remap(smoothed && it < s.smoothed_gradient_rounds ? buf.GRs : GR, G, map_x, map_y,
-              cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-    // Photometric normal equations of W = G delta + alpha L + beta over the valid pixels
-    // (single precision suffices: grey values, 81-pixel windows).
-    cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
-      for (int v = range.start; v < range.end; ++v) {
-        const float *m = valid.ptr<float>(v), *g = G.ptr<float>(v), *l = L.ptr<float>(v),
-                    *w = W.ptr<float>(v);
-        float* out[kTerms];
-        for (int k = 0; k < kTerms; ++k) out[k] = terms[k].ptr<float>(v);
-        for (int u = 0; u < cols; ++u) {
-          const float gm = g[u] * m[u], lm = l[u] * m[u];
-          out[kGG][u] = gm * g[u];
-          out[kGL][u] = gm * l[u];
-          out[kG][u] = gm;
-          out[kLL][u] = lm * l[u];
-          out[kL][u] = lm;
-          out[kGW][u] = gm * w[u];
-          out[kLW][u] = lm * w[u];
-          out[kW][u] = w[u] * m[u];
-        }
-      }
-    });
-    cv::Mat* sums = buf.sums;
-    for (int k = 0; k < kTerms; ++k) windowSum(terms[k], r, &sums[k]);
-    // In the last round, the centre value comes from the local plane fit
-    // d = c + a (u' - u) + b (v' - v) over the window: unbiased also where the window is only
-    // partly valid, and it averages out SGBM's per-pixel noise. Earlier rounds keep d + delta.
-    const cv::Mat &sD = buf.sD, &xD = buf.xD, &yD = buf.yD;
+    warpRight(d, smoothed && it < s.smoothed_gradient_rounds, &buf);
+    normalEquationSums(r, &buf);
+    // The last round's plane fit needs the window moments of the disparity itself.
     if (last) {
-      windowSum(d0, r, &buf.sD);
-      windowMoment(d0, lin, ones, &buf.xD);
-      windowMoment(d0, ones, lin, &buf.yD);
+      windowSum(buf.d0, r, &buf.sD);
+      windowMoment(buf.d0, kern.lin, kern.ones, &buf.xD);
+      windowMoment(buf.d0, kern.ones, kern.lin, &buf.yD);
     }
-    cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
-      for (int v = range.start; v < range.end; ++v) {
-        float* dv = d.ptr<float>(v);
-        for (int u = 0; u < cols; ++u) {
-          if (!std::isfinite(dv[u])) continue;
-          const double n = s1.at<float>(v, u);
-          if (n < s.min_valid_fraction * n_window) continue;
-          const double gg = sums[kGG].at<float>(v, u), g = sums[kG].at<float>(v, u);
-          // Texture along x after removing the window's mean gradient.
-          if (gg / n - (g / n) * (g / n) < s.min_gradient * s.min_gradient) continue;
-          double delta = 0;
-          if (!solveFirst(gg, sums[kGL].at<float>(v, u), g, sums[kLL].at<float>(v, u),
-                          sums[kL].at<float>(v, u), n, sums[kGW].at<float>(v, u),
-                          sums[kLW].at<float>(v, u), sums[kW].at<float>(v, u), &delta))
-            continue;
-          delta = std::clamp(delta, -s.max_step, s.max_step);
-          if (!last) {
-            dv[u] = static_cast<float>(dv[u] + delta);
-            continue;
-          }
-          double c = 0;
-          if (solveFirst(n, mx.at<float>(v, u), my.at<float>(v, u), mxx.at<float>(v, u),
-                         mxy.at<float>(v, u), myy.at<float>(v, u), sD.at<float>(v, u),
-                         xD.at<float>(v, u), yD.at<float>(v, u), &c))
-            dv[u] = static_cast<float>(c + delta);
-        }
-      }
-    });
+    updateDisparity(s, last, buf, disparity);
   }
 }
 

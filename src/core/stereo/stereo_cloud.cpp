@@ -194,10 +194,11 @@ bool matchExposure(cv::Mat* left_grey, cv::Mat* right_grey, double ratio_limit) 
   return true;
 }
 
-StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
-                               const StereoRig& rig, const Eigen::Isometry3d& T_right_left,
-                               const StereoSettings& s) {
-  const auto t0 = std::chrono::steady_clock::now();
+namespace {
+
+/// A DataError when the pair or the settings cannot give a stereo cloud.
+void requireUsableInputs(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
+                         const StereoSettings& s) {
   if (left_bgr.empty() || right_bgr.empty() || left_bgr.size() != right_bgr.size())
     throw DataError("stereo pair: images are empty or of different sizes");
   if (left_bgr.type() != CV_8UC3 || right_bgr.type() != CV_8UC3)
@@ -210,14 +211,10 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
     throw DataError(
         "stereo settings: num_disparities must be a positive multiple of 16, sample_step and "
         "normal_scale at least 1");
-  requireUsablePair(T_right_left);
-  StereoCloud out;
-  cv::Mat left, right;
-  cv::cvtColor(left_bgr, left, cv::COLOR_BGR2GRAY);
-  cv::cvtColor(right_bgr, right, cv::COLOR_BGR2GRAY);
-  out.exposure_equalized = matchExposure(&left, &right, s.equalize_exposure_ratio);
-  const Rectification rect = rectificationFor(rig, T_right_left, left.size());
-  setRectification(rect, &out);
+}
+
+/// Rectifies the grey pair in place with `rect`.
+void rectifyPair(const Rectification& rect, const StereoRig& rig, cv::Mat* left, cv::Mat* right) {
   if (rect.identity) {
     // The right camera of a rectified pair may have its own principal point: shift the right
     // image so that both share the left's (KITTI's P2/P3 share cx, cy).
@@ -225,21 +222,25 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
         std::fabs(rig.right.cy - rig.left.cy) > 1e-6) {
       const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, rig.left.cx - rig.right.cx, 0, 1,
                              rig.left.cy - rig.right.cy);
-      cv::warpAffine(right, right, shift, right.size(), cv::INTER_LINEAR);
+      cv::warpAffine(*right, *right, shift, right->size(), cv::INTER_LINEAR);
     }
-  } else {
-    cv::Mat m1x, m1y, m2x, m2y;
-    cv::initUndistortRectifyMap(rect.K1, cv::Mat(), rect.R1, rect.P1, left.size(), CV_32FC1, m1x,
-                                m1y);
-    cv::initUndistortRectifyMap(rect.K2, cv::Mat(), rect.R2, rect.P2, left.size(), CV_32FC1, m2x,
-                                m2y);
-    cv::Mat lr, rr;
-    cv::remap(left, lr, m1x, m1y, cv::INTER_LINEAR);
-    cv::remap(right, rr, m2x, m2y, cv::INTER_LINEAR);
-    left = lr, right = rr;
+    return;
   }
-  if (out.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
+  cv::Mat m1x, m1y, m2x, m2y;
+  cv::initUndistortRectifyMap(rect.K1, cv::Mat(), rect.R1, rect.P1, left->size(), CV_32FC1, m1x,
+                              m1y);
+  cv::initUndistortRectifyMap(rect.K2, cv::Mat(), rect.R2, rect.P2, left->size(), CV_32FC1, m2x,
+                              m2y);
+  cv::Mat lr, rr;
+  cv::remap(*left, lr, m1x, m1y, cv::INTER_LINEAR);
+  cv::remap(*right, rr, m2x, m2y, cv::INTER_LINEAR);
+  *left = lr, *right = rr;
+}
 
+/// SGBM's disparity of the rectified pair in px, NaN where invalid (SGBM leaves the first
+/// num_disparities columns unmatched); its time goes to out->seconds_sgbm.
+cv::Mat sgbmDisparity(const cv::Mat& left, const cv::Mat& right, const StereoSettings& s,
+                      StereoCloud* out) {
   const auto t_sgbm = std::chrono::steady_clock::now();
   const int bs = s.block_size;
   auto sgbm = cv::StereoSGBM::create(
@@ -248,12 +249,11 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
       s.three_way ? cv::StereoSGBM::MODE_SGBM_3WAY : cv::StereoSGBM::MODE_SGBM);
   cv::Mat disp16;
   sgbm->compute(left, right, disp16);
-  out.seconds_sgbm = secondsSince(t_sgbm);
+  out->seconds_sgbm = secondsSince(t_sgbm);
 
-  // Disparity in px, NaN where invalid. SGBM leaves the first num_disparities columns unmatched.
   cv::Mat disp(disp16.size(), CV_32F);
   const float nan = std::numeric_limits<float>::quiet_NaN();
-  const float min_d = static_cast<float>(out.fx * out.baseline / (s.max_depth * 1.5));
+  const float min_d = static_cast<float>(out->fx * out->baseline / (s.max_depth * 1.5));
   for (int v = 0; v < disp16.rows; ++v) {
     const int16_t* in = disp16.ptr<int16_t>(v);
     float* o = disp.ptr<float>(v);
@@ -262,8 +262,13 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
       o[u] = (in[u] <= 0 || d < min_d || u < s.num_disparities) ? nan : d;
     }
   }
-  // Edges: on a plane the disparity is affine in (u, v), so a large second difference marks a
-  // depth discontinuity; SGBM fattens foreground there, so pixels near it are dropped.
+  return disp;
+}
+
+/// Edges: on a plane the disparity is affine in (u, v), so a large second difference marks a
+/// depth discontinuity; SGBM fattens foreground there, so pixels near it are dropped.
+void dropDepthEdges(const StereoSettings& s, cv::Mat* disparity) {
+  const cv::Mat& disp = *disparity;
   cv::Mat edge(disp.size(), CV_8U, cv::Scalar(0));
   const int k = s.normal_scale;
   for (int v = k; v < disp.rows - k; ++v) {
@@ -280,7 +285,28 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
   }
   const int e = s.edge_dilation;
   cv::dilate(edge, edge, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * e + 1, 2 * e + 1)));
-  disp.setTo(nan, edge);
+  disparity->setTo(std::numeric_limits<float>::quiet_NaN(), edge);
+}
+
+}  // namespace
+
+StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
+                               const StereoRig& rig, const Eigen::Isometry3d& T_right_left,
+                               const StereoSettings& s) {
+  const auto t0 = std::chrono::steady_clock::now();
+  requireUsableInputs(left_bgr, right_bgr, s);
+  requireUsablePair(T_right_left);
+  StereoCloud out;
+  cv::Mat left, right;
+  cv::cvtColor(left_bgr, left, cv::COLOR_BGR2GRAY);
+  cv::cvtColor(right_bgr, right, cv::COLOR_BGR2GRAY);
+  out.exposure_equalized = matchExposure(&left, &right, s.equalize_exposure_ratio);
+  const Rectification rect = rectificationFor(rig, T_right_left, left.size());
+  setRectification(rect, &out);
+  rectifyPair(rect, rig, &left, &right);
+  if (out.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
+  cv::Mat disp = sgbmDisparity(left, right, s, &out);
+  dropDepthEdges(s, &disp);
   refineDisparity(left, right, &disp, s.refinement);
   out.disparity = disp;
   samplePoints(s, &out);

@@ -1,0 +1,56 @@
+// The online calibrator's sliding window of keyframes: which keyframe leaves a full window
+// (OnlineSettings::keyframe_selection), and what the last solves measured of each keyframe. Not
+// thread-safe: the calibrator guards it with its lock.
+#pragma once
+
+#include <deque>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/common/types.h"
+#include "tescalib/core/solvers/keyframe.h"
+
+namespace tescalib {
+
+class KeyframeWindow {
+ public:
+  /// Holds at most max(1, `size`) keyframes. `selection` "information" drops the keyframe whose
+  /// loss costs least in the window's weakest direction, anything else the oldest.
+  KeyframeWindow(int size, const std::string& selection);
+
+  size_t size() const { return keyframes_.size(); }
+  bool empty() const { return keyframes_.empty(); }
+  /// Stamps of the keyframes, oldest first.
+  std::vector<double> stamps() const;
+  /// The keyframes for a solve: shared, or deep copies when the solve modifies them in place
+  /// (co-calibration recomputes their stereo clouds; the window's keyframes never change).
+  std::vector<std::shared_ptr<Keyframe>> snapshot(bool deep_copies) const;
+
+  /// Appends `keyframe`, then drops keyframes while the window is over-full.
+  void add(std::shared_ptr<Keyframe> keyframe);
+  /// Removes every keyframe and what was measured of them.
+  void clear();
+
+  /// A solve's per-keyframe LiDAR-stereo information (one per keyframe of `solved`, else
+  /// ignored), kept for the keyframes still in the window (it slides during a solve).
+  void storeInformation(const std::vector<std::shared_ptr<Keyframe>>& solved,
+                        const std::vector<Matrix6d>& information);
+  /// Replaces the window's keyframes by those of `solved` whose stereo cloud was recomputed for
+  /// another left->right extrinsic (matched by stamp).
+  void adoptRecomputedClouds(const std::vector<std::shared_ptr<Keyframe>>& solved);
+
+ private:
+  /// Index of the keyframe to drop from an over-full window.
+  size_t keyframeToDrop() const;
+
+  int size_;
+  bool by_information_;
+  std::deque<std::shared_ptr<Keyframe>> keyframes_;
+  /// Per-keyframe LiDAR-stereo information from the last solve that used it, by stamp.
+  std::map<double, Matrix6d> information_;
+};
+
+}  // namespace tescalib

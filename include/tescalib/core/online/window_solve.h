@@ -1,0 +1,67 @@
+// The online calibrator's solve of its window: LiDAR-stereo alone (the stereo pair kept), or
+// co-calibration (the alternation, or the joint solve) once it is due, cold or as warm rounds from
+// a co-calibrated estimate. Its result goes to the publish policy (publish_policy.h).
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/common/types.h"
+#include "tescalib/core/online/online_estimate.h"
+#include "tescalib/core/online/online_settings.h"
+#include "tescalib/core/solvers/keyframe.h"
+
+namespace tescalib {
+
+/// Whether a window of `fill` keyframes is co-calibrated. LiDAR first: co-calibration once a
+/// LiDAR-stereo estimate is published (or, failing that, once the window is full or no more
+/// keyframes will come), so that a start too far off for the alternation gets the LiDAR-stereo
+/// solves' wide-basin search first.
+bool coCalibrationDue(const OnlineSettings& settings, int fill, bool estimate_published,
+                      bool recording_ended);
+
+/// What a solve starts from, read from the calibrator in one go.
+struct WindowSolveInput {
+  /// The window's keyframes; deep copies for co-calibration, which recomputes their stereo
+  /// clouds in place.
+  std::vector<std::shared_ptr<Keyframe>> keyframes;
+  bool co = false;  ///< coCalibrationDue
+  /// The published estimate's extrinsics, or the initial ones.
+  Eigen::Isometry3d T_cam_lidar = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_right_left = Eigen::Isometry3d::Identity();
+  std::optional<OnlineEstimate> published;
+  /// The published full co-calibration's LiDAR sensitivity to the pair, for the warm updates
+  /// after it (CoCalibrationSettings::reuse_lidar_sensitivity).
+  std::optional<Matrix6d> lidar_sensitivity;
+};
+
+struct WindowSolveResult {
+  /// The solve's estimate; keyframes_used, stamp, solve_seconds, solve_id and chi2_to_published
+  /// are the caller's to fill.
+  OnlineEstimate estimate;
+  /// Per keyframe of the input, the LiDAR-stereo information (KeyframeWindow::storeInformation).
+  std::vector<Matrix6d> keyframe_information;
+  /// A stable full co-calibration's LiDAR sensitivity to the pair (the next input's, once this
+  /// estimate is published).
+  std::optional<Matrix6d> lidar_sensitivity;
+  /// The input keyframes' stereo clouds were recomputed (co-calibration): the window takes them
+  /// when the estimate is published (KeyframeWindow::adoptRecomputedClouds).
+  bool clouds_recomputed = false;
+  /// The solver itself saw the cancel: coCalibrate, jointCalibrate and solveLidarStereo(Search)
+  /// all end with the message "cancelled" when the flag is up at their end.
+  bool solver_cancelled = false;
+  std::string message;  ///< the solver's (empty for a converged warm co-calibration update)
+};
+
+/// Solves the window. Throws what the solvers throw (a DataError on an estimate gone far off,
+/// OpenCV on data it cannot use). `cancel` stops the solvers (LidarStereoSettings::cancel).
+WindowSolveResult solveWindow(const WindowSolveInput& input, const StereoRig& rig,
+                              const OnlineSettings& settings, const std::atomic<bool>* cancel);
+
+}  // namespace tescalib

@@ -1,0 +1,90 @@
+#include "tescalib/core/online/keyframe_window.h"
+
+#include <algorithm>
+
+#include <Eigen/Eigenvalues>
+
+#include "tescalib/core/common/geometry.h"
+
+namespace tescalib {
+
+KeyframeWindow::KeyframeWindow(int size, const std::string& selection)
+    : size_(size), by_information_(selection == "information") {}
+
+std::vector<double> KeyframeWindow::stamps() const {
+  std::vector<double> stamps;
+  for (const auto& k : keyframes_) stamps.push_back(k->stamp);
+  return stamps;
+}
+
+std::vector<std::shared_ptr<Keyframe>> KeyframeWindow::snapshot(bool deep_copies) const {
+  std::vector<std::shared_ptr<Keyframe>> out;
+  for (const auto& k : keyframes_) out.push_back(deep_copies ? std::make_shared<Keyframe>(*k) : k);
+  return out;
+}
+
+void KeyframeWindow::add(std::shared_ptr<Keyframe> keyframe) {
+  keyframes_.push_back(std::move(keyframe));
+  while (static_cast<int>(keyframes_.size()) > std::max(1, size_)) {
+    const size_t drop = keyframeToDrop();
+    information_.erase(keyframes_[drop]->stamp);
+    keyframes_.erase(keyframes_.begin() + static_cast<long>(drop));
+  }
+}
+
+void KeyframeWindow::clear() {
+  keyframes_.clear();
+  information_.clear();
+}
+
+void KeyframeWindow::storeInformation(const std::vector<std::shared_ptr<Keyframe>>& solved,
+                                      const std::vector<Matrix6d>& information) {
+  if (information.size() != solved.size()) return;
+  for (size_t i = 0; i < solved.size(); ++i)
+    for (const auto& k : keyframes_)
+      if (k->stamp == solved[i]->stamp) information_[k->stamp] = information[i];
+}
+
+void KeyframeWindow::adoptRecomputedClouds(const std::vector<std::shared_ptr<Keyframe>>& solved) {
+  // The window's keyframes are shared and never modified in place: the recomputed ones replace
+  // them.
+  for (const auto& k : solved)
+    for (auto& w : keyframes_)
+      if (w->stamp == k->stamp && !w->T_right_left_used.isApprox(k->T_right_left_used)) w = k;
+}
+
+size_t KeyframeWindow::keyframeToDrop() const {
+  if (!by_information_) return 0;
+  // Candidates: every keyframe but the newest that a solve has measured; the newest stays until
+  // a solve has seen what it adds.
+  std::vector<size_t> measured;
+  Matrix6d total = Matrix6d::Zero();
+  for (size_t i = 0; i + 1 < keyframes_.size(); ++i) {
+    const auto it = information_.find(keyframes_[i]->stamp);
+    if (it == information_.end()) continue;
+    measured.push_back(i);
+    total += it->second;
+  }
+  if (measured.size() < 2) return 0;
+  // Information in units of the trust limits (0.1 deg, 1 cm), so that rotation and translation
+  // compare; the weakest direction is the smallest eigenvalue of what remains after a drop.
+  Vector6d scale;
+  scale << Vector6d::Constant(0.1 / kDegPerRad).head<3>(), Vector6d::Constant(0.01).tail<3>();
+  const Matrix6d S = scale.asDiagonal();
+  auto weakest = [&](const Matrix6d& H) {
+    return Eigen::SelfAdjointEigenSolver<Matrix6d>(S * H * S).eigenvalues()(0);
+  };
+  double best = -1;
+  std::vector<double> remaining(measured.size());
+  for (size_t c = 0; c < measured.size(); ++c) {
+    remaining[c] = weakest(total - information_.at(keyframes_[measured[c]]->stamp));
+    best = std::max(best, remaining[c]);
+  }
+  // The oldest keyframe whose loss keeps at least 95 % of the best achievable weakest-direction
+  // information: recency wins among equals.
+  for (size_t c = 0; c < measured.size(); ++c)
+    if (remaining[c] >= 0.95 * best) return measured[c];
+  return 0;
+}
+
+}  // namespace tescalib
