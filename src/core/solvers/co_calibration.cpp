@@ -53,22 +53,6 @@ Eigen::Isometry3d applyNormalised(const Eigen::Isometry3d& T, const Vector6d& x_
 
 }  // namespace
 
-namespace {
-/// How the left-right extrinsic `now` differs from the one stereo clouds were rectified with.
-struct RectificationChange {
-  Eigen::Vector3d phi;        ///< rotation between the right cameras (right frame; y: the yaw)
-  Eigen::Vector3d direction;  ///< change of the unit baseline direction
-  double direction_angle;     ///< rad
-};
-
-RectificationChange rectificationChange(const Eigen::Isometry3d& used,
-                                        const Eigen::Isometry3d& now) {
-  const Eigen::Vector3d a = used.translation().normalized(), b = now.translation().normalized();
-  return {logSO3(now.linear() * used.linear().transpose()), b - a,
-          std::atan2(a.cross(b).norm(), a.dot(b))};
-}
-}  // namespace
-
 RectifyTolerances rectifyTolerances(const CoCalibrationSettings& s) {
   RectifyTolerances t;
   t.rot_deg = s.rerectify_deg;
@@ -77,67 +61,6 @@ RectifyTolerances rectifyTolerances(const CoCalibrationSettings& s) {
   t.rematch_rot_deg = s.rematch_deg;
   t.rematch_direction_deg = s.rematch_direction_deg;
   return t;
-}
-
-bool needsRerectification(const Eigen::Isometry3d& used, const Eigen::Isometry3d& now,
-                          double tol_deg, double tol_direction_deg, double tol_yaw_deg) {
-  const RectificationChange c = rectificationChange(used, now);
-  const double rot = tol_yaw_deg < 0 ? c.phi.norm() : std::hypot(c.phi.x(), c.phi.z());
-  if (tol_yaw_deg >= 0 && std::fabs(c.phi.y()) * kDegPerRad > tol_yaw_deg) return true;
-  return rot * kDegPerRad > tol_deg ||
-         c.direction_angle * kDegPerRad > (tol_direction_deg < 0 ? tol_deg : tol_direction_deg);
-}
-
-namespace {
-void rescaleStereo(Keyframe* kf, double baseline) {
-  const double used = kf->T_right_left_used.translation().norm();
-  const float k = static_cast<float>(baseline / used);
-  for (StereoPoint& p : kf->stereo.points) p.p *= k;
-  kf->stereo.baseline *= k;
-  kf->T_right_left_used.translation() *= baseline / used;
-}
-}  // namespace
-
-int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
-                  const Eigen::Isometry3d& T_right_left, const StereoSettings& settings,
-                  const RectifyTolerances& tol, double* seconds, int* rematched) {
-  if (window.empty()) return 0;
-  const auto t0 = Clock::now();
-  // What each keyframe needs, decided first; the clouds are then computed in parallel (each
-  // keyframe writes only its own).
-  enum Work { kKeep, kRetriangulate, kRematch };
-  std::vector<Work> work(window.size(), kKeep);
-  for (size_t k = 0; k < window.size(); ++k) {
-    const Keyframe* kf = window[k];
-    // The yaw does not change what SGBM matches (only the disparity offset): not a reason to
-    // match again. Matches made too far from the estimate are redone even when the cloud was
-    // re-triangulated close to it, so that the final clouds come from matches near the estimate.
-    const bool needed = kf->stereo.points.empty() ||
-                        needsRerectification(kf->T_right_left_used, T_right_left, tol.rot_deg,
-                                             tol.direction_deg, tol.yaw_deg);
-    const bool matches_off =
-        tol.rematch_rot_deg >= 0 && !kf->stereo_matched.disparity.empty() &&
-        needsRerectification(kf->T_right_left_matched, T_right_left, tol.rematch_rot_deg,
-                             tol.rematch_direction_deg, 1e9);
-    if (!needed && !matches_off) continue;
-    const bool rematch =
-        matches_off || tol.rematch_rot_deg < 0 || kf->stereo_matched.disparity.empty();
-    work[k] = rematch ? kRematch : kRetriangulate;
-  }
-  parallelFor(static_cast<int>(window.size()), resolveThreads(settings.threads), [&](int k) {
-    if (work[k] == kRematch) recomputeStereo(window[k], rig, T_right_left, settings);
-    if (work[k] == kRetriangulate) retriangulateStereo(window[k], rig, T_right_left, settings);
-  });
-  const int n =
-      static_cast<int>(std::count_if(work.begin(), work.end(), [](Work w) { return w != kKeep; }));
-  if (rematched) *rematched += static_cast<int>(std::count(work.begin(), work.end(), kRematch));
-  // The LiDAR-stereo solver estimates one scale for the window: every cloud must share one
-  // baseline length. A rectified cloud is linear in the baseline (Z = f b / d): rescale it.
-  const double b = T_right_left.translation().norm();
-  for (Keyframe* kf : window)
-    if (std::fabs(kf->T_right_left_used.translation().norm() - b) > 1e-12 * b) rescaleStereo(kf, b);
-  if (seconds) *seconds += secondsSince(t0);
-  return n;
 }
 
 LidarStereoSettings coLidarStereoSettings(const CoCalibrationSettings& s) {
@@ -159,96 +82,6 @@ PhotometricSettings coPhotometricSettings(const CoCalibrationSettings& s, bool w
     ps.iterations_per_level = s.warm_iterations;
   }
   return ps;
-}
-
-bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& s,
-                        PhotometricResult* stereo) {
-  return coStereoCovariance(lidar, s, stereo, lidar.covariance);
-}
-
-bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& s,
-                        PhotometricResult* stereo, const Matrix6d& lidar_covariance) {
-  // The baseline length is the LiDAR-stereo solve's stereo scale times the length the clouds
-  // were computed with (the photometric solves keep the length they are given): its variance
-  // lies along the baseline, and only the rotation and the baseline direction come from the
-  // photometric solve, so the length component of its LiDAR sensitivity is dropped.
-  if (s.photometric_fixed_length) {
-    const Eigen::Vector3d t = stereo->T_right_left.translation(), u = t.normalized();
-    stereo->covariance.bottomRightCorner<3, 3>() += lidar.stereo_scale_variance * t * t.transpose();
-    stereo->lidar_sensitivity.bottomRows<3>() -=
-        u * (u.transpose() * stereo->lidar_sensitivity.bottomRows<3>());
-  }
-  // The left-right solve took the LiDAR extrinsic as exact: what its uncertainty does to the
-  // key points' depth moves the left-right estimate (first order, PhotometricResult::
-  // lidar_sensitivity).
-  addLidarUncertainty(stereo, lidar_covariance);
-  // The photometric trust flags took the LiDAR extrinsic as exact too: judge them again with
-  // what the length and the LiDAR add (the model error below stays out, as for the LiDAR flags).
-  const bool all = trustFlags(stereo->covariance, s.stereo, stereo->observable);
-  stereo->weak_directions =
-      weakDirections(stereo->covariance, s.stereo.max_sigma_rot_deg, s.stereo.max_sigma_trans_m);
-  if (!all && stereo->converged) {
-    stereo->converged = false;
-    stereo->message =
-        "the window does not constrain every axis once the LiDAR extrinsic's uncertainty is "
-        "included" +
-        weakestClause(stereo->weak_directions);
-  }
-  addAxisVariances(&stereo->covariance, s.model_sigma_stereo_rot_deg, s.model_sigma_stereo_trans_m);
-  return all;
-}
-
-Matrix6d lidarSensitivityToStereo(const std::vector<Keyframe*>& window, const StereoRig& rig,
-                                  const LidarStereoResult& lidar, LidarStereoSettings settings,
-                                  const CoCalibrationSettings& s, double* seconds) {
-  const auto t0 = Clock::now();
-  Matrix6d J = Matrix6d::Zero();
-  settings.run_coarse = false;
-  settings.check_window_halves = false;
-  settings.search_step_deg = 0;
-  // Fine stage only: it stops at fine_settle_* (1e-3 deg / 0.3 mm; the converge_* tolerances are
-  // the coarse stage's). Session 32: a fine settle 0.3x as tight changed the columns by a few
-  // percent (the translation response's nonlinearity dominates, doc/co_calibration.md); 0.1x left
-  // a column unsettled (zeroed). So the default stays.
-  settings.initial_stereo_yaw_rad = lidar.stereo_yaw_rad;
-  settings.initial_stereo_scale = lidar.stereo_scale;
-  // What re-triangulating changes (and matching again, for a keyframe without matches), restored
-  // at the end; the images of a StereoCloud are shared, not copied.
-  struct Saved {
-    StereoCloud stereo, matched;
-    Eigen::Isometry3d used, matched_with;
-  };
-  std::vector<Saved> saved;
-  for (const Keyframe* kf : window)
-    saved.push_back(
-        {kf->stereo, kf->stereo_matched, kf->T_right_left_used, kf->T_right_left_matched});
-  const std::vector<const Keyframe*> cwin(window.begin(), window.end());
-  const int threads = resolveThreads(s.stereo_cloud.threads);
-  // Rotation about x and z, translation along y and z (perturb(): R = Exp(phi) R, t = t + tau).
-  for (const int k : {0, 2, 4, 5}) {
-    const double h = k < 3 ? s.sensitivity_step_rot_deg / kDegPerRad : s.sensitivity_step_trans_m;
-    Vector6d moved[2];
-    bool ok = true;
-    for (int side = 0; side < 2 && ok; ++side) {
-      Vector6d delta = Vector6d::Zero();
-      delta[k] = side == 0 ? h : -h;
-      parallelFor(static_cast<int>(window.size()), threads, [&](int i) {
-        retriangulateStereo(window[i], rig, perturb(saved[i].used, delta), s.stereo_cloud);
-      });
-      const LidarStereoResult r = solveLidarStereo(cwin, lidar.T_cam_lidar, settings);
-      ok = r.settled && !settings.cancelled();
-      moved[side] = poseError(r.T_cam_lidar, lidar.T_cam_lidar);
-    }
-    // A solve that did not settle leaves the column at zero (no propagation from that axis).
-    if (ok) J.col(k) = (moved[0] - moved[1]) / (2 * h);
-  }
-  for (size_t i = 0; i < window.size(); ++i) {
-    Keyframe* kf = window[i];
-    kf->stereo = std::move(saved[i].stereo), kf->stereo_matched = std::move(saved[i].matched);
-    kf->T_right_left_used = saved[i].used, kf->T_right_left_matched = saved[i].matched_with;
-  }
-  if (seconds) *seconds = secondsSince(t0);
-  return J;
 }
 
 std::string secondOpinion(const std::vector<const Keyframe*>& window,
@@ -649,46 +482,7 @@ CoCalibrationResult coCalibrate(const std::vector<Keyframe*>& window, const Ster
                    doubt.empty() ? "agrees or did not converge" : doubt.c_str());
     if (!doubt.empty()) res.lidar.converged = false, res.lidar.message = doubt;
   }
-  res.lidar_covariance_given_stereo = res.lidar.covariance;
-  addAxisVariances(&res.lidar_covariance_given_stereo, s.model_sigma_lidar_rot_deg,
-                   s.model_sigma_lidar_trans_m);
-  // The left-right pair's uncertainty in the LiDAR covariance, through the LiDAR estimate's
-  // sensitivity to the pair and the alternation's gain at its fixed point.
-  // A warm update that cannot be stable takes an earlier full run's sensitivity.
-  // Only a computed left-right covariance: a placeholder (identity) is not an uncertainty
-  // (review, session 34: 28.6 deg sigma published with a converged LiDAR estimate).
-  if (s.propagate_stereo_into_lidar && (res.stable || s.reuse_lidar_sensitivity) &&
-      res.lidar.converged && res.stereo.covariance_known && res.stereo.covariance.allFinite()) {
-    double seconds = 0;
-    const Matrix6d& J_ls = res.lidar_stereo_sensitivity =
-        res.stable ? lidarSensitivityToStereo(window, rig, res.lidar, ls_last, s, &seconds)
-                   : s.lidar_sensitivity_to_stereo;
-    res.seconds_lidar += seconds;
-    const Matrix6d loop = J_ls * res.stereo.lidar_sensitivity;
-    res.coupling = loop.eigenvalues().cwiseAbs().maxCoeff();
-    // Beyond 0.9 the first-order gain is no longer to be trusted: the sensitivity alone.
-    const Matrix6d gain = res.coupling < 0.9 ? Matrix6d((Matrix6d::Identity() - loop).inverse())
-                                             : Matrix6d::Identity();
-    const Matrix6d added = J_ls * res.stereo.covariance * J_ls.transpose();
-    res.lidar.covariance = gain * (res.lidar.covariance + added) * gain.transpose();
-    if (debug)
-      std::fprintf(stderr,
-                   "co: LiDAR sensitivity to the stereo pair (%.2f s), coupling %.3f, sigma added "
-                   "rot [%.4f %.4f %.4f] deg trans [%.2f %.2f %.2f] mm\n",
-                   seconds, res.coupling, std::sqrt(added(0, 0)) * kDegPerRad,
-                   std::sqrt(added(1, 1)) * kDegPerRad, std::sqrt(added(2, 2)) * kDegPerRad,
-                   std::sqrt(added(3, 3)) * 1e3, std::sqrt(added(4, 4)) * 1e3,
-                   std::sqrt(added(5, 5)) * 1e3);
-  }
-  addAxisVariances(&res.lidar.covariance, s.model_sigma_lidar_rot_deg, s.model_sigma_lidar_trans_m);
-  // The pair's covariance takes the LiDAR's given the pair: the propagated one already holds the
-  // pair's own uncertainty, which S would count a second time (session 30). Without the fixed
-  // point's gain on this side: with (I - S J)^-1 the pair's tz sigma doubled (0.42 -> 0.88 mm)
-  // and the fitting windows' stereo z^2 in tz fell to 0.26 (doc/co_calibration.md).
-  // Only with a LiDAR covariance that was computed (a placeholder would swamp the pair's and call
-  // a good left-right solve unconstrained, blaming it for the LiDAR's failure).
-  if (res.lidar.covariance_known)
-    coStereoCovariance(res.lidar, s, &res.stereo, res.lidar_covariance_given_stereo);
+  coCalibrationCovariances(window, rig, ls_last, s, &res);
   res.converged = res.stable && res.lidar.converged && res.stereo.converged;
   if (!unrectifiable.empty())
     res.converged = false, res.message = unrectifiable;
