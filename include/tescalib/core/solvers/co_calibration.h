@@ -7,10 +7,12 @@
 #include <string>
 #include <vector>
 
+#include "tescalib/core/solvers/co_calibration_covariance.h"
 #include "tescalib/core/solvers/keyframe.h"
 #include "tescalib/core/solvers/lidar_stereo_solver.h"
 #include "tescalib/core/solvers/photometric_solver.h"
 #include "tescalib/core/solvers/stereo_features.h"
+#include "tescalib/core/solvers/window_rectification.h"
 
 namespace tescalib {
 
@@ -204,17 +206,6 @@ struct CoCalibrationResult {
   std::string message;
 };
 
-/// d T_cam_lidar / d T_right_left at the converged LiDAR-stereo result `lidar` of `window`'s
-/// current clouds: for the right camera's rotation about x and z and the baseline's y and z
-/// components, the clouds are re-triangulated from their matches with the pair perturbed by
-/// +-`s.sensitivity_step_*` and the fine stage is solved again from `lidar` (`settings`, no
-/// coarse stage, its own tolerances); the columns of the clouds' yaw and of the length are zero
-/// (the solve estimates those). The clouds are restored afterwards. `seconds` (optional)
-/// receives the time.
-Matrix6d lidarSensitivityToStereo(const std::vector<Keyframe*>& window, const StereoRig& rig,
-                                  const LidarStereoResult& lidar, LidarStereoSettings settings,
-                                  const CoCalibrationSettings& s, double* seconds = nullptr);
-
 /// CoCalibrationSettings::confirm_*: empty when the converged LiDAR-stereo estimate `lidar` (of
 /// `window`'s current clouds, solved with `settings`) is within both confirm_beyond_* limits of
 /// `T_cam_lidar_init` or a solve from `T_cam_lidar_init` with the same clouds either does not
@@ -226,36 +217,8 @@ std::string secondOpinion(const std::vector<const Keyframe*>& window,
                           const LidarStereoSettings& settings, const CoCalibrationSettings& s,
                           double* seconds = nullptr);
 
-/// True when stereo clouds computed with `used` should be recomputed for `now`: the rotation
-/// differs by more than `tol_deg` or the baseline direction by more than `tol_direction_deg`
-/// (negative: `tol_deg`); the baseline length does not matter.
-bool needsRerectification(const Eigen::Isometry3d& used, const Eigen::Isometry3d& now,
-                          double tol_deg, double tol_direction_deg = -1.0,
-                          double tol_yaw_deg = -1.0);
-
-/// When a window's stereo clouds follow a new left->right estimate (angles in degrees, < 0 as in
-/// needsRerectification). Beyond `rot_deg` / `direction_deg` / `yaw_deg` from the estimate a
-/// cloud was triangulated with, it is triangulated again; SGBM matches again only when the
-/// estimate is also beyond `rematch_rot_deg` (about x and z: vertical misalignment of the images
-/// SGBM saw) or `rematch_direction_deg` from the one it matched with (< 0: always).
-struct RectifyTolerances {
-  double rot_deg = 0.005;
-  double direction_deg = -1.0;
-  double yaw_deg = -1.0;
-  double rematch_rot_deg = -1.0;
-  double rematch_direction_deg = -1.0;
-};
-
 /// The tolerances of `settings` (rerectify_*, rematch_*; the yaw only with the yaw nuisance).
 RectifyTolerances rectifyTolerances(const CoCalibrationSettings& settings);
-
-/// Brings the window's stereo clouds to `T_right_left` where the rectification differs enough
-/// (re-triangulating or matching again, see RectifyTolerances) and rescales the others to its
-/// baseline length (a rectified cloud is linear in it); returns how many it recomputed and adds
-/// the time to `*seconds` (and the number matched again to `*rematched`, when given).
-int rectifyWindow(const std::vector<Keyframe*>& window, const StereoRig& rig,
-                  const Eigen::Isometry3d& T_right_left, const StereoSettings& settings,
-                  const RectifyTolerances& tolerances, double* seconds, int* rematched = nullptr);
 
 /// The LiDAR-stereo settings of a co-calibration's solves: `settings.lidar` with the clouds'
 /// disparity noise, the stereo scale free and the clouds' yaw as a nuisance (when
@@ -266,19 +229,6 @@ LidarStereoSettings coLidarStereoSettings(const CoCalibrationSettings& settings)
 /// baseline length kept (`photometric_fixed_length`) and, `warm`, only the finest
 /// `warm_pyramid_levels` levels with `warm_iterations` iterations each.
 PhotometricSettings coPhotometricSettings(const CoCalibrationSettings& settings, bool warm);
-
-/// The left-right covariance of a co-calibration, from the last photometric solve `stereo`
-/// (conditional on the LiDAR extrinsic) and the final LiDAR-stereo solve `lidar`: adds the
-/// baseline length's variance from the stereo scale (with `photometric_fixed_length`), the LiDAR
-/// covariance through `stereo->lidar_sensitivity` (without its length component), evaluates the
-/// trust flags again with both (a stereo result that loses an axis is no longer converged) and
-/// adds the model error. Returns whether every axis is still trusted.
-bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& settings,
-                        PhotometricResult* stereo);
-/// The same with `lidar_covariance` (coCalibrate: the LiDAR's covariance given the pair, since
-/// the propagated one holds the pair's own uncertainty) instead of `lidar.covariance`.
-bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& settings,
-                        PhotometricResult* stereo, const Matrix6d& lidar_covariance);
 
 /// Runs the alternation over `window` (stereo clouds are recomputed in place). The stereo solver
 /// goes first: it tolerates a bad LiDAR extrinsic (paper, "Sensitivity Analysis").
