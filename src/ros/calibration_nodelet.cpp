@@ -12,6 +12,7 @@
 #include "tescalib/core/io/calibration_io.h"
 #include "tescalib/core/uncertainty/trust.h"
 #include "tescalib/ros/conversions.h"
+#include "tescalib/ros/frame_intake.h"
 #include "tescalib/ros/initial_rig.h"
 
 namespace tescalib {
@@ -50,13 +51,35 @@ void CalibrationNodelet::stayInert(const std::string& why) {
 void CalibrationNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
+  start_wall_ = ros::WallTime::now();
+  if (!loadParams(pnh)) return;
+  intake_ = std::make_unique<FrameIntake>(params_.online, params_.max_stereo_skew);
+  const uint32_t q = 5;
+  if (!subscribeImages(nh, pnh, q)) return;
+  advertise(nh, pnh);
+  subscribeAndSynchronize(nh, q);
+  startDiagnostics(nh, pnh);
+  // Wall time: diagnostics keep coming when a bag pauses or ends (sim time stands still then).
+  watchdog_timer_ = nh.createWallTimer(ros::WallDuration(1.0), &CalibrationNodelet::watchdog, this);
+  running_ = true;
+  preprocess_thread_ = std::thread(&CalibrationNodelet::preprocessLoop, this);
+  solve_thread_ = std::thread(&CalibrationNodelet::solveLoop, this);
+  NODELET_INFO(
+      "tescalib: waiting for synchronized %s, %s + %s, %s + %s (window %d keyframes >= %.2f s "
+      "apart, %s sync)",
+      cloud_sub_.getSubscriber().getTopic().c_str(), left_sub_.getTopic().c_str(),
+      left_info_sub_.getSubscriber().getTopic().c_str(), right_sub_.getTopic().c_str(),
+      right_info_sub_.getSubscriber().getTopic().c_str(), params_.online.window_size,
+      params_.online.keyframe_min_dt, params_.approximate_sync ? "approximate" : "exact");
+}
+
+bool CalibrationNodelet::loadParams(ros::NodeHandle& pnh) {
   std::string error;
   std::vector<std::string> unknown;
-  start_wall_ = ros::WallTime::now();
   if (!loadNodeParams(pnh, &params_, &error, &unknown)) {
     while (!error.empty() && (error.back() == ' ' || error.back() == ';')) error.pop_back();
     stayInert("invalid parameters: " + error);
-    return;
+    return false;
   }
   if (!unknown.empty()) {
     std::string names;
@@ -67,7 +90,10 @@ void CalibrationNodelet::onInit() {
         "every parameter)",
         names.c_str());
   }
-  const uint32_t q = 5;
+  return true;
+}
+
+bool CalibrationNodelet::subscribeImages(ros::NodeHandle& nh, ros::NodeHandle& pnh, uint32_t q) {
   // The images through image_transport (~image_transport: raw, or compressed where that plugin
   // is installed); a transport that cannot be loaded leaves the node inert, saying why, before
   // anything is advertised. The base topics are resolved here: image_transport's Subscriber
@@ -94,8 +120,12 @@ void CalibrationNodelet::onInit() {
                          : "installed here: " + available +
                                " (other transports need their plugin package, e.g. "
                                "compressed_image_transport)"));
-    return;
+    return false;
   }
+  return true;
+}
+
+void CalibrationNodelet::advertise(ros::NodeHandle& nh, ros::NodeHandle& pnh) {
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
   tf_pub_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
@@ -111,10 +141,13 @@ void CalibrationNodelet::onInit() {
   keyframe_mesh_pub_ = pnh.advertise<visualization_msgs::Marker>("keyframe/lidar_mesh", 1, true);
   reset_srv_ = pnh.advertiseService("reset", &CalibrationNodelet::onReset, this);
   save_srv_ = pnh.advertiseService("save", &CalibrationNodelet::onSave, this);
+}
 
+void CalibrationNodelet::subscribeAndSynchronize(ros::NodeHandle& nh, uint32_t q) {
   cloud_sub_.subscribe(nh, "points", q);
   left_info_sub_.subscribe(nh, "left/camera_info", q);
   right_info_sub_.subscribe(nh, "right/camera_info", q);
+  // Every topic's messages are counted for the watchdog, synchronized or not.
   left_sub_.registerCallback(boost::function<void(const Image::ConstPtr&)>(
       [this](const Image::ConstPtr&) { ++topic_messages_[1]; }));
   cloud_sub_.registerCallback(boost::function<void(const Cloud::ConstPtr&)>(
@@ -136,19 +169,6 @@ void CalibrationNodelet::onInit() {
         right_info_sub_);
     exact_sync_->registerCallback(&CalibrationNodelet::syncCallback, this);
   }
-  startDiagnostics(nh, pnh);
-  // Wall time: diagnostics keep coming when a bag pauses or ends (sim time stands still then).
-  watchdog_timer_ = nh.createWallTimer(ros::WallDuration(1.0), &CalibrationNodelet::watchdog, this);
-  running_ = true;
-  preprocess_thread_ = std::thread(&CalibrationNodelet::preprocessLoop, this);
-  solve_thread_ = std::thread(&CalibrationNodelet::solveLoop, this);
-  NODELET_INFO(
-      "tescalib: waiting for synchronized %s, %s + %s, %s + %s (window %d keyframes >= %.2f s "
-      "apart, %s sync)",
-      cloud_sub_.getSubscriber().getTopic().c_str(), left_sub_.getTopic().c_str(),
-      left_info_sub_.getSubscriber().getTopic().c_str(), right_sub_.getTopic().c_str(),
-      right_info_sub_.getSubscriber().getTopic().c_str(), params_.online.window_size,
-      params_.online.keyframe_min_dt, params_.approximate_sync ? "approximate" : "exact");
 }
 
 bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_info,
@@ -164,8 +184,7 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
     return false;
   }
   for (const auto& w : init.warnings) NODELET_WARN("tescalib: %s", w.c_str());
-  start_left_info_ = left_info;
-  start_right_info_ = right_info;
+  intake_->start(left_info, right_info);
   lidar_frame_ = init.lidar_frame;
   const StereoRig& rig = init.rig;
   calibrator_owner_ = std::make_unique<OnlineCalibrator>(rig, params_.online);
@@ -182,24 +201,12 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
                                       const Info::ConstPtr& left_info, const Image::ConstPtr& right,
                                       const Info::ConstPtr& right_info) {
   const ros::WallTime received = ros::WallTime::now();
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (sync_sets_++ == 0) {
-      first_set_wall_ = received;
-      first_set_stamp_ = left->header.stamp.toSec();
-      last_problem_.clear();  // the watchdog's "no messages on ..." is over
-    }
-    last_set_wall_ = received;
-  }
+  countSyncSet(received, left->header.stamp.toSec());
   if (!calibrator() && !initCalibrator(*cloud, *left_info, *right_info)) return;
-  const double stamp = left->header.stamp.toSec();
-  calibrator()->noteStamp(stamp);  // a solve of the old loop's window discards its result now
-  // Everything fromCameraInfo reads: P, the size, binning and the region of interest.
-  const auto sameRig = [](const Info& a, const Info& b) {
-    return a.P == b.P && a.width == b.width && a.height == b.height && a.binning_x == b.binning_x &&
-           a.binning_y == b.binning_y && a.roi == b.roi;
-  };
-  if (!sameRig(*left_info, start_left_info_) || !sameRig(*right_info, start_right_info_)) {
+  // A solve of the old loop's window discards its result now.
+  calibrator()->noteStamp(left->header.stamp.toSec());
+  IntakeResult r = intake_->take(*cloud, *left, *left_info, *right, *right_info);
+  if (r.camera_info_changed) {
     const std::string what =
         "camera_info changed since start-up (P, size, binning or ROI): the node keeps the "
         "intrinsics and "
@@ -207,34 +214,42 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
     NODELET_WARN_THROTTLE(30.0, "tescalib: %s", what.c_str());
     noteProblem(what);
   }
-  // Cheap keyframe pre-selection here; time going backwards is passed on (the window resets).
-  const bool candidate =
-      stamp < last_enqueued_stamp_ || !params_.online.tooClose(stamp, last_enqueued_stamp_);
-  // De-skewing registers a keyframe's scan to the set before it: keep every set's scan.
-  if (!candidate && !params_.online.deskew) return;
-  // The sync pairs each cloud with the nearest left and right images but bounds neither
-  // interval: a dropped right frame would pair the left image with the one before.
-  const double right_skew = right->header.stamp.toSec() - stamp;
-  if (candidate && std::fabs(right_skew) > params_.max_stereo_skew) {
-    ++rejected_;
-    const std::string what = "frame rejected: left and right image stamps differ by " +
-                             std::to_string(right_skew) + " s (sync/max_stereo_skew " +
-                             std::to_string(params_.max_stereo_skew) + " s)";
-    NODELET_WARN_THROTTLE(5.0, "tescalib: %s", what.c_str());
-    noteProblem(what);
-    return;
-  }
+  if (r.outcome == IntakeOutcome::kSkewedPair || r.outcome == IntakeOutcome::kBadCloud)
+    return reportRefusal(r);
+  if (r.cloud_converted) reportTimeField(r.time_field);
+  if (r.outcome == IntakeOutcome::kNotCandidate) return;
+  reportRings(r);
+  if (r.outcome == IntakeOutcome::kBadImages) return reportRefusal(r);
   PendingFrame pf;
-  std::string error;
-  bool ring_recovered = false;
-  if (!ros_conv::fromPointCloud2(*cloud, &pf.frame.scan, &error, &ring_recovered)) {
-    if (!candidate) return;
-    ++rejected_;
-    NODELET_WARN_THROTTLE(5.0, "tescalib: point cloud rejected: %s", error.c_str());
-    noteProblem("point cloud rejected: " + error);
-    return;
+  pf.candidate = std::move(r.candidate);
+  pf.header = left->header;
+  pf.received = received;
+  enqueue(std::move(pf));
+}
+
+void CalibrationNodelet::countSyncSet(const ros::WallTime& received, double stamp) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (sync_sets_++ == 0) {
+    first_set_wall_ = received;
+    first_set_stamp_ = stamp;
+    last_problem_.clear();  // the watchdog's "no messages on ..." is over
   }
-  const std::string time_field = ros_conv::perPointTimeField(*cloud);
+  last_set_wall_ = received;
+}
+
+void CalibrationNodelet::reportRefusal(const IntakeResult& r) {
+  ++rejected_;
+  // One throttle per kind of refusal: a frequent one does not hide the others.
+  if (r.outcome == IntakeOutcome::kSkewedPair)
+    NODELET_WARN_THROTTLE(5.0, "tescalib: %s", r.reason.c_str());
+  else if (r.outcome == IntakeOutcome::kBadCloud)
+    NODELET_WARN_THROTTLE(5.0, "tescalib: %s", r.reason.c_str());
+  else
+    NODELET_WARN_THROTTLE(5.0, "tescalib: %s", r.reason.c_str());
+  noteProblem(r.reason);
+}
+
+void CalibrationNodelet::reportTimeField(const std::string& time_field) {
   if (params_.online.deskew) {
     if (!time_field.empty())
       NODELET_INFO_ONCE("tescalib: de-skewing with the clouds' per-point time field '%s'",
@@ -252,54 +267,27 @@ void CalibrationNodelet::syncCallback(const Cloud::ConstPtr& cloud, const Image:
           "tescalib: the clouds have no per-point time field: not de-skewed (deskew/by_azimuth "
           "true times their points by azimuth, for a LiDAR phase-locked to the cameras such as "
           "KITTI's)");
-    pf.previous_scan = last_scan_;
-    pf.previous_stamp = last_scan_stamp_;
-    last_scan_stamp_ = stamp;
-    if (!candidate) {  // kept only as the next candidate's previous scan: no copy
-      last_scan_ = std::make_shared<const LidarScan>(std::move(pf.frame.scan));
-      return;
-    }
-    last_scan_ = std::make_shared<const LidarScan>(pf.frame.scan);
-  } else {
-    if (!time_field.empty())
-      NODELET_WARN_ONCE(
-          "tescalib: the point cloud has a per-point time field ('%s'): a raw sweep, whose "
-          "points the vehicle's motion skews (14 cm at the image edges at 12 m/s). Set "
-          "deskew/enabled (launch argument deskew:=true) unless the driver compensated them.",
-          time_field.c_str());
+  } else if (!time_field.empty()) {
+    NODELET_WARN_ONCE(
+        "tescalib: the point cloud has a per-point time field ('%s'): a raw sweep, whose "
+        "points the vehicle's motion skews (14 cm at the image edges at 12 m/s). Set "
+        "deskew/enabled (launch argument deskew:=true) unless the driver compensated them.",
+        time_field.c_str());
   }
-  if (candidate && !rings_checked_ && !pf.frame.scan.empty()) {
-    rings_checked_ = true;  // once: the loop below runs over every point
-    int rings = 0;
-    for (const LidarPoint& p : pf.frame.scan) rings = std::max(rings, p.ring + 1);
-    if (rings < 16)
-      NODELET_WARN_ONCE(
-          "tescalib: the LiDAR has %d rings, where tescalib was measured with 64, 32 and 16 "
-          "(README, Known limits): its mesh has few faces in view, and solves may say that the "
-          "window does not constrain every axis",
-          rings);
-    else if (rings < 64)
-      NODELET_INFO_ONCE(
-          "tescalib: the LiDAR has %d rings: on a generated drive 16 and 32 rings reached "
-          "0.035 and 0.023 deg / 0.6 and 0.5 cm, 64 rings 0.026 deg / 0.5 cm (README, Known "
-          "limits)",
-          rings);
-  }
-  if (ring_recovered)
+}
+
+void CalibrationNodelet::reportRings(const IntakeResult& r) {
+  if (r.rings >= 0 && r.rings < 16)
+    NODELET_WARN_ONCE("tescalib: %s", ringCountNote(r.rings).c_str());
+  else if (r.rings >= 0 && r.rings < 64)
+    NODELET_INFO_ONCE("tescalib: %s", ringCountNote(r.rings).c_str());
+  if (r.ring_recovered)
     NODELET_WARN_THROTTLE(30.0,
                           "tescalib: point cloud has no 'ring' field; rings recovered from "
                           "scan order (KITTI-style clouds)");
-  if (!ros_conv::toBgr8Pair(*left, *right, &pf.frame.left, &pf.frame.right, &error)) {
-    ++rejected_;
-    NODELET_WARN_THROTTLE(5.0, "tescalib: image rejected: %s", error.c_str());
-    noteProblem("image rejected: " + error);
-    return;
-  }
-  pf.frame.stamp = stamp;
-  pf.lidar_stamp = cloud->header.stamp.toSec();
-  pf.header = left->header;
-  pf.received = received;
-  last_enqueued_stamp_ = stamp;
+}
+
+void CalibrationNodelet::enqueue(PendingFrame pf) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     queue_.push_back(std::move(pf));
@@ -328,13 +316,12 @@ void CalibrationNodelet::preprocessLoop() {
     std::string msg;
     const ros::WallTime t0 = ros::WallTime::now();
     std::shared_ptr<const Keyframe> kf;
-    if (pf.previous_scan) calibrator()->setPreviousScan(pf.previous_scan, pf.previous_stamp);
-    const FrameResult r = calibrator()->addFrame(pf.frame, pf.lidar_stamp, &msg, &kf);
+    const FrameResult r = pf.candidate.addTo(calibrator(), &msg, &kf);
     if (r == FrameResult::kKeyframe) {
       const double build_s = (ros::WallTime::now() - t0).toSec();
       {
         std::lock_guard<std::mutex> lock(mutex_);
-        keyframe_stamps_[pf.frame.stamp] = pf.header.stamp;
+        keyframe_stamps_[pf.candidate.frame.stamp] = pf.header.stamp;
         // More than any window holds; older ones (and a looped bag's) are no longer asked for.
         while (keyframe_stamps_.size() > 256) keyframe_stamps_.erase(keyframe_stamps_.begin());
       }
@@ -363,7 +350,7 @@ void CalibrationNodelet::preprocessLoop() {
     } else if (r == FrameResult::kReset) {
       NODELET_WARN("tescalib: %s", msg.c_str());
       noteProblem(msg);
-      last_enqueued_stamp_ = pf.frame.stamp;
+      intake_->restartSelection(pf.candidate.frame.stamp);
       std::lock_guard<std::mutex> lock(mutex_);
       unsolved_arrivals_.clear();
     } else if (r == FrameResult::kRejected) {
@@ -507,52 +494,6 @@ void CalibrationNodelet::publishTf(const OnlineEstimate& e, const ros::Time& sta
   tf_pub_->sendTransform(std::vector<geometry_msgs::TransformStamped>{a, b});
 }
 
-std::string CalibrationNodelet::silentTopics() const {
-  const std::string topics[5] = {cloud_sub_.getSubscriber().getTopic(), left_sub_.getTopic(),
-                                 left_info_sub_.getSubscriber().getTopic(), right_sub_.getTopic(),
-                                 right_info_sub_.getSubscriber().getTopic()};
-  std::string silent;
-  for (int i = 0; i < 5; ++i)
-    if (topic_messages_[i] == 0) silent += (silent.empty() ? "" : ", ") + topics[i];
-  return silent;
-}
-
-void CalibrationNodelet::startDiagnostics(ros::NodeHandle& nh, ros::NodeHandle& pnh) {
-  // Named after the nodelet, not the manager it runs in ("/tescalib: calibration"), so that two
-  // calibrations in one manager are told apart.
-  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh, getName());
-  diagnostics_->setHardwareID("tescalib");
-  diagnostics_->add("calibration", this, &CalibrationNodelet::diagnose);
-}
-
-void CalibrationNodelet::watchdog(const ros::WallTimerEvent&) {
-  diagnostics_->force_update();
-  if (!param_error_.empty()) {
-    NODELET_ERROR_THROTTLE(10.0, "tescalib: %s; the node does nothing", param_error_.c_str());
-    return;
-  }
-  if (sync_sets_ > 0) return;
-  const std::string silent = silentTopics();
-  const std::string check =
-      "check the topic names (points:=TOPIC; left:= and right:= are the cameras' namespaces, "
-      "image:= the image's name in them, camera_info beside it) and that their sources run";
-  std::string what;
-  const int left_images = topic_messages_[1];
-  const double waited = (ros::WallTime::now() - start_wall_).toSec();
-  if (left_images > 20) {
-    what = std::to_string(left_images) + " images but no synchronized set: " +
-           (silent.empty() ? "check that the cloud, both images and both camera_info topics "
-                             "carry matching stamps (sync/approximate, sync/max_skew)"
-                           : "nothing on " + silent + "; " + check);
-  } else if (!silent.empty() && waited > 5.0) {
-    what = "no messages on " + silent + " after " + std::to_string(static_cast<int>(waited)) +
-           " s; " + check;
-  }
-  if (what.empty()) return;
-  NODELET_WARN_THROTTLE(10.0, "tescalib: %s", what.c_str());
-  noteProblem(what);
-}
-
 bool CalibrationNodelet::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   std::lock_guard<std::mutex> publishing(publish_mutex_);  // no solve publishes across it
   if (calibrator()) calibrator()->reset();
@@ -563,7 +504,7 @@ bool CalibrationNodelet::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger:
     unsolved_arrivals_.clear();
     last_solve_message_.clear();  // it was the cleared window's (~save and /diagnostics show it)
   }
-  last_enqueued_stamp_ = -1e300;
+  intake_->restartSelection();
   ++resets_;
   res.success = true;
   res.message = "window cleared, back to the initial extrinsics";
@@ -596,93 +537,6 @@ bool CalibrationNodelet::onSave(Save::Request& req, Save::Response& res) {
   res.success = writeCalibrationFiles(ec ? base : absolute.string(), calibrator()->rig(), *e,
                                       frames, &res.message);
   return true;
-}
-
-void CalibrationNodelet::noteProblem(const std::string& what) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  last_problem_ = what;
-}
-
-void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-  const auto e = calibrator() ? calibrator()->estimate() : std::nullopt;
-  std::string problem, solve_msg;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    problem = last_problem_;
-    solve_msg = last_solve_message_;
-  }
-  if (!param_error_.empty()) {
-    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::ERROR, param_error_);
-    return;
-  }
-  // The last converged solve that was not published: how far from the published estimate.
-  double kept_back_chi2 = std::nan("");
-  std::string weakest = "none yet";  // the last solve's weakest LiDAR direction
-  if (calibrator())
-    if (const auto last = calibrator()->lastSolve()) {
-      if (!last->message.empty()) kept_back_chi2 = last->chi2_to_published;
-      if (last->weakest_lidar.ratio > 0) weakest = describeWeakest(last->weakest_lidar);
-    }
-  double since_last_set = -1;
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (sync_sets_ > 0) since_last_set = (ros::WallTime::now() - last_set_wall_).toSec();
-  }
-  if (!calibrator() && sync_sets_ > 0 && !problem.empty())
-    // Sets come but the node cannot start from them (no initial extrinsic, a frame clash, ...).
-    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "not started: " + problem);
-  else if (!calibrator())  // with what is missing when that is known (the topics silent so far)
-    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN,
-                 "waiting for synchronized data" + (problem.empty() ? "" : ": " + problem));
-  else if (since_last_set > kStaleSeconds)
-    // The estimate stays on tf and on the latched topics, but nothing is being calibrated.
-    stat.summaryf(diagnostic_updater::DiagnosticStatusWrapper::WARN,
-                  "no synchronized set for %.0f s (%s)", since_last_set,
-                  e ? "last estimate kept" : "no converged estimate yet");
-  else if (!e)
-    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "no converged estimate yet");
-  else if (kept_back_chi2 > params_.online.changed_chi2)
-    // A converged solve kept back that the published estimate's covariance cannot explain.
-    stat.summaryf(diagnostic_updater::DiagnosticStatusWrapper::WARN,
-                  "the last solve is %.1f chi2 (6 DoF) from the published estimate: the extrinsic "
-                  "may have changed (the estimate is kept; ~reset recalibrates)",
-                  kept_back_chi2);
-  else
-    stat.summary(diagnostic_updater::DiagnosticStatusWrapper::OK, "calibrated");
-  stat.add("last solve chi2 to the published estimate", kept_back_chi2);
-  stat.add("last solve weakest LiDAR direction", weakest);
-  stat.add("window fill", calibrator() ? calibrator()->windowFill() : 0);
-  stat.add("window size", params_.online.window_size);
-  stat.add("keyframes", keyframes_.load());
-  stat.add("synchronized sets", sync_sets_.load());
-  stat.add("seconds since last synchronized set", since_last_set);
-  stat.add("dropped keyframe candidates", dropped_.load());
-  stat.add("rejected frames", rejected_.load());
-  stat.add("last solve seconds", last_solve_seconds_.load());
-  stat.add("last solve", solve_msg);
-  stat.add("solving", solving_.load());
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stat.add("pending sets", queue_.size());
-    stat.add("keyframe build mean seconds", build_time_.mean());
-    stat.add("keyframe build max seconds", build_time_.max);
-    stat.add("keyframe build recent mean seconds", build_time_.recentMean());
-    stat.add("solves", solve_time_.count);
-    stat.add("solve mean seconds", solve_time_.mean());
-    stat.add("solve max seconds", solve_time_.max);
-    stat.add("solve recent mean seconds", solve_time_.recentMean());
-    stat.add("update latency count", update_latency_.count);
-    stat.add("update latency mean seconds", update_latency_.mean());
-    stat.add("update latency max seconds", update_latency_.max);
-    stat.add("update latency recent mean seconds", update_latency_.recentMean());
-    stat.add("update latency recent max seconds", update_latency_.recentMax());
-    stat.add("first estimate after keyframes", first_estimate_keyframes_);
-    stat.add("first estimate wall seconds", first_estimate_wall_s_);
-    stat.add("first estimate sensor seconds", first_estimate_sim_s_);
-  }
-  stat.add("last problem", problem);
-  stat.add("unknown parameters", unknown_params_);
-  stat.add("converged", e ? e->converged : false);
 }
 
 }  // namespace tescalib

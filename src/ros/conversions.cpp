@@ -7,6 +7,7 @@
 #include <cv_bridge/cv_bridge.h>
 #include <sensor_msgs/image_encodings.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <opencv2/imgproc.hpp>
 
 #include "tescalib/core/io/kitti_reader.h"
@@ -475,18 +476,11 @@ sensor_msgs::Image toImageMsg(const cv::Mat& bgr, const std_msgs::Header& header
 }
 
 geometry_msgs::Transform toTransformMsg(const Eigen::Isometry3d& T) {
-  geometry_msgs::Transform m;
-  const Eigen::Quaterniond q(T.linear());
-  m.translation.x = T.translation().x();
-  m.translation.y = T.translation().y();
-  m.translation.z = T.translation().z();
-  m.rotation.w = q.w();
-  m.rotation.x = q.x();
-  m.rotation.y = q.y();
-  m.rotation.z = q.z();
-  return m;
+  return tf2::eigenToTransform(T).transform;
 }
 
+/// Not tf2::transformToEigen: that one takes the quaternion as it comes, where a hand-written
+/// or rounded one (a bag's /tf_static, a parameter) is normalised first.
 Eigen::Isometry3d fromTransformMsg(const geometry_msgs::Transform& m) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = Eigen::Quaterniond(m.rotation.w, m.rotation.x, m.rotation.y, m.rotation.z)

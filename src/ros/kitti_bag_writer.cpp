@@ -19,31 +19,19 @@ void writeKittiBag(const KittiSequence& seq, const std::string& bag_path, const 
 namespace {
 /// A sequence's stamp `s` (seconds, from times.txt) shifted by `offset`, to the nanosecond of its
 /// decimal value: the whole seconds of the offset as integers, the rest as a short duration.
-/// ros::Time(s + offset) rounds through a double of about 0.24 us resolution at this epoch, so
-/// the bag's stamps looked like a real driver's only on a 0.24 us grid, which hid a node that
-/// rebuilt stamps from doubles (session 32).
+/// ros::Time(s + offset) would round through a double of about 0.24 us resolution at this epoch:
+/// the bag's stamps look like a real driver's, not on a 0.24 us grid, so that a node that
+/// rebuilds stamps from doubles shows.
 ros::Time bagStamp(double offset, double s, uint32_t extra_nsec) {
   const double whole = std::floor(offset);
   return ros::Time(whole) + ros::Duration(offset - whole + s) + ros::Duration(0, extra_nsec);
 }
-}  // namespace
 
-void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::string& bag_path,
-                   const KittiBagOptions& o, const std::function<void(size_t, size_t)>& progress) {
-  if (seqs.empty()) return;
-  const KittiSequence& seq = *seqs.front();
-  double offset = seq.layout() == KittiLayout::kOdometry ? o.odometry_start_stamp : 0.0;
-  const StereoRig& rig = seq.rig();
-  size_t total = 0;
-  for (const KittiSequence* s : seqs)
-    total += o.max_frames < 0 ? s->size() : std::min(s->size(), static_cast<size_t>(o.max_frames));
-
-  rosbag::Bag bag(bag_path, rosbag::bagmode::Write);
-  bag.setCompression(rosbag::compression::LZ4);
-
-  // Static transforms: base_link -> velo_link (identity: the LiDAR is the vehicle reference here)
-  // and velo_link -> both cameras (the dataset's calibration, i.e. the ground truth).
-  const ros::Time t0 = bagStamp(offset, seq.stamp(0), o.stamp_offset_nsec);
+/// The transforms on /tf_static, stamped `t0`: base_link -> velo_link (identity: the LiDAR is the
+/// vehicle reference here) and velo_link -> both cameras (the dataset's calibration, i.e. the
+/// ground truth), or kitti2bag's tree through imu_link.
+tf2_msgs::TFMessage staticTransforms(const StereoRig& rig, const KittiBagOptions& o,
+                                     const ros::Time& t0) {
   tf2_msgs::TFMessage tf_static;
   auto add = [&](const std::string& parent, const std::string& child, const Eigen::Isometry3d& T) {
     geometry_msgs::TransformStamped ts;
@@ -72,18 +60,75 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
     add(o.velo_frame, o.left_frame, rig.T_cam_lidar.inverse());
     add(o.velo_frame, o.right_frame, (rig.T_right_left * rig.T_cam_lidar).inverse());
   }
-  const std::string encoding = o.like_kitti2bag ? "bgr8" : "rgb8";
-  // Latched, and repeated with every frame as kitti2bag does, so a late subscriber gets it.
-  auto latched = boost::make_shared<ros::M_string>();
-  (*latched)["latching"] = "1";
-  (*latched)["callerid"] = "/kitti_to_bag";
-  (*latched)["type"] = ros::message_traits::datatype<tf2_msgs::TFMessage>();
-  (*latched)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
-  (*latched)["message_definition"] = ros::message_traits::definition<tf2_msgs::TFMessage>();
+  return tf_static;
+}
 
-  // camera_info's P as kitti2bag writes it: the dataset's P2 and P3, fourth columns included
-  // (both cameras' positions measured from cam0; stereoFromCameraInfo takes their difference).
-  const Eigen::Vector3d p3_left = seq.calib().P[2].col(3), p3_right = seq.calib().P[3].col(3);
+/// Writes each frame's messages: /tf_static (latched, and repeated with every frame as kitti2bag
+/// does, so a late subscriber gets it), the cloud, both images and both camera_infos.
+struct FrameWriter {
+  rosbag::Bag& bag;
+  const KittiBagOptions& o;
+  const StereoRig& rig;
+  tf2_msgs::TFMessage tf_static;
+  /// camera_info's P as kitti2bag writes it: the dataset's P2 and P3, fourth columns included
+  /// (both cameras' positions measured from cam0; stereoFromCameraInfo takes their difference).
+  Eigen::Vector3d p3_left, p3_right;
+  std::string encoding;
+  boost::shared_ptr<ros::M_string> latched = boost::make_shared<ros::M_string>();
+
+  FrameWriter(rosbag::Bag& b, const KittiBagOptions& options, const KittiSequence& seq,
+              const ros::Time& t0)
+      : bag(b),
+        o(options),
+        rig(seq.rig()),
+        tf_static(staticTransforms(seq.rig(), options, t0)),
+        p3_left(seq.calib().P[2].col(3)),
+        p3_right(seq.calib().P[3].col(3)),
+        encoding(options.like_kitti2bag ? "bgr8" : "rgb8") {
+    (*latched)["latching"] = "1";
+    (*latched)["callerid"] = "/kitti_to_bag";
+    (*latched)["type"] = ros::message_traits::datatype<tf2_msgs::TFMessage>();
+    (*latched)["md5sum"] = ros::message_traits::md5sum<tf2_msgs::TFMessage>();
+    (*latched)["message_definition"] = ros::message_traits::definition<tf2_msgs::TFMessage>();
+  }
+
+  void write(const Frame& f, const ros::Time& stamp, uint32_t seq) {
+    std_msgs::Header h;
+    h.stamp = stamp;
+    h.seq = seq;
+
+    for (auto& t : tf_static.transforms) t.header.stamp = stamp;
+    bag.write("/tf_static", stamp, tf_static, latched);
+
+    h.frame_id = o.velo_frame;
+    bag.write(o.velo_topic, stamp,
+              o.like_kitti2bag ? ros_conv::toPointCloud2Xyzi(f.scan, h)
+                               : ros_conv::toPointCloud2(f.scan, h));
+
+    h.frame_id = o.left_frame;
+    bag.write(o.left_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.left, h, encoding));
+    bag.write(o.left_prefix + "/camera_info", stamp, ros_conv::toCameraInfo(rig.left, p3_left, h));
+
+    h.frame_id = o.right_frame;
+    bag.write(o.right_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.right, h, encoding));
+    bag.write(o.right_prefix + "/camera_info", stamp,
+              ros_conv::toCameraInfo(rig.right, p3_right, h));
+  }
+};
+}  // namespace
+
+void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::string& bag_path,
+                   const KittiBagOptions& o, const std::function<void(size_t, size_t)>& progress) {
+  if (seqs.empty()) return;
+  const KittiSequence& seq = *seqs.front();
+  double offset = seq.layout() == KittiLayout::kOdometry ? o.odometry_start_stamp : 0.0;
+  size_t total = 0;
+  for (const KittiSequence* s : seqs)
+    total += o.max_frames < 0 ? s->size() : std::min(s->size(), static_cast<size_t>(o.max_frames));
+
+  rosbag::Bag bag(bag_path, rosbag::bagmode::Write);
+  bag.setCompression(rosbag::compression::LZ4);
+  FrameWriter writer(bag, o, seq, bagStamp(offset, seq.stamp(0), o.stamp_offset_nsec));
   size_t written = 0;
   double last_written = 0;  // the last written frame's stamp in the bag (offset included)
   for (size_t si = 0; si < seqs.size(); ++si) {
@@ -101,28 +146,8 @@ void writeKittiBag(const std::vector<const KittiSequence*>& seqs, const std::str
     if (n > 0) last_written = offset + cur.stamp(n - 1);
     for (size_t i = 0; i < n; ++i) {
       const Frame f = cur.load(i);
-      const ros::Time stamp = bagStamp(offset, f.stamp, o.stamp_offset_nsec);
-      std_msgs::Header h;
-      h.stamp = stamp;
-      h.seq = static_cast<uint32_t>(written);
-
-      for (auto& t : tf_static.transforms) t.header.stamp = stamp;
-      bag.write("/tf_static", stamp, tf_static, latched);
-
-      h.frame_id = o.velo_frame;
-      bag.write(o.velo_topic, stamp,
-                o.like_kitti2bag ? ros_conv::toPointCloud2Xyzi(f.scan, h)
-                                 : ros_conv::toPointCloud2(f.scan, h));
-
-      h.frame_id = o.left_frame;
-      bag.write(o.left_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.left, h, encoding));
-      bag.write(o.left_prefix + "/camera_info", stamp,
-                ros_conv::toCameraInfo(rig.left, p3_left, h));
-
-      h.frame_id = o.right_frame;
-      bag.write(o.right_prefix + "/image_raw", stamp, ros_conv::toImageMsg(f.right, h, encoding));
-      bag.write(o.right_prefix + "/camera_info", stamp,
-                ros_conv::toCameraInfo(rig.right, p3_right, h));
+      writer.write(f, bagStamp(offset, f.stamp, o.stamp_offset_nsec),
+                   static_cast<uint32_t>(written));
       ++written;
       if (progress) progress(written, total);
     }

@@ -43,7 +43,7 @@ std::string statusLine(const char* name, const ExtrinsicEstimate& e) {
 void OverlayNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
-  // Checked (session 38 audit): a string kept the default silently, 0 or less drew nothing.
+  // Checked: a string would keep the default silently, 0 or less would draw nothing.
   double max_depth = max_depth_;
   if (pnh.hasParam("max_depth") &&
       !(pnh.getParam("max_depth", max_depth) && max_depth > 0 && std::isfinite(max_depth)))

@@ -11,8 +11,6 @@
 namespace tescalib {
 
 namespace {
-/// Reads private parameters, remembering every name it was asked for, so that the names on the
-/// parameter server it never read (typos) can be reported.
 /// Whether a parameter server value can be read as T without losing anything: roscpp itself
 /// rounds 10.7 to an int and keeps the default for "true" given to a bool, silently.
 bool hasType(const XmlRpc::XmlRpcValue& v, bool*) {
@@ -100,11 +98,9 @@ void checkRefinementRounds(const DisparityRefinementSettings& r, const std::stri
     e << prefix << "refine_smoothed_rounds must be between 0 and " << prefix
       << "refine_iterations (got " << r.smoothed_gradient_rounds << "); ";
 }
-}  // namespace
 
-bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* error,
-                    std::vector<std::string>* unknown) {
-  Reader get{pnh, {}, {}};
+/// sync/*, frames/*, window/* and deskew/*.
+void readSyncWindowAndDeskew(Reader& get, NodeParams* p) {
   get("sync/approximate", &p->approximate_sync);
   get("sync/queue_size", &p->sync_queue);
   get("sync/max_skew", &p->online.max_sync_skew);
@@ -131,6 +127,10 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   double reference_azimuth_deg = p->online.sweep.reference_azimuth_rad * 180.0 / M_PI;
   get("deskew/reference_azimuth_deg", &reference_azimuth_deg);
   p->online.sweep.reference_azimuth_rad = reference_azimuth_deg * M_PI / 180.0;
+}
+
+/// co_calibration/*, stereo/* and images/*.
+void readCoCalibrationAndStereo(Reader& get, NodeParams* p) {
   get("co_calibration/estimate_stereo", &p->online.estimate_stereo);
   get("co_calibration/joint", &p->online.joint);
   get("co_calibration/max_rounds", &p->online.co.max_rounds);
@@ -155,6 +155,10 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("stereo/refine_window_radius", &p->online.keyframe.stereo.refinement.window_radius);
   get("stereo/refine_smoothed_rounds",
       &p->online.keyframe.stereo.refinement.smoothed_gradient_rounds);
+}
+
+/// lidar_stereo/*, photometric/*, initial/*, save_path and the co-calibration's stereo clouds.
+void readSolversAndStart(Reader& get, NodeParams* p) {
   get("lidar_stereo/normal_weight", &p->online.co.lidar.normal_weight);
   get("lidar_stereo/lidar_range_sigma", &p->online.co.lidar.lidar_range_sigma);
   get("lidar_stereo/max_depth", &p->online.co.lidar.max_depth);
@@ -177,40 +181,56 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   get("co_calibration/refine_iterations", &p->online.co.stereo_cloud.refinement.iterations);
   get("co_calibration/refine_smoothed_rounds",
       &p->online.co.stereo_cloud.refinement.smoothed_gradient_rounds);
-  if (unknown) {
-    unknown->clear();
-    std::vector<std::string> all;
-    ros::param::getParamNames(all);
-    const std::string prefix = pnh.getNamespace() + "/";
-    for (const std::string& name : all) {
-      if (name.compare(0, prefix.size(), prefix) != 0) continue;
-      const std::string key = name.substr(prefix.size());
-      // image_transport's subscriber plugins keep their own parameters under
-      // ~<transport>/ (compressed/mode, theora/...): not ours, and not typos.
-      const std::string first = key.substr(0, key.find('/'));
-      if (key.find('/') != std::string::npos &&
-          (first == p->image_transport || first == "compressed" || first == "compressedDepth" ||
-           first == "theora"))
-        continue;
-      if (!get.names.count(key)) unknown->push_back(key);
-    }
-    std::sort(unknown->begin(), unknown->end());
+}
+
+/// The names under `pnh` that `read` does not hold (typos), sorted.
+std::vector<std::string> unknownNames(const ros::NodeHandle& pnh, const std::set<std::string>& read,
+                                      const std::string& image_transport) {
+  std::vector<std::string> unknown;
+  std::vector<std::string> all;
+  ros::param::getParamNames(all);
+  const std::string prefix = pnh.getNamespace() + "/";
+  for (const std::string& name : all) {
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string key = name.substr(prefix.size());
+    // image_transport's subscriber plugins keep their own parameters under
+    // ~<transport>/ (compressed/mode, theora/...): not ours, and not typos.
+    const std::string first = key.substr(0, key.find('/'));
+    if (key.find('/') != std::string::npos && (first == image_transport || first == "compressed" ||
+                                               first == "compressedDepth" || first == "theora"))
+      continue;
+    if (!read.count(key)) unknown.push_back(key);
   }
+  std::sort(unknown.begin(), unknown.end());
+  return unknown;
+}
+
+}  // namespace
+
+bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* error,
+                    std::vector<std::string>* unknown) {
+  Reader get{pnh, {}, {}};
+  readSyncWindowAndDeskew(get, p);
+  readCoCalibrationAndStereo(get, p);
+  readSolversAndStart(get, p);
+  if (unknown) *unknown = unknownNames(pnh, get.names, p->image_transport);
   const bool valid = validateNodeParams(*p, error);
   *error = get.wrong_type.str() + *error;
   return valid && get.wrong_type.str().empty();
 }
 
-bool validateNodeParams(const NodeParams& p, std::string* error) {
-  std::ostringstream e;
-  const auto& o = p.online;
-  // Written so that NaN fails too (NaN compares false with everything: "x <= 0" let it through).
-  const auto positive = [](double x) { return x > 0 && std::isfinite(x); };
-  const auto size = [](double x) { return x >= 0 && std::isfinite(x); };
+namespace {
+
+/// NaN fails these too: it compares false with everything, so "x <= 0" would let it through.
+bool positive(double x) { return x > 0 && std::isfinite(x); }
+bool nonNegative(double x) { return x >= 0 && std::isfinite(x); }
+
+/// window/*, stereo/min_points and images/*.
+void checkWindowAndImages(const OnlineSettings& o, std::ostringstream& e) {
   if (!positive(o.keyframe_min_dt))
     e << "window/keyframe_min_dt must be > 0 (got " << o.keyframe_min_dt << "); ";
   if (o.window_size < 1) e << "window/size must be >= 1 (got " << o.window_size << "); ";
-  if (!size(o.max_time_jump_back))
+  if (!nonNegative(o.max_time_jump_back))
     e << "window/max_time_jump_back must be >= 0 s (got " << o.max_time_jump_back << "); ";
   if (o.min_keyframes < 1 || o.min_keyframes > o.window_size)
     e << "window/min_keyframes must be in [1, window/size] (got " << o.min_keyframes
@@ -237,6 +257,11 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (o.keyframe_selection != "information" && o.keyframe_selection != "fifo")
     e << "window/keyframe_selection must be information or fifo (got '" << o.keyframe_selection
       << "'); ";
+}
+
+/// sync/*, deskew/* and image_transport.
+void checkSyncAndDeskew(const NodeParams& p, std::ostringstream& e) {
+  const auto& o = p.online;
   if (!positive(o.max_sync_skew)) e << "sync/max_skew must be > 0; ";
   if (!positive(p.max_stereo_skew)) e << "sync/max_stereo_skew must be > 0; ";
   if (!positive(o.deskew_max_dt))
@@ -249,6 +274,10 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   if (p.image_transport.empty() || p.image_transport.find('/') != std::string::npos)
     e << "image_transport must be a transport's name (raw, compressed, ...; got \""
       << p.image_transport << "\"); ";
+}
+
+/// The keyframes' stereo matching and the disparity refinements.
+void checkStereo(const OnlineSettings& o, std::ostringstream& e) {
   if (o.keyframe.stereo.num_disparities < 16 || o.keyframe.stereo.num_disparities % 16)
     e << "stereo/num_disparities must be a positive multiple of 16 (got "
       << o.keyframe.stereo.num_disparities << "); ";
@@ -264,6 +293,10 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
     e << "stereo/refine_window_radius must be between 1 and 15 px (got "
       << o.keyframe.stereo.refinement.window_radius << "); ";
   checkRefinementRounds(o.co.stereo_cloud.refinement, "co_calibration/", e);
+}
+
+/// co_calibration/*, lidar_stereo/*, photometric/* and the depth limits of both clouds.
+void checkSolvers(const OnlineSettings& o, std::ostringstream& e) {
   if (o.co.max_rounds < 1) e << "co_calibration/max_rounds must be >= 1; ";
   if (o.joint && !o.estimate_stereo)
     e << "co_calibration/joint (the one-problem co-calibration) needs "
@@ -286,15 +319,15 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
     e << "lidar_stereo/search_min_keyframes must be >= 1 (got " << o.search_min_keyframes << "); ";
   if (o.co.stereo.pyramid_levels < 1 || o.co.stereo.pyramid_levels > 5)
     e << "photometric/pyramid_levels must be in [1, 5]; ";
-  // Read but not checked until session 32's review: 0 made every keyframe fail as "a dark,
-  // blurred ... right image" (stereo) or every solve as "too few associations" (LiDAR-stereo).
-  // ... and below the clouds' fixed near limit (StereoSettings::min_depth) every cloud is empty.
+  // 0 makes every keyframe fail as "a dark, blurred ... right image" (stereo) or every solve as
+  // "too few associations" (LiDAR-stereo); below the clouds' fixed near limit
+  // (StereoSettings::min_depth) every cloud is empty.
   if (!(o.keyframe.stereo.max_depth > o.keyframe.stereo.min_depth))
     e << "stereo/max_depth must be beyond the stereo clouds' near limit of "
       << o.keyframe.stereo.min_depth << " m (got " << o.keyframe.stereo.max_depth << "); ";
   if (!(o.co.lidar.max_depth > 0))
     e << "lidar_stereo/max_depth must be > 0 m (got " << o.co.lidar.max_depth << "); ";
-  // > 0, as the LiDAR-stereo solver requires (0 started a node whose every solve was refused).
+  // > 0, as the LiDAR-stereo solver requires (0 would start a node whose every solve is refused).
   if (!positive(o.co.lidar.normal_weight))
     e << "lidar_stereo/normal_weight must be > 0 (got " << o.co.lidar.normal_weight << "); ";
   if (!positive(o.co.lidar.lidar_range_sigma))
@@ -302,6 +335,10 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
       << "); ";
   if (!positive(o.co.stereo.huber))
     e << "photometric/huber must be > 0 (got " << o.co.stereo.huber << "); ";
+}
+
+/// initial/* and frames/*.
+void checkStartAndFrames(const NodeParams& p, std::ostringstream& e) {
   for (const auto& [name, v] : {std::pair{"initial/T_cam_lidar", &p.initial_T_cam_lidar},
                                 std::pair{"initial/T_right_left", &p.initial_T_right_left}}) {
     if (v->empty()) continue;
@@ -322,11 +359,22 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
       std::hypot(p.initial_T_right_left[0], p.initial_T_right_left[1], p.initial_T_right_left[2]) <
           1e-3)
     e << "initial/T_right_left must have a baseline (its translation is under 1 mm); ";
-  if (!size(p.initial_perturb_rot_deg) || !size(p.initial_perturb_trans_m))
+  if (!nonNegative(p.initial_perturb_rot_deg) || !nonNegative(p.initial_perturb_trans_m))
     e << "initial/perturb_rot_deg and initial/perturb_trans_m must be sizes, >= 0 (got "
       << p.initial_perturb_rot_deg << ", " << p.initial_perturb_trans_m << "); ";
   if (p.left_frame.empty() || p.right_frame.empty())
     e << "frames/left and frames/right must be set; ";
+}
+
+}  // namespace
+
+bool validateNodeParams(const NodeParams& p, std::string* error) {
+  std::ostringstream e;
+  checkWindowAndImages(p.online, e);
+  checkSyncAndDeskew(p, e);
+  checkStereo(p.online, e);
+  checkSolvers(p.online, e);
+  checkStartAndFrames(p, e);
   *error = e.str();
   return error->empty();
 }

@@ -32,6 +32,8 @@
 #include "tescalib/core/uncertainty/trust.h"
 #include "tescalib/ros/bag_sets.h"
 #include "tescalib/ros/conversions.h"
+#include "tescalib/ros/frame_intake.h"
+#include "tescalib/ros/params.h"
 
 #include "cli.h"
 
@@ -355,6 +357,19 @@ struct Session {
   void add(const Frame& frame, double lidar_stamp, const std::string& label) {
     std::string msg;
     const FrameResult r = calibrator->addFrame(frame, lidar_stamp, &msg);
+    took(r, msg, frame, label);
+  }
+
+  /// A bag's candidate, with de-skewing after its previous scan.
+  void add(const CandidateFrame& candidate, const std::string& label) {
+    std::string msg;
+    const FrameResult r = candidate.addTo(calibrator.get(), &msg);
+    took(r, msg, candidate.frame, label);
+  }
+
+  /// What the calibrator made of `frame`; after each new keyframe a solve once the window is
+  /// ready.
+  void took(FrameResult r, const std::string& msg, const Frame& frame, const std::string& label) {
     if (r == FrameResult::kRejected) {
       std::printf("  %s rejected: %s\n", label.c_str(), msg.c_str());
       ++rejected;
@@ -620,76 +635,100 @@ std::string bagSensorTopics(const std::string& path) {
   return out.empty() ? "no PointCloud2, Image or CameraInfo topic" : out;
 }
 
-/// A rosbag: its synchronized sets in order; keyframe candidates (>= min_dt after the last one)
-/// are converted, the others skipped (with de-skewing, their scans are kept for the next one).
-void runBag(const Args& args, Session* session) {
+/// A rosbag's synchronized sets in order, through the node's FrameIntake: the same keyframe
+/// pre-selection and checks as the node's sync callback (non-candidates are skipped; with
+/// de-skewing their scans are kept for the next candidate).
+struct BagRun {
+  const Args& args;
+  Session* session;
   tf2::BufferCore tf;
-  readBagStaticTf(args.bag, &tf);
-  double last_candidate = -1e300;
-  std::shared_ptr<const LidarScan> previous_scan;
-  double previous_stamp = 0;
-  const BagCounts n = readBagSets(args.bag, args.topics, [&](const BagSet& set) {
+  std::unique_ptr<FrameIntake> intake;
+  bool camera_info_change_said = false, ring_recovery_said = false;
+
+  BagRun(const Args& a, Session* s) : args(a), session(s) { readBagStaticTf(args.bag, &tf); }
+
+  void onSet(const BagSet& set) {
     const double stamp = set.left->header.stamp.toSec();
     char label[64];
     std::snprintf(label, sizeof label, "set at %.2f s", stamp);
-    std::string error;
-    if (!session->calibrator) {
-      StereoRig rig;
-      if (!ros_conv::stereoFromCameraInfo(*set.left_info, *set.right_info, args.init.empty(), &rig,
-                                          &error))
-        throw DataError(args.bag + ": " + error);
-      if (!args.init.empty()) {
-        applyInit(args.init, &rig);
-      } else {
-        const std::string cam = set.left_info->header.frame_id.empty()
-                                    ? set.left->header.frame_id
-                                    : set.left_info->header.frame_id;
-        try {
-          rig.T_cam_lidar = ros_conv::fromTransformMsg(
-              tf.lookupTransform(cam, set.cloud->header.frame_id, ros::Time(0)).transform);
-        } catch (const tf2::TransformException& e) {
-          throw DataError(args.bag + ": no initial extrinsic on /tf_static (" + cam + " <- " +
-                          set.cloud->header.frame_id + ": " + e.what() + "); give --init FILE");
-        }
-      }
-      session->start(rig, args, "bag " + args.bag);
-      if (!set.cloud->header.frame_id.empty()) session->lidar_frame = set.cloud->header.frame_id;
-      const std::string time_field = ros_conv::perPointTimeField(*set.cloud);
-      if (!time_field.empty() && !session->settings.deskew)
-        std::printf(
-            "note: the clouds have a per-point time field ('%s'): raw sweeps, which the "
-            "vehicle's motion skews; --deskew 1 unless the driver compensated them\n",
-            time_field.c_str());
-      if (time_field.empty() && session->settings.deskew)
-        std::printf(
-            "note: the clouds have no per-point time field: de-skewed by azimuth, which is right "
-            "only for a LiDAR phase-locked to the cameras that faces its +x at every image stamp "
-            "(KITTI's); --deskew 0 otherwise\n");
-    }
-    const bool candidate =
-        stamp < last_candidate || !session->settings.tooClose(stamp, last_candidate);
-    if (!candidate && !session->settings.deskew) return;
-    Frame frame;
-    frame.stamp = stamp;
-    if (!ros_conv::fromPointCloud2(*set.cloud, &frame.scan, &error)) {
-      if (candidate) std::printf("  %s: point cloud rejected: %s\n", label, error.c_str());
-      session->rejected += candidate;
-      return;
-    }
-    if (session->settings.deskew) {
-      if (previous_scan) session->calibrator->setPreviousScan(previous_scan, previous_stamp);
-      previous_scan = std::make_shared<const LidarScan>(frame.scan);
-      previous_stamp = stamp;  // the set's (left image) stamp, as frame.stamp and the node's
-      if (!candidate) return;
-    }
-    if (!ros_conv::toBgr8Pair(*set.left, *set.right, &frame.left, &frame.right, &error)) {
-      std::printf("  %s: image rejected: %s\n", label, error.c_str());
+    if (!session->calibrator) start(set);
+    IntakeResult r =
+        intake->take(*set.cloud, *set.left, *set.left_info, *set.right, *set.right_info);
+    sayObservations(r, label);
+    if (r.refused()) {
+      std::printf("  %s: %s\n", label, r.reason.c_str());
       ++session->rejected;
       return;
     }
-    last_candidate = stamp;
-    session->add(frame, set.cloud->header.stamp.toSec(), label);
-  });
+    if (r.outcome == IntakeOutcome::kCandidate) session->add(r.candidate, label);
+  }
+
+  /// The first set: the rig from its camera_infos, the initial extrinsic from /tf_static (or
+  /// --init), and what its clouds say about de-skewing.
+  void start(const BagSet& set) {
+    std::string error;
+    StereoRig rig;
+    if (!ros_conv::stereoFromCameraInfo(*set.left_info, *set.right_info, args.init.empty(), &rig,
+                                        &error))
+      throw DataError(args.bag + ": " + error);
+    if (!args.init.empty())
+      applyInit(args.init, &rig);
+    else
+      rig.T_cam_lidar = initialExtrinsic(set);
+    session->start(rig, args, "bag " + args.bag);
+    intake = std::make_unique<FrameIntake>(session->settings, NodeParams().max_stereo_skew);
+    intake->start(*set.left_info, *set.right_info);
+    if (!set.cloud->header.frame_id.empty()) session->lidar_frame = set.cloud->header.frame_id;
+    const std::string time_field = ros_conv::perPointTimeField(*set.cloud);
+    if (!time_field.empty() && !session->settings.deskew)
+      std::printf(
+          "note: the clouds have a per-point time field ('%s'): raw sweeps, which the "
+          "vehicle's motion skews; --deskew 1 unless the driver compensated them\n",
+          time_field.c_str());
+    if (time_field.empty() && session->settings.deskew)
+      std::printf(
+          "note: the clouds have no per-point time field: de-skewed by azimuth, which is right "
+          "only for a LiDAR phase-locked to the cameras that faces its +x at every image stamp "
+          "(KITTI's); --deskew 0 otherwise\n");
+  }
+
+  /// T_cam_lidar from /tf_static: the left camera_info's frame (or the image's) <- the cloud's.
+  Eigen::Isometry3d initialExtrinsic(const BagSet& set) const {
+    const std::string cam = set.left_info->header.frame_id.empty() ? set.left->header.frame_id
+                                                                   : set.left_info->header.frame_id;
+    try {
+      return ros_conv::fromTransformMsg(
+          tf.lookupTransform(cam, set.cloud->header.frame_id, ros::Time(0)).transform);
+    } catch (const tf2::TransformException& e) {
+      throw DataError(args.bag + ": no initial extrinsic on /tf_static (" + cam + " <- " +
+                      set.cloud->header.frame_id + ": " + e.what() + "); give --init FILE");
+    }
+  }
+
+  /// The intake's observations, each said once: a camera_info that changed, the ring count,
+  /// rings recovered from scan order.
+  void sayObservations(const IntakeResult& r, const char* label) {
+    if (r.camera_info_changed && !camera_info_change_said) {
+      camera_info_change_said = true;
+      std::printf(
+          "  %s: camera_info changed since the first set (P, size, binning or ROI): the "
+          "intrinsics and baseline of the first set are kept\n",
+          label);
+    }
+    if (r.rings >= 0 && r.rings < 64) std::printf("note: %s\n", ringCountNote(r.rings).c_str());
+    if (r.ring_recovered && !ring_recovery_said) {
+      ring_recovery_said = true;
+      std::printf(
+          "note: the point clouds have no 'ring' field; rings recovered from scan order "
+          "(KITTI-style clouds)\n");
+    }
+  }
+};
+
+void runBag(const Args& args, Session* session) {
+  BagRun run(args, session);
+  const BagCounts n =
+      readBagSets(args.bag, args.topics, [&run](const BagSet& set) { run.onSet(set); });
   if (n.sets == 0)
     throw DataError(args.bag + ": no synchronized sets (" + std::to_string(n.clouds) +
                     " clouds on " + args.topics.points + ", " + std::to_string(n.left) +

@@ -35,6 +35,7 @@
 #include <tescalib/Save.h>
 
 #include "tescalib/core/online/online_calibrator.h"
+#include "tescalib/ros/frame_intake.h"
 #include "tescalib/ros/params.h"
 
 namespace tescalib {
@@ -52,13 +53,9 @@ class CalibrationNodelet : public nodelet::Nodelet {
   using ExactPolicy = message_filters::sync_policies::ExactTime<Cloud, Image, Info, Image, Info>;
 
   struct PendingFrame {
-    Frame frame;
-    double lidar_stamp = 0;
-    std_msgs::Header header;
-    ros::WallTime received;  ///< when the synchronized set arrived
-    /// With deskew/enabled: the set before's scan, which the keyframe's motion is registered to.
-    std::shared_ptr<const LidarScan> previous_scan;
-    double previous_stamp = 0;
+    CandidateFrame candidate;
+    std_msgs::Header header;  ///< the left image's
+    ros::WallTime received;   ///< when the synchronized set arrived
   };
 
   /// Wall-clock durations of one kind (keyframe builds, solves, update latencies), for
@@ -89,10 +86,28 @@ class CalibrationNodelet : public nodelet::Nodelet {
   };
 
   void onInit() override;
+  /// The private parameters; false (the node inert, saying why) when they are invalid.
+  bool loadParams(ros::NodeHandle& pnh);
+  /// Both images through ~image_transport; false (the node inert) when it cannot be loaded.
+  bool subscribeImages(ros::NodeHandle& nh, ros::NodeHandle& pnh, uint32_t q);
+  /// The outputs (estimates, candidates, keyframes for rviz), ~reset and ~save.
+  void advertise(ros::NodeHandle& nh, ros::NodeHandle& pnh);
+  /// The cloud and camera_info subscriptions and the synchronizer of all five topics.
+  void subscribeAndSynchronize(ros::NodeHandle& nh, uint32_t q);
   void syncCallback(const Cloud::ConstPtr& cloud, const Image::ConstPtr& left,
                     const Info::ConstPtr& left_info, const Image::ConstPtr& right,
                     const Info::ConstPtr& right_info);
   bool initCalibrator(const Cloud& cloud, const Info& left_info, const Info& right_info);
+  /// Counts a synchronized set for /diagnostics (the first one's arrival, the last one's).
+  void countSyncSet(const ros::WallTime& received, double stamp);
+  /// Logs a refused set and counts it as a rejected frame.
+  void reportRefusal(const IntakeResult& r);
+  /// What the clouds' per-point time field (or its absence) means for de-skewing, once.
+  void reportTimeField(const std::string& time_field);
+  /// The LiDAR's ring count (once) and rings recovered from scan order.
+  void reportRings(const IntakeResult& r);
+  /// Hands a candidate to the preprocessing thread (at most 2 wait: older ones are dropped).
+  void enqueue(PendingFrame pf);
   void preprocessLoop();
   void solveLoop();
   void publish(const OnlineEstimate& e, const ros::Time& stamp);
@@ -108,11 +123,20 @@ class CalibrationNodelet : public nodelet::Nodelet {
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onSave(Save::Request& req, Save::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /// /diagnostics' level and message: started or not, data coming, estimate, kept-back solve.
+  void summarize(diagnostic_updater::DiagnosticStatusWrapper& stat,
+                 const std::optional<OnlineEstimate>& e, const std::string& problem,
+                 double since_last_set, double kept_back_chi2) const;
+  /// The keyframe build, solve and update latency durations and the first estimate's figures.
+  void addTimings(diagnostic_updater::DiagnosticStatusWrapper& stat);
   /// Keeps `what` as /diagnostics' "last problem" (every rejection and start-up problem: the
   /// log lines are throttled, the diagnostics say what happened last).
   void noteProblem(const std::string& what);
 
   NodeParams params_;
+  /// The synchronized sets' checks and conversion into keyframe candidates (sync callback; its
+  /// keyframe pre-selection restarts on ~reset and on a window reset).
+  std::unique_ptr<FrameIntake> intake_;
   /// Created once, on the first synchronized set (sync thread), then read by the worker threads,
   /// the diagnostics timer and the services: owned here, published through an atomic pointer.
   std::unique_ptr<OnlineCalibrator> calibrator_owner_;
@@ -145,12 +169,12 @@ class CalibrationNodelet : public nodelet::Nodelet {
   std::mutex mutex_;
   /// Held by the solve thread from checking that its estimate is still the calibrator's to the
   /// end of publishing it, and by ~reset around the reset: a solve's estimate is published
-  /// entirely before a reset or not at all (session 32 review: it could land on the latched
-  /// topics and tf after ~reset had answered). Taken before mutex_ when both are.
+  /// entirely before a reset or not at all (never on the latched topics and tf after ~reset has
+  /// answered). Taken before mutex_ when both are.
   std::mutex publish_mutex_;
   /// The left images' header stamps of recent keyframes, by the core's double stamp: estimates
   /// and keyframe topics carry their image's exact stamp (a double holds about 0.24 us at today's
-  /// epoch, so ros::Time(double) could be 0.1 us off; session 32 review). GUARDED_BY(mutex_).
+  /// epoch, so ros::Time(double) could be 0.1 us off). GUARDED_BY(mutex_).
   std::map<double, ros::Time> keyframe_stamps_;
   /// The exact ros::Time of a keyframe stamp, or the double's when it is not remembered.
   ros::Time rosStamp(double stamp);
@@ -172,13 +196,8 @@ class CalibrationNodelet : public nodelet::Nodelet {
   /// Names under the node's namespace it does not read (typos), for /diagnostics.
   std::string unknown_params_;
   std::atomic<double> last_solve_seconds_{0};
-  uint64_t last_candidate_id_ = 0;
-  int init_attempts_ = 0;
-  bool rings_checked_ = false;  ///< sync callback only: the ring count was checked
-  /// Sync callback only: the camera_infos the rig was made from (a later change is said).
-  Info start_left_info_, start_right_info_;
-  ///< callback only: initCalibrator calls so far  ///< solve thread
-  ///< only: the last ~candidate/* published
+  uint64_t last_candidate_id_ = 0;  ///< solve thread only: the last ~candidate/* published
+  int init_attempts_ = 0;           ///< sync callback only: initCalibrator calls so far
   std::atomic<bool> solving_{false};
   // Timing, GUARDED_BY(mutex_). The update latency of a keyframe runs from the arrival of its
   // synchronized set to the end of the first solve that includes it; it is only recorded for
@@ -194,13 +213,9 @@ class CalibrationNodelet : public nodelet::Nodelet {
   int first_estimate_keyframes_ = 0;   ///< keyframes built when the first estimate was published
   double first_estimate_wall_s_ = -1;  ///< wall s from the first synchronized set to it
   double first_estimate_sim_s_ = -1;   ///< same in sensor (bag) time
-  std::atomic<double> last_enqueued_stamp_{-1e300};
-  std::atomic<int> resets_{0};  ///< ~reset calls (~save's reply says why it has nothing)
-  /// deskew/enabled: the last set's scan (callback thread only) and its stamp.
-  std::shared_ptr<const LidarScan> last_scan_;
-  double last_scan_stamp_ = -1e300;
-  std::string last_problem_;        ///< GUARDED_BY(mutex_)
-  std::string last_solve_message_;  ///< GUARDED_BY(mutex_)
+  std::atomic<int> resets_{0};         ///< ~reset calls (~save's reply says why it has nothing)
+  std::string last_problem_;           ///< GUARDED_BY(mutex_)
+  std::string last_solve_message_;     ///< GUARDED_BY(mutex_)
 };
 
 }  // namespace tescalib

@@ -15,7 +15,7 @@ struct NodeParams {
   /// The node's default is LiDAR-stereo only (`co_calibration/estimate_stereo: false`, as
   /// config/kitti.yaml says; config/live.yaml turns co-calibration on), while the core's
   /// OnlineSettings default co-calibrates: a nodelet loaded without kitti.yaml behaves as
-  /// documented (session 32 docs audit).
+  /// documented.
   NodeParams() { online.estimate_stereo = false; }
   OnlineSettings online;
   bool approximate_sync = true;  ///< message_filters ApproximateTime (else ExactTime)
