@@ -24,6 +24,13 @@ using namespace tescalib;
 
 namespace {
 
+/// Online settings that co-calibrate both extrinsics (the default estimates T_cam_lidar only).
+OnlineSettings coCalibrating() {
+  OnlineSettings s;
+  s.estimate_stereo = true;
+  return s;
+}
+
 StereoRig smallRig() {
   StereoRig rig;
   rig.left.fx = rig.left.fy = 300;
@@ -51,7 +58,7 @@ Frame syntheticFrame(const StereoRig& rig, double stamp) {
 
 TEST(OnlineCalibrator, RejectsBadInputWithAClearMessage) {
   const StereoRig rig = smallRig();
-  OnlineCalibrator cal(rig, OnlineSettings{});
+  OnlineCalibrator cal(rig, coCalibrating());
   std::string msg;
   Frame f = syntheticFrame(rig, 10.0);
 
@@ -78,7 +85,7 @@ TEST(OnlineCalibrator, RejectsBadInputWithAClearMessage) {
 
 TEST(OnlineCalibrator, KeyframeSpacingAndTimeGoingBackwards) {
   const StereoRig rig = smallRig();
-  OnlineSettings settings;
+  OnlineSettings settings = coCalibrating();
   settings.min_stereo_points = 0;  // the synthetic frames have no texture to match
   OnlineCalibrator cal(rig, settings);
   std::string msg;
@@ -514,7 +521,7 @@ TEST(OnlineCalibratorGenerated, ATimeJumpBackSeenDuringASolveDiscardsItsResult) 
   // future. Stamps that go forward leave the solve alone.
   const auto drive = coDrive();
   const Simulator& sim = *drive;
-  OnlineSettings settings;
+  OnlineSettings settings = coCalibrating();
   settings.window_size = 5;
   const StereoRig rig = perturbedRig(sim, 3, 1.0, 0.1);
   std::string msg;
@@ -540,7 +547,7 @@ TEST(OnlineCalibratorGenerated, AKeyframeBuiltAcrossAResetIsDropped) {
   // repeated.
   const auto drive = coDrive();
   const Simulator& sim = *drive;
-  OnlineCalibrator cal(perturbedRig(sim, 3, 1.0, 0.1), OnlineSettings{});
+  OnlineCalibrator cal(perturbedRig(sim, 3, 1.0, 0.1), coCalibrating());
   const Frame f = sim.renderFrame(0);
   std::string msg;
   FrameResult r = FrameResult::kKeyframe;
@@ -565,7 +572,7 @@ TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
   const auto drive = coDrive();
   const Simulator& sim = *drive;
   const StereoRig rig = perturbedRig(sim, 3, 1.0, 0.1);
-  OnlineSettings settings;
+  OnlineSettings settings = coCalibrating();
   settings.window_size = 5;
   OnlineCalibrator cal(rig, settings);
   ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
@@ -802,7 +809,7 @@ TEST(OnlineCalibratorGenerated, AFewKeyframesAfterALoopDoNotReplaceAFullWindowsE
   const auto drive = loopDrive();
   const Simulator& sim = *drive;
   OnlineEstimate full;
-  const auto calibrator = calibratedOnTheLoopDrive(sim, OnlineSettings(), &full);
+  const auto calibrator = calibratedOnTheLoopDrive(sim, coCalibrating(), &full);
   ASSERT_FALSE(::testing::Test::HasFailure());
   OnlineCalibrator& cal = *calibrator;
   std::string msg;
@@ -843,7 +850,7 @@ TEST(OnlineCalibratorGenerated, ASolveKeptBackSaysWhetherItStillAgreesWithThePub
   // with the LiDAR turned by 0.3 deg about its z axis (a knock on the mount) does not.
   const auto drive = loopDrive();
   const Simulator& sim = *drive;
-  const OnlineSettings settings;
+  const OnlineSettings settings = coCalibrating();
   auto afterALoop = [&](double turn_deg, std::string* msg, OnlineEstimate* kept) {
     OnlineEstimate published;
     const auto calibrator = calibratedOnTheLoopDrive(sim, settings, &published);
@@ -888,7 +895,7 @@ TEST(OnlineCalibratorGenerated, AKeyframeWithoutAStereoCloudIsRejected) {
   o.frames = 1;
   o.seed = 4;
   const Simulator sim(o);
-  OnlineSettings settings;
+  OnlineSettings settings = coCalibrating();
   settings.image_quality.max_clipped_difference = 1;  // the image check would refuse it first
   settings.image_quality.min_contrast = 0;
   settings.image_quality.min_sharpness_ratio = 0;
@@ -915,7 +922,7 @@ TEST(OnlineCalibratorGenerated, AnInitialGuessInABodyFrameIsNamedNotCalledARingP
   body_from_optical << 0, 0, 1, -1, 0, 0, 0, -1, 0;
   rig.T_cam_lidar.linear() = body_from_optical * rig.T_cam_lidar.linear();
   rig.T_cam_lidar.translation() = body_from_optical * rig.T_cam_lidar.translation();
-  OnlineCalibrator cal(rig, OnlineSettings{});
+  OnlineCalibrator cal(rig, coCalibrating());
   const Frame f = sim.renderFrame(0);
   std::string msg;
   EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kRejected);
@@ -925,7 +932,7 @@ TEST(OnlineCalibratorGenerated, AnInitialGuessInABodyFrameIsNamedNotCalledARingP
       << msg;
   EXPECT_EQ(msg.find("ring"), std::string::npos) << msg;
   // The optical frame's guess gives a keyframe.
-  OnlineCalibrator right(sim.rig(), OnlineSettings{});
+  OnlineCalibrator right(sim.rig(), coCalibrating());
   EXPECT_EQ(right.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -88,6 +89,24 @@ struct Reader {
   }
 };
 
+/// Collects every parameter's name and value as text, through the same functions that read
+/// them: the loader and this list cannot name different parameters.
+struct Collector {
+  std::map<std::string, std::string> values;
+  template <typename T>
+  void operator()(const std::string& name, T* value) {
+    std::ostringstream o;
+    o << std::setprecision(17) << *value;
+    values[name] = o.str();
+  }
+  void operator()(const std::string& name, std::vector<double>* value) {
+    std::ostringstream o;
+    o << std::setprecision(17);
+    for (double v : *value) o << v << " ";
+    values[name] = o.str();
+  }
+};
+
 /// The rounds of a disparity refinement read from `prefix`refine_iterations and
 /// `prefix`refine_smoothed_rounds.
 void checkRefinementRounds(const DisparityRefinementSettings& r, const std::string& prefix,
@@ -100,7 +119,8 @@ void checkRefinementRounds(const DisparityRefinementSettings& r, const std::stri
 }
 
 /// sync/*, frames/*, window/* and deskew/*.
-void readSyncWindowAndDeskew(Reader& get, NodeParams* p) {
+template <typename Visit>
+void readSyncWindowAndDeskew(Visit& get, NodeParams* p) {
   get("sync/approximate", &p->approximate_sync);
   get("sync/queue_size", &p->sync_queue);
   get("sync/max_skew", &p->online.max_sync_skew);
@@ -130,7 +150,8 @@ void readSyncWindowAndDeskew(Reader& get, NodeParams* p) {
 }
 
 /// co_calibration/*, stereo/* and images/*.
-void readCoCalibrationAndStereo(Reader& get, NodeParams* p) {
+template <typename Visit>
+void readCoCalibrationAndStereo(Visit& get, NodeParams* p) {
   get("co_calibration/estimate_stereo", &p->online.estimate_stereo);
   get("co_calibration/joint", &p->online.joint);
   get("co_calibration/max_rounds", &p->online.co.max_rounds);
@@ -158,7 +179,8 @@ void readCoCalibrationAndStereo(Reader& get, NodeParams* p) {
 }
 
 /// lidar_stereo/*, photometric/*, initial/*, save_path and the co-calibration's stereo clouds.
-void readSolversAndStart(Reader& get, NodeParams* p) {
+template <typename Visit>
+void readSolversAndStart(Visit& get, NodeParams* p) {
   get("lidar_stereo/normal_weight", &p->online.co.lidar.normal_weight);
   get("lidar_stereo/lidar_range_sigma", &p->online.co.lidar.lidar_range_sigma);
   get("lidar_stereo/max_depth", &p->online.co.lidar.max_depth);
@@ -377,6 +399,14 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   checkStartAndFrames(p, e);
   *error = e.str();
   return error->empty();
+}
+
+std::map<std::string, std::string> nodeParamValues(NodeParams p) {
+  Collector get;
+  readSyncWindowAndDeskew(get, &p);
+  readCoCalibrationAndStereo(get, &p);
+  readSolversAndStart(get, &p);
+  return get.values;
 }
 
 }  // namespace tescalib

@@ -70,10 +70,8 @@ const char* const kFooter =
     "Exit status: 0 when an estimate converged, 1 when none did, the data are unusable or "
     "--overlay could not be written, 2 on a usage error.";
 
-/// The sliding window's size: --window, or 20 keyframes (lidar_stereo), 10 (co and joint).
-int windowSize(const Args& a) {
-  return a.window > 0 ? a.window : (a.mode == "lidar_stereo" ? 20 : 10);
-}
+/// The sliding window's size: --window, or the node's (OnlineSettings::window_size, window/size).
+int windowSize(const Args& a) { return a.window > 0 ? a.window : OnlineSettings{}.window_size; }
 
 /// An image topic's setter: the topic itself, and its camera_info in the topic's folder.
 std::function<void(const std::string&)> imageTopic(std::string* image, std::string* info) {
@@ -129,7 +127,8 @@ void addCalibrationOptions(CLI::App* app, Args* a) {
            "problem (started from alternation rounds; its meshes fit every face's normal)")
       ->group(g);
   cli::add(app, "--window", "N", cli::to(&a->window, cli::toInt),
-           "keyframes in the sliding window (default, or 0: 20; co, joint: 10, at least 5)")
+           "keyframes in the sliding window (default, or 0: the node's window/size, 10; co, "
+           "joint: at least 5)")
       ->group(g);
   cli::add(app, "--min-keyframes", "N", cli::to(&a->min_keyframes, cli::toInt),
            "no solve before the window holds N keyframes (default 3, at most the window; the "

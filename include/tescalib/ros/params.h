@@ -2,6 +2,7 @@
 // validates every value and says clearly what is wrong.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -12,11 +13,6 @@
 namespace tescalib {
 
 struct NodeParams {
-  /// The node's default is LiDAR-stereo only (`co_calibration/estimate_stereo: false`, as
-  /// config/kitti.yaml says; config/live.yaml turns co-calibration on), while the core's
-  /// OnlineSettings default co-calibrates: a nodelet loaded without kitti.yaml behaves as
-  /// documented.
-  NodeParams() { online.estimate_stereo = false; }
   OnlineSettings online;
   bool approximate_sync = true;  ///< message_filters ApproximateTime (else ExactTime)
   /// s; left and right image stamps further apart are not one stereo pair (a dropped frame paired
@@ -47,6 +43,10 @@ struct NodeParams {
 /// are not parameters of the node (typos: they would otherwise be ignored without a word).
 bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* params, std::string* error,
                     std::vector<std::string>* unknown = nullptr);
+
+/// Every parameter the node reads, by its name under the private namespace ("window/size"), with
+/// its value in `p` as text: what config/kitti.yaml is checked against.
+std::map<std::string, std::string> nodeParamValues(NodeParams p);
 
 /// Validates a loaded parameter set (also used by the test of config/*.yaml).
 bool validateNodeParams(const NodeParams& p, std::string* error);

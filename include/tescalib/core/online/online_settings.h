@@ -37,7 +37,9 @@ struct OnlineSettings {
     return estimate_stereo && !lidar_first ? std::max(min_keyframes, min_keyframes_co)
                                            : min_keyframes;
   }
-  bool estimate_stereo = true;  ///< co-calibration; false: LiDAR-stereo only, stereo fixed
+  /// Co-calibration of both extrinsics; false (the default): LiDAR-stereo only, the stereo
+  /// extrinsic as given.
+  bool estimate_stereo = false;
   /// With estimate_stereo: co-calibrate with jointCalibrate (both residual sets in one Ceres
   /// problem, joint_calibration.h) instead of the alternation. Its keyframes' meshes fit every
   /// face's normal (LidarMeshSettings::sampled_faces = 0), which the joint problem needs. An
