@@ -52,7 +52,7 @@ Eigen::Vector3d correctedPoint(const LidarStereoAssociation& a, double scale, do
 /// Eq. KD6: each LiDAR face (centroid and normal, at the current T) is associated with the
 /// stereo point nearest to it in [x, y, z, w nx, w ny, w nz] (w = normal_weight), within a gate.
 /// Holds one search tree per keyframe over an evenly strided subset of its stereo points, and the
-/// faces the coarse stage draws from each mesh's sample.
+/// faces the coarse stage draws from each mesh's sample. `window` and `settings` must outlive it.
 class NormalSpaceAssociation {
  public:
   NormalSpaceAssociation(const std::vector<const Keyframe*>& window,
@@ -78,6 +78,7 @@ class NormalSpaceAssociation {
 /// projected at the current T into the left image and compared with the stereo point of the
 /// disparity there, weighted by the point-to-plane noise and gated at fine_gate_sigma. Each
 /// association's cluster is its keyframe and image cell (cov_cells_x x cov_cells_y per image).
+/// `window` and `settings` must outlive it.
 class ProjectiveAssociation {
  public:
   ProjectiveAssociation(const std::vector<const Keyframe*>& window,
