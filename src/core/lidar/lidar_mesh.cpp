@@ -7,6 +7,7 @@
 
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/parallel.h"
+#include "tescalib/core/lidar/range_image.h"
 
 namespace tescalib {
 
@@ -103,6 +104,248 @@ void keepEveryNthRing(LidarScan* scan, int n) {
   for (LidarPoint& p : *scan) p.ring = static_cast<uint16_t>(p.ring / n);
 }
 
+namespace {
+
+/// A scan point as a vector.
+Eigen::Vector3f pointOf(const LidarScan& scan, int i) {
+  return Eigen::Vector3f(scan[i].x, scan[i].y, scan[i].z);
+}
+
+/// How far a point at `range` may be from a surface that it continues: 3 cm + 0.3 %.
+float continueTol(float range) { return 0.03f + 0.003f * range; }
+
+/// The faces of the range image: two triangles per cell of adjacent rings and azimuth bins,
+/// rejected across depth discontinuities (edge lengths), at grazing angles, outside the view cone
+/// and, in sparse scans, where they fold over the corner between two surfaces.
+class Triangulation {
+ public:
+  Triangulation(const LidarScan& scan, const RangeImage& image, const LidarMeshSettings& s)
+      : scan_(scan),
+        image_(image),
+        s_(s),
+        cos_max_inc_(std::cos(s.max_incidence_deg * M_PI / 180.0)),
+        cos_view_(std::cos(s.view_half_angle_deg * M_PI / 180.0)),
+        axis_(s.view_axis.normalized().cast<float>()),
+        folds_(image.rings < s.fold_below_rings) {}
+
+  /// Appends the faces to `mesh` and each one's cell (ring * cols + col) to `face_cell`.
+  void run(LidarMesh* mesh, std::vector<int>* face_cell);
+
+ private:
+  /// The rings below and above a cell's pair, and whether they continue its points' lines.
+  struct CellContext {
+    int cell = 0;
+    int beyond_lo = -1, beyond_hi = -1;
+    bool continues_lo = false, continues_hi = false;  ///< this cell's fold evidence
+  };
+
+  CellContext contextOf(int r, int col, int p00, int p01, int p10) const;
+  /// Is point k within continueTol of the line through points i and j?
+  bool onLine(int i, int j, int k) const;
+  bool inViewCone(const Eigen::Vector3f& centroid, float range) const;
+  bool edgeTooLong(const Eigen::Vector3f& p, const Eigen::Vector3f& q, float range,
+                   bool* sparse) const;
+  bool foldOrBridge(const CellContext& cell, const Eigen::Vector3f& n,
+                    const Eigen::Vector3f& centroid, float range, bool sparse) const;
+  void tryFace(const CellContext& cell, int ia, int ib, int ic, uint32_t triangle);
+
+  const LidarScan& scan_;
+  const RangeImage& image_;
+  const LidarMeshSettings& s_;
+  const double cos_max_inc_, cos_view_;
+  const Eigen::Vector3f axis_;
+  const bool folds_;  ///< folds only in scans of fewer rings than fold_below_rings
+  LidarMesh* mesh_ = nullptr;
+  std::vector<int>* face_cell_ = nullptr;
+};
+
+void Triangulation::run(LidarMesh* mesh, std::vector<int>* face_cell) {
+  mesh_ = mesh, face_cell_ = face_cell;
+  const RangeImage& im = image_;
+  for (int r = 0; r + 1 < im.rings; ++r) {
+    for (int col = 0; col < im.cols; ++col) {
+      int p00 = im.at(r, col), p01 = im.at(r, col + 1), p10 = im.at(r + 1, col),
+          p11 = im.at(r + 1, col + 1);
+      // Bridge one missing bin along the ring (bins are slightly finer than the beam spacing).
+      if (p01 < 0) p01 = im.at(r, col + 2);
+      if (p11 < 0) p11 = im.at(r + 1, col + 2);
+      const CellContext cell = contextOf(r, col, p00, p01, p10);
+      tryFace(cell, p00, p01, p10, 0);
+      tryFace(cell, p01, p11, p10, 1);
+    }
+  }
+}
+
+Triangulation::CellContext Triangulation::contextOf(int r, int col, int p00, int p01,
+                                                    int p10) const {
+  const RangeImage& im = image_;
+  CellContext cell;
+  cell.cell = r * im.cols + col;
+  // The rings below and above the face's pair, at its columns (the faces' plane check).
+  cell.beyond_lo = r > 0 ? im.at(r - 1, col) : -1;
+  if (cell.beyond_lo < 0 && r > 0) cell.beyond_lo = im.at(r - 1, col + 1);
+  cell.beyond_hi = r + 2 < im.rings ? im.at(r + 2, col + 1) : -1;
+  if (cell.beyond_hi < 0 && r + 2 < im.rings) cell.beyond_hi = im.at(r + 2, col);
+  // Where folds are looked for: does the ring-r point of this column (the next column's where
+  // it has none: the second triangle's) continue the line of rings r-2, r-1 (ring r+1's that of
+  // rings r+3, r+2)? Points of one plane at one azimuth lie on a line.
+  const int lo = p00 >= 0 ? p00 : p01;
+  cell.continues_lo = folds_ && r > 1 && onLine(im.at(r - 2, col), im.at(r - 1, col), lo);
+  cell.continues_hi =
+      folds_ && r + 3 < im.rings && onLine(im.at(r + 3, col), im.at(r + 2, col), p10);
+  return cell;
+}
+
+bool Triangulation::onLine(int i, int j, int k) const {
+  if (i < 0 || j < 0 || k < 0) return false;
+  const Eigen::Vector3f p = pointOf(scan_, i), d = pointOf(scan_, j) - p, q = pointOf(scan_, k);
+  const float len = d.norm();
+  if (len < 1e-6f) return false;
+  return d.cross(q - p).norm() / len <= continueTol(q.norm());
+}
+
+bool Triangulation::inViewCone(const Eigen::Vector3f& centroid, float range) const {
+  return !(s_.view_half_angle_deg > 0 && centroid.dot(axis_) < cos_view_ * range);
+}
+
+// An edge is at most max_edge_ratio * range, or, between rays further apart than that allows
+// (sparse rings: 16 rings 2 deg apart put the road's rings 1-2 m apart at 10 m), as long as a
+// plane seen at the grazing limit makes it: range * angle / cos(max incidence). Longer edges span
+// a depth discontinuity. `sparse`: set when the edge is longer than max_edge_ratio allows.
+bool Triangulation::edgeTooLong(const Eigen::Vector3f& p, const Eigen::Vector3f& q, float range,
+                                bool* sparse) const {
+  const float ratio = static_cast<float>(s_.max_edge_ratio);
+  const float per_rad = static_cast<float>(1.0 / std::max(cos_max_inc_, 1e-3));
+  const float sin_angle = p.normalized().cross(q.normalized()).norm();
+  const float length = (p - q).norm();
+  *sparse = *sparse || length > ratio * range;
+  return length > std::min<float>(s_.max_edge_abs, range * std::max(ratio, per_rad * sin_angle));
+}
+
+// Do the rings below and above the face's pair continue its plane (within continueTol)?
+bool Triangulation::foldOrBridge(const CellContext& cell, const Eigen::Vector3f& n,
+                                 const Eigen::Vector3f& centroid, float range, bool sparse) const {
+  const bool fold_candidate = cell.continues_lo || cell.continues_hi;
+  if (!sparse && !fold_candidate) return false;
+  const float tol = continueTol(range);
+  int checked = 0, agree = 0;
+  for (int i : {cell.beyond_lo, cell.beyond_hi}) {
+    if (i < 0) continue;
+    ++checked;
+    if (std::fabs(n.dot(pointOf(scan_, i) - centroid)) <= tol) ++agree;
+  }
+  // A face that neither continues is a fold when one of its rings belongs to the surface beyond
+  // it: it spans the corner between two surfaces (the road under a car and the car's back, a
+  // car's back and its roof), 10-35 cm off both at 16 rings. A surface that only this ring pair
+  // sees (a car's back between the road and a wall) has neither and stays.
+  if (fold_candidate && checked == 2 && agree == 0) return true;
+  // So long a face may bridge two surfaces (the road and a kerb, a car's underside): keep it
+  // only when the rings on both sides of it continue its plane, or the one side that has a
+  // return there (the lowest ring pair, the sky above).
+  return sparse && (checked == 0 || agree < checked);
+}
+
+void Triangulation::tryFace(const CellContext& cell, int ia, int ib, int ic, uint32_t triangle) {
+  if (ia < 0 || ib < 0 || ic < 0) return;
+  const Eigen::Vector3f a = pointOf(scan_, ia), b = pointOf(scan_, ib), c = pointOf(scan_, ic);
+  const Eigen::Vector3f centroid = (a + b + c) / 3.f;
+  const float range = centroid.norm();
+  if (!inViewCone(centroid, range)) return;
+  bool sparse = false;
+  if (edgeTooLong(a, b, range, &sparse) || edgeTooLong(b, c, range, &sparse) ||
+      edgeTooLong(c, a, range, &sparse))
+    return;
+  Eigen::Vector3f n = (b - a).cross(c - a);
+  const float len = n.norm();
+  if (len < 1e-9f) return;
+  n /= len;
+  const Eigen::Vector3f view = centroid / range;
+  float cos_inc = n.dot(view);
+  if (cos_inc > 0) n = -n, cos_inc = -cos_inc;  // orient towards the sensor
+  if (-cos_inc < cos_max_inc_) return;          // grazing
+  if (foldOrBridge(cell, n, centroid, range, sparse)) return;
+  // The face's key (MeshFace::key): ring, then azimuth bin and triangle.
+  const uint32_t key = (static_cast<uint32_t>(cell.cell / image_.cols) << 16) |
+                       (static_cast<uint32_t>(cell.cell % image_.cols) * 2 + triangle);
+  mesh_->faces.push_back({a, b, c, centroid, n, range, key});
+  face_cell_->push_back(cell.cell);
+}
+
+/// The faces whose normals are fitted: evenly strided, or consistentSample.
+std::vector<size_t> drawSample(const LidarMesh& mesh, const LidarMeshSettings& s) {
+  const int n_sample = s.sampled_faces > 0 ? s.sampled_faces : static_cast<int>(mesh.faces.size());
+  if (!s.consistent_sample) return evenlyStrided(mesh.faces.size(), n_sample);
+  std::vector<size_t> all(mesh.faces.size());
+  for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+  return consistentSample(mesh.faces, all, n_sample);
+}
+
+/// The normal of a plane fit (PCA) to the points of the face's neighbourhood in the range image
+/// (rings -1..+2, +-smooth_cols azimuth bins) that lie near the face's plane; the face's own
+/// normal when the points are too few, not planar, or the fit is further than `cos_max` from it.
+Eigen::Vector3f fittedNormal(const LidarScan& scan, const RangeImage& image, const MeshFace& face,
+                             int face_cell, int smooth_cols, float cos_max) {
+  const int r0 = face_cell / image.cols, c0 = face_cell % image.cols;
+  const float tol = 0.02f * face.range + 0.05f;
+  Eigen::Vector3f mean = Eigen::Vector3f::Zero();
+  Eigen::Matrix3f second = Eigen::Matrix3f::Zero();
+  int n = 0;
+  for (int r = std::max(0, r0 - 1); r <= std::min(image.rings - 1, r0 + 2); ++r)
+    for (int dc = -smooth_cols; dc <= smooth_cols + 1; ++dc) {
+      const int i = image.at(r, c0 + dc);
+      if (i < 0) continue;
+      const Eigen::Vector3f p = pointOf(scan, i);
+      if (std::fabs(face.normal.dot(p - face.centroid)) > tol) continue;
+      mean += p;
+      second += p * p.transpose();
+      ++n;
+    }
+  if (n < 6) return face.normal;
+  mean /= static_cast<float>(n);
+  const Eigen::Matrix3f cov = second / static_cast<float>(n) - mean * mean.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> eig(cov);
+  // Planar: the smallest spread well below the other two (not a line of one ring's points).
+  if (!(eig.eigenvalues()(0) < 0.1f * eig.eigenvalues()(1))) return face.normal;
+  Eigen::Vector3f nf = eig.eigenvectors().col(0);
+  if (nf.dot(face.normal) < 0) nf = -nf;
+  return nf.dot(face.normal) > cos_max ? Eigen::Vector3f(nf.normalized()) : face.normal;
+}
+
+/// Replaces the normals of the sampled faces by fittedNormal's. A single face's normal is set by
+/// a 3-10 cm edge along the ring, where 2 cm of range noise tilts it by degrees (lidar_mesh.h);
+/// averaging neighbouring faces barely helps (they share vertices).
+void fitSampleNormals(const LidarScan& scan, const RangeImage& image,
+                      const std::vector<size_t>& sample, const std::vector<int>& face_cell,
+                      const LidarMeshSettings& s, LidarMesh* mesh) {
+  const float cos_max = static_cast<float>(std::cos(s.smooth_max_angle_deg * M_PI / 180.0));
+  // A range image of few columns (a sparse ring) must not wrap the window onto itself: every
+  // point at most once.
+  const int smooth_cols = std::min(s.smooth_cols, std::max(0, (image.cols - 2) / 2));
+  std::vector<Eigen::Vector3f> fitted(sample.size());
+  const int n_sample = static_cast<int>(sample.size());
+  // Each face writes only its own fitted normal: the same mesh on any number of threads.
+  parallelForRanges(n_sample, resolveThreads(s.threads), 64, [&](int begin, int end) {
+    for (int j = begin; j < end; ++j) {
+      const size_t f = sample[j];
+      fitted[j] = fittedNormal(scan, image, mesh->faces[f], face_cell[f], smooth_cols, cos_max);
+    }
+  });
+  for (int j = 0; j < n_sample; ++j) mesh->faces[sample[j]].normal = fitted[j];
+}
+
+/// The scan's rings (its highest ring number + 1); throws beyond kMaxRings.
+int ringCount(const LidarScan& scan) {
+  int rings = 0;
+  for (const auto& p : scan) rings = std::max(rings, int(p.ring) + 1);
+  if (rings > kMaxRings)
+    throw DataError("LiDAR scan has a ring number of " + std::to_string(rings - 1) +
+                    "; rings are numbered from 0 and at most " + std::to_string(kMaxRings) +
+                    " are supported (is the ring field something else?)");
+  return rings;
+}
+
+}  // namespace
+
 LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
   if (s.azimuth_bins < 16 || s.azimuth_bins > kMaxAzimuthBins || s.smooth_cols < 0 ||
       s.smooth_cols > s.azimuth_bins / 4 || !(s.min_range >= 0) || !(s.max_range > s.min_range))
@@ -111,210 +354,14 @@ LidarMesh buildLidarMesh(const LidarScan& scan, const LidarMeshSettings& s) {
                     "], smooth_cols in [0, azimuth_bins / 4], 0 <= min_range < max_range");
   LidarMesh mesh;
   if (scan.empty()) return mesh;
-  int rings = 0;
-  for (const auto& p : scan) rings = std::max(rings, int(p.ring) + 1);
-  if (rings > kMaxRings)
-    throw DataError("LiDAR scan has a ring number of " + std::to_string(rings - 1) +
-                    "; rings are numbered from 0 and at most " + std::to_string(kMaxRings) +
-                    " are supported (is the ring field something else?)");
-  // No finer azimuth bins than the densest ring has returns: neighbours must be adjacent bins.
-  std::vector<int> per_ring(rings, 0);
-  for (const auto& p : scan) ++per_ring[p.ring];
-  const int densest =
-      static_cast<int>(std::max_element(per_ring.begin(), per_ring.end()) - per_ring.begin());
-  // The bins span the whole turn. A scan its driver cropped to a sector (a camera's view) has
-  // that many returns in the sector only: counted over the turn, its bins would be several beams
-  // wide and keep one return in three. Scaled up by the densest ring's coverage when it covers
-  // less than 5/6 of the turn (a full turn with a few gaps is taken as it is).
-  double per_turn = per_ring[densest];
-  {
-    std::vector<double> az;
-    az.reserve(per_ring[densest]);
-    for (const auto& p : scan)
-      if (p.ring == densest && std::isfinite(p.x) && std::isfinite(p.y))
-        az.push_back(std::atan2(p.y, p.x));
-    if (az.size() >= 2) {
-      std::sort(az.begin(), az.end());
-      double gap = az.front() + 2 * M_PI - az.back();
-      for (size_t i = 1; i < az.size(); ++i) gap = std::max(gap, az[i] - az[i - 1]);
-      const double coverage = (2 * M_PI - gap) / (2 * M_PI);
-      if (coverage > 0 && coverage < 5.0 / 6.0) per_turn = az.size() / coverage;
-    }
-  }
-  const int cols =
-      std::max(16, static_cast<int>(std::min<double>(s.azimuth_bins, std::floor(per_turn))));
-  // Range image: the closest return per (ring, azimuth bin).
-  std::vector<int> grid(static_cast<size_t>(rings) * cols, -1);
-  std::vector<float> grid_range(grid.size(), 0.f);
-  for (size_t i = 0; i < scan.size(); ++i) {
-    const auto& p = scan[i];
-    const float r = std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z);
-    if (!std::isfinite(r) || r < s.min_range || r > s.max_range) continue;
-    const double az = std::atan2(p.y, p.x);
-    int c = static_cast<int>(std::floor((az + M_PI) / (2 * M_PI) * cols));
-    c = std::min(std::max(c, 0), cols - 1);
-    const size_t k = static_cast<size_t>(p.ring) * cols + c;
-    if (grid[k] < 0 || r < grid_range[k]) grid[k] = static_cast<int>(i), grid_range[k] = r;
-  }
-  // Fill single-bin gaps inside a ring (bins are slightly finer than the beam spacing).
-  auto at = [&](int ring, int col) {
-    return grid[static_cast<size_t>(ring) * cols + ((col % cols) + cols) % cols];
-  };
-  const double cos_max_inc = std::cos(s.max_incidence_deg * M_PI / 180.0);
-  const double cos_view = std::cos(s.view_half_angle_deg * M_PI / 180.0);
-  const Eigen::Vector3f axis = s.view_axis.normalized().cast<float>();
-  auto vec = [&](int i) { return Eigen::Vector3f(scan[i].x, scan[i].y, scan[i].z); };
+  const RangeImage image =
+      buildRangeImage(scan, ringCount(scan), s.azimuth_bins, s.min_range, s.max_range);
   std::vector<int> face_cell;  // ring * cols + col of each face
-  int cell = 0, beyond_lo = -1, beyond_hi = -1;
-  bool continues_lo = false, continues_hi = false;  // this cell's fold evidence
-  // Folds only in scans of fewer rings than fold_below_rings.
-  const bool folds = rings < s.fold_below_rings;
-  // How far a point at `range` may be from a surface that it continues: 3 cm + 0.3 %.
-  auto continueTol = [](float range) { return 0.03f + 0.003f * range; };
-  // Is point k within continueTol of the line through points i and j?
-  auto onLine = [&](int i, int j, int k) {
-    if (i < 0 || j < 0 || k < 0) return false;
-    const Eigen::Vector3f p = vec(i), d = vec(j) - p, q = vec(k);
-    const float len = d.norm();
-    if (len < 1e-6f) return false;
-    return d.cross(q - p).norm() / len <= continueTol(q.norm());
-  };
-  // The face's key (MeshFace::key): ring, then azimuth bin and triangle.
-  auto face_key = [&](uint32_t triangle) {
-    return (static_cast<uint32_t>(cell / cols) << 16) |
-           (static_cast<uint32_t>(cell % cols) * 2 + triangle);
-  };
-  auto tryFace = [&](int ia, int ib, int ic, uint32_t triangle) {
-    if (ia < 0 || ib < 0 || ic < 0) return;
-    const Eigen::Vector3f a = vec(ia), b = vec(ib), c = vec(ic);
-    const Eigen::Vector3f centroid = (a + b + c) / 3.f;
-    const float range = centroid.norm();
-    if (s.view_half_angle_deg > 0 && centroid.dot(axis) < cos_view * range) return;
-    // An edge is at most max_edge_ratio * range, or, between rays further apart than that
-    // allows (sparse rings: 16 rings 2 deg apart put the road's rings 1-2 m apart at 10 m), as
-    // long as a plane seen at the grazing limit makes it: range * angle / cos(max incidence).
-    // Longer edges span a depth discontinuity.
-    const float ratio = static_cast<float>(s.max_edge_ratio);
-    const float per_rad = static_cast<float>(1.0 / std::max(cos_max_inc, 1e-3));
-    bool sparse = false;  // an edge longer than max_edge_ratio allows
-    auto edgeTooLong = [&](const Eigen::Vector3f& p, const Eigen::Vector3f& q) {
-      const float sin_angle = p.normalized().cross(q.normalized()).norm();
-      const float length = (p - q).norm();
-      sparse = sparse || length > ratio * range;
-      return length > std::min<float>(s.max_edge_abs, range * std::max(ratio, per_rad * sin_angle));
-    };
-    if (edgeTooLong(a, b) || edgeTooLong(b, c) || edgeTooLong(c, a)) return;
-    Eigen::Vector3f n = (b - a).cross(c - a);
-    const float len = n.norm();
-    if (len < 1e-9f) return;
-    n /= len;
-    const Eigen::Vector3f view = centroid / range;
-    float cos_inc = n.dot(view);
-    if (cos_inc > 0) n = -n, cos_inc = -cos_inc;  // orient towards the sensor
-    if (-cos_inc < cos_max_inc) return;           // grazing
-    const bool fold_candidate = continues_lo || continues_hi;
-    if (sparse || fold_candidate) {
-      // Do the rings below and above the face's pair continue its plane (within continueTol)?
-      const float tol = continueTol(range);
-      int checked = 0, agree = 0;
-      for (int i : {beyond_lo, beyond_hi}) {
-        if (i < 0) continue;
-        ++checked;
-        if (std::fabs(n.dot(vec(i) - centroid)) <= tol) ++agree;
-      }
-      // A face that neither continues is a fold when one of its rings belongs to the surface
-      // beyond it: it spans the corner between two surfaces (the road under a car and the car's
-      // back, a car's back and its roof), 10-35 cm off both at 16 rings. A surface that only this
-      // ring pair sees (a car's back between the road and a wall) has neither and stays.
-      if (fold_candidate && checked == 2 && agree == 0) return;
-      // So long a face may bridge two surfaces (the road and a kerb, a car's underside): keep it
-      // only when the rings on both sides of it continue its plane, or the one side that has a
-      // return there (the lowest ring pair, the sky above).
-      if (sparse && (checked == 0 || agree < checked)) return;
-    }
-    mesh.faces.push_back({a, b, c, centroid, n, range, face_key(triangle)});
-    face_cell.push_back(cell);
-  };
-  for (int r = 0; r + 1 < rings; ++r) {
-    for (int col = 0; col < cols; ++col) {
-      int p00 = at(r, col), p01 = at(r, col + 1), p10 = at(r + 1, col), p11 = at(r + 1, col + 1);
-      // Bridge one missing bin along the ring.
-      if (p01 < 0) p01 = at(r, col + 2);
-      if (p11 < 0) p11 = at(r + 1, col + 2);
-      cell = r * cols + col;
-      // The rings below and above the face's pair, at its columns (the faces' plane check).
-      beyond_lo = r > 0 ? at(r - 1, col) : -1;
-      if (beyond_lo < 0 && r > 0) beyond_lo = at(r - 1, col + 1);
-      beyond_hi = r + 2 < rings ? at(r + 2, col + 1) : -1;
-      if (beyond_hi < 0 && r + 2 < rings) beyond_hi = at(r + 2, col);
-      // Where folds are looked for: does the ring-r point of this column (the next
-      // column's where it has none: the second triangle's) continue the line of rings r-2, r-1
-      // (ring r+1's that of rings r+3, r+2)? Points of one plane at one azimuth lie on a line.
-      const int lo = p00 >= 0 ? p00 : p01;
-      continues_lo = folds && r > 1 && onLine(at(r - 2, col), at(r - 1, col), lo);
-      continues_hi = folds && r + 3 < rings && onLine(at(r + 3, col), at(r + 2, col), p10);
-      tryFace(p00, p01, p10, 0);
-      tryFace(p01, p11, p10, 1);
-    }
-  }
-  const int n_sample = s.sampled_faces > 0 ? s.sampled_faces : static_cast<int>(mesh.faces.size());
-  std::vector<size_t> sample;
-  if (s.consistent_sample) {
-    std::vector<size_t> all(mesh.faces.size());
-    for (size_t i = 0; i < all.size(); ++i) all[i] = i;
-    sample = consistentSample(mesh.faces, all, n_sample);
-  } else {
-    sample = evenlyStrided(mesh.faces.size(), n_sample);
-  }
+  Triangulation(scan, image, s).run(&mesh, &face_cell);
+  const std::vector<size_t> sample = drawSample(mesh, s);
   mesh.consistent_sample = s.consistent_sample;
   mesh.sample.assign(sample.begin(), sample.end());
-  if (s.smooth_cols > 0) {
-    // Normals of the sampled faces from a plane fit (PCA) to the points of the face's
-    // neighbourhood in the range image (rings -1..+2, +-smooth_cols azimuth bins) that lie near
-    // the face's plane. A single face's normal is set by a 3-10 cm edge along the ring, where 2 cm
-    // of range noise tilts it by degrees (lidar_mesh.h); averaging neighbouring faces barely helps
-    // (they share vertices).
-    const float cos_max = static_cast<float>(std::cos(s.smooth_max_angle_deg * M_PI / 180.0));
-    // A range image of few columns (a sparse ring) must not wrap the window onto itself: every
-    // point at most once.
-    const int smooth_cols = std::min(s.smooth_cols, std::max(0, (cols - 2) / 2));
-    std::vector<Eigen::Vector3f> fitted(sample.size());
-    const int n_sample = static_cast<int>(sample.size());
-    auto fit = [&](int j) {
-      const size_t f = sample[j];
-      const MeshFace& face = mesh.faces[f];
-      const int r0 = face_cell[f] / cols, c0 = face_cell[f] % cols;
-      const float tol = 0.02f * face.range + 0.05f;
-      Eigen::Vector3f mean = Eigen::Vector3f::Zero();
-      Eigen::Matrix3f second = Eigen::Matrix3f::Zero();
-      int n = 0;
-      for (int r = std::max(0, r0 - 1); r <= std::min(rings - 1, r0 + 2); ++r)
-        for (int dc = -smooth_cols; dc <= smooth_cols + 1; ++dc) {
-          const int i = at(r, c0 + dc);
-          if (i < 0) continue;
-          const Eigen::Vector3f p = vec(i);
-          if (std::fabs(face.normal.dot(p - face.centroid)) > tol) continue;
-          mean += p;
-          second += p * p.transpose();
-          ++n;
-        }
-      fitted[j] = face.normal;
-      if (n < 6) return;
-      mean /= static_cast<float>(n);
-      const Eigen::Matrix3f cov = second / static_cast<float>(n) - mean * mean.transpose();
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> eig(cov);
-      // Planar: the smallest spread well below the other two (not a line of one ring's points).
-      if (!(eig.eigenvalues()(0) < 0.1f * eig.eigenvalues()(1))) return;
-      Eigen::Vector3f nf = eig.eigenvectors().col(0);
-      if (nf.dot(face.normal) < 0) nf = -nf;
-      if (nf.dot(face.normal) > cos_max) fitted[j] = nf.normalized();
-    };
-    // Each face writes only its own fitted normal: the same mesh on any number of threads.
-    parallelForRanges(n_sample, resolveThreads(s.threads), 64, [&](int begin, int end) {
-      for (int j = begin; j < end; ++j) fit(j);
-    });
-    for (int j = 0; j < n_sample; ++j) mesh.faces[sample[j]].normal = fitted[j];
-  }
+  if (s.smooth_cols > 0) fitSampleNormals(scan, image, sample, face_cell, s, &mesh);
   // A keyframe keeps its mesh for the window's lifetime: not the up to 2x capacity push_back
   // left (heaptrack of a long online run: the meshes' growth was its largest peak consumer).
   mesh.faces.shrink_to_fit();

@@ -1,5 +1,9 @@
 // LiDAR-stereo calibration over a window of keyframes (paper, "Coarse Calibration" and "Fine
-// Calibration"): T_cam_lidar from the LiDAR meshes and the stereo clouds.
+// Calibration"): T_cam_lidar from the LiDAR meshes and the stereo clouds. The stages:
+// lidar_stereo_association.h (eq. KD6 and the projective association), lidar_stereo_coarse.h,
+// lidar_stereo_fine.h (with lidar_stereo_update.h, one Ceres update), lidar_stereo_covariance.h
+// (the uncertainty analysis); solveLidarStereoSearch and checkWindowHalves are defined in
+// lidar_stereo_search.cpp and lidar_stereo_halves.cpp.
 #pragma once
 
 #include <array>

@@ -1,0 +1,50 @@
+// Uncertainty of the LiDAR-stereo estimate (paper, "Uncertainty Analysis under Different Driving
+// Scenarios"): the information of the fine stage's residuals at the estimate and the covariances
+// of LidarStereoResult built from it.
+//
+// Analytic Jacobian of r = (R m)^T (R q + t - s) / sigma at the estimate:
+//   dr/dphi = (m x (t - s))^T / sigma,  dr/dtau = m^T / sigma  (m, q already rotated).
+// H = sum w J^T J is the information of eq. residual_uncertainty: the residuals are already
+// divided by their noise-model sigma (J_w Sigma J_w^T of the paper), so H^-1 is the paper's
+// covariance. It assumes independent residuals; neighbouring residuals share SGBM and
+// association errors, so it is over-confident. The published covariance is the cluster-robust
+// sandwich H^-1 (sum_c g_c g_c^T) H^-1 with g_c = sum_{i in c} w_i J_i^T r_i over clusters
+// c = (keyframe, image cell): errors shared inside a cell count once (never below the paper's
+// covariance scaled by the residuals' robust variance). Neither sees errors common to the whole
+// window (association and matching biases), so a calibrated model-error covariance is added.
+// With the stereo scale and yaw free, the pose shares information with them: the covariance is
+// the pose block of the full inverse (the nuisance parameters marginalised), otherwise a window
+// that cannot separate the LiDAR's forward offset from the clouds' scale or yaw would look well
+// constrained.
+#pragma once
+
+#include <cstddef>
+
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/solvers/lidar_stereo_solver.h"
+#include "tescalib/core/solvers/lidar_stereo_update.h"
+
+namespace tescalib {
+
+/// Fills the covariances of `result` (information, covariance_model, covariance_statistical,
+/// covariance, the bias sensitivities, stereo_scale_variance, the disparity offset, the trust
+/// flags and weak directions) and final_cost, residual_scale and keyframe_information from the
+/// fine stage's last association set at `estimate` (a window of `window_size` keyframes).
+/// Returns whether every axis is constrained (false without associations, or with a singular
+/// information matrix: then the covariances are 1e6 I and covariance_known stays false).
+bool estimateLidarStereoCovariance(const LidarStereoEstimate& estimate,
+                                   const LidarStereoSettings& settings, size_t window_size,
+                                   LidarStereoResult* result);
+
+/// The statistical part plus the common biases through `sensitivity`
+/// (LidarStereoResult::bias_sensitivity or bias_sensitivity_held), the disparity offset's sigma
+/// that of disparityBiasSigma.
+Matrix6d withLidarStereoBiases(const LidarStereoResult& result, const LidarStereoSettings& settings,
+                               const Eigen::Matrix<double, 6, 2>& sensitivity);
+
+/// The covariance of what the window constrains (the trust flags): the statistical part plus
+/// the common biases, with the clouds' scale and yaw held (they absorb only a uniform offset).
+Matrix6d constrainedCovariance(const LidarStereoResult& result,
+                               const LidarStereoSettings& settings);
+
+}  // namespace tescalib

@@ -1,0 +1,23 @@
+// The fine stage of the LiDAR-stereo calibration (paper, "Fine Calibration"): projective
+// association and the objective of eq. point_point_normal_obj, the LiDAR face's normal setting
+// the direction in which its centroid and the stereo point F(d + w) are compared, re-associated
+// until the updates settle.
+#pragma once
+
+#include <vector>
+
+#include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/solvers/lidar_stereo_solver.h"
+#include "tescalib/core/solvers/lidar_stereo_update.h"
+
+namespace tescalib {
+
+/// Runs the fine stage on `estimate` (up to fine_reassociations re-associations). Sets
+/// `estimate->settled` when the updates fall below fine_settle_* and keeps the last association
+/// set in `estimate->fine_associations`; counts its re-associations in `result->iterations` and
+/// the last set in `result->fine_inliers`. A Ceres failure sets `estimate->solver_failed`.
+/// Returns false when cancelled (then `result->message` says so).
+bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoSettings& settings,
+                  LidarStereoEstimate* estimate, LidarStereoResult* result);
+
+}  // namespace tescalib

@@ -1,0 +1,178 @@
+#include "tescalib/core/solvers/lidar_stereo_covariance.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <vector>
+
+#include <Eigen/LU>
+
+#include "tescalib/core/uncertainty/common_bias.h"
+#include "tescalib/core/uncertainty/sandwich_covariance.h"
+#include "tescalib/core/uncertainty/trust.h"
+
+namespace tescalib {
+namespace {
+
+/// What the fine residuals at the estimate tell about the parameters: the pose, then the clouds'
+/// scale and yaw where they are estimated.
+struct FineInformation {
+  explicit FineInformation(int parameters)
+      : H(Eigen::MatrixXd::Zero(parameters, parameters)),
+        jtd(Eigen::MatrixXd::Zero(parameters, 2)) {}
+  Eigen::MatrixXd H;                    ///< sum w J^T J
+  std::vector<Eigen::VectorXd> scores;  ///< per cluster sum w r J
+  /// sum w J dr/db for the window-common biases: disparity offset (px), LiDAR range offset (m).
+  Eigen::MatrixXd jtd;
+  double dtd = 0;                     ///< sum w D^2, D = dr / d(disparity offset)
+  std::vector<double> offset_scores;  ///< per cluster sum w r D (with `scores`: the offset's share)
+  double cost = 0;                    ///< mean Huber-weighted squared residual
+};
+
+/// One fine residual at the estimate: r = (R n_l)^T (R p_l + t - p_s) / sigma, p_s as the clouds'
+/// scale and yaw place it.
+struct FineResidual {
+  double r = 0;
+  Eigen::Vector3d m, q;  ///< R n_l, R p_l
+  Eigen::Vector3d ps;    ///< the corrected stereo point
+  double dc = 0;         ///< the yaw-corrected disparity d + g yaw
+};
+
+/// The fine residual of `a` at the estimate and its Jacobian `J` over the pose and the estimated
+/// scale and yaw.
+FineResidual fineResidual(const LidarStereoAssociation& a, const LidarStereoEstimate& est,
+                          const LidarStereoSettings& s, Eigen::VectorXd* J_out) {
+  Eigen::VectorXd& J = *J_out;
+  const int n_scale = s.estimate_stereo_scale ? 1 : 0;
+  const Eigen::Isometry3d& T = est.T;
+  FineResidual f;
+  f.m = T.linear() * a.n_l, f.q = T.linear() * a.p_l;
+  f.ps = correctedPoint(a, est.scale, est.yaw);
+  f.r = f.m.dot(f.q + T.translation() - f.ps) * a.inv_sigma;
+  J.head<3>() = f.m.cross(T.translation() - f.ps) * a.inv_sigma;
+  J.segment<3>(3) = f.m * a.inv_sigma;
+  // ps = scale d / (d + g yaw) p_s
+  f.dc = a.d + a.g * est.yaw;
+  const double mp = f.m.dot(a.p_s) * a.inv_sigma;
+  if (n_scale) J[6] = -mp * a.d / f.dc;
+  if (s.estimate_stereo_yaw) J[6 + n_scale] = mp * est.scale * a.d * a.g / (f.dc * f.dc);
+  return f;
+}
+
+/// Accumulates `info` over the fine associations (not empty) and sets the result's
+/// keyframe_information and residual_scale.
+void accumulateFineInformation(const LidarStereoEstimate& est, const LidarStereoSettings& s,
+                               size_t window_size, FineInformation* info, LidarStereoResult* res) {
+  const std::vector<LidarStereoAssociation>& as = est.fine_associations;
+  const int n = static_cast<int>(info->H.rows());
+  int n_clusters = 0;
+  for (const auto& a0 : as) n_clusters = std::max(n_clusters, a0.cluster + 1);
+  info->scores.assign(n_clusters, Eigen::VectorXd::Zero(n));
+  info->offset_scores.assign(n_clusters, 0.0);
+  res->keyframe_information.assign(window_size, Matrix6d::Zero());
+  std::vector<double> abs_res;
+  Eigen::VectorXd J(n);
+  for (const auto& a0 : as) {
+    const FineResidual f = fineResidual(a0, est, s, &J);
+    const double r = f.r;
+    const double w = std::fabs(r) <= s.fine_huber ? 1.0 : s.fine_huber / std::fabs(r);
+    info->H += w * J * J.transpose();
+    // ps ~ d / (d + delta): dr/d(delta) = m.ps / d_c; q = R p_l: dr/d(range) = m.R p_l / |p_l|.
+    const double D = f.m.dot(f.ps) / f.dc * a0.inv_sigma;
+    info->jtd.col(0) += w * J * D;
+    info->dtd += w * D * D;
+    info->offset_scores[a0.cluster] += w * r * D;
+    info->jtd.col(1) += w * J * (f.m.dot(f.q) / a0.p_l.norm() * a0.inv_sigma);
+    res->keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
+        w * J.head<6>() * J.head<6>().transpose();
+    info->scores[a0.cluster] += w * r * J;
+    info->cost += w * r * r;
+    abs_res.push_back(std::fabs(r));
+  }
+  info->cost /= as.size();
+  std::nth_element(abs_res.begin(), abs_res.begin() + abs_res.size() / 2, abs_res.end());
+  res->residual_scale = 1.4826 * abs_res[abs_res.size() / 2];
+}
+
+/// The window-common disparity offset the fine residuals show (with the clouds' yaw estimated
+/// the offset is a parameter already, and is not measured).
+void measureDisparityOffset(const FineInformation& info, LidarStereoResult* res) {
+  const CommonOffset offset = estimateCommonOffset(info.H, info.scores, info.jtd.col(0), info.dtd,
+                                                   info.offset_scores, res->residual_scale);
+  if (!offset.measured) return;
+  res->disparity_offset_px = offset.value;
+  res->disparity_offset_sigma_px = offset.sigma;
+  if (std::getenv("TESCALIB_DEBUG"))
+    std::fprintf(stderr, "disparity offset %+.4f px, sigma %.4f px\n", res->disparity_offset_px,
+                 res->disparity_offset_sigma_px);
+}
+
+/// The covariances from an invertible information matrix; returns whether every axis is
+/// constrained.
+bool covariancesFromInformation(const FineInformation& info, const LidarStereoSettings& s,
+                                LidarStereoResult* res) {
+  const bool with_scale = s.estimate_stereo_scale;
+  const Eigen::MatrixXd H_inv_full = info.H.inverse();
+  const Matrix6d H_inv = H_inv_full.topLeftCorner<6, 6>();
+  res->information = H_inv.inverse();  // the pose's marginal information
+  res->covariance_known = true;
+  res->covariance_model = H_inv;
+  const Eigen::MatrixXd bias_moves = biasSensitivity(H_inv_full, info.jtd);  // pose and nuisances
+  res->bias_sensitivity = bias_moves.topRows<6>();
+  if (info.H.rows() == 6)
+    res->bias_sensitivity_held = res->bias_sensitivity;
+  else
+    res->bias_sensitivity_held = heldBiasSensitivity(info.H, info.jtd);
+  if (s.measure_disparity_offset && !s.estimate_stereo_yaw) measureDisparityOffset(info, res);
+  const Eigen::MatrixXd robust =
+      clusterRobustCovariance(H_inv_full, info.scores, res->residual_scale, 6);
+  res->covariance = robust.topLeftCorner<6, 6>();
+  if (with_scale) {  // the common biases move the scale too
+    res->stereo_scale_variance = robust(6, 6);
+    res->stereo_scale_variance += std::pow(disparityBiasSigma(*res, s) * bias_moves(6, 0), 2) +
+                                  std::pow(s.model_sigma_range_m * bias_moves(6, 1), 2);
+  }
+  res->covariance_statistical = res->covariance;
+  // Model error that more data does not average away (calibrated on generated drives, see the
+  // README): common biases through this window's sensitivity to them, and a floor per axis.
+  // What the window constrains is the statistical part and the common biases (a weakly
+  // constrained axis is the one they move furthest: the highway's optical axis), without the
+  // scene-independent floor.
+  const Matrix6d constrained = constrainedCovariance(*res, s);
+  const bool all_observable = trustFlags(constrained, s, res->observable);
+  res->weak_directions = weakDirections(constrained, s.max_sigma_rot_deg, s.max_sigma_trans_m);
+  res->covariance = withLidarStereoBiases(*res, s, res->bias_sensitivity);
+  addAxisVariances(&res->covariance, s.model_sigma_rot_deg, s.model_sigma_trans_m);
+  return all_observable;
+}
+
+}  // namespace
+
+bool estimateLidarStereoCovariance(const LidarStereoEstimate& est, const LidarStereoSettings& s,
+                                   size_t window_size, LidarStereoResult* res) {
+  const int n = 6 + (s.estimate_stereo_scale ? 1 : 0) + (s.estimate_stereo_yaw ? 1 : 0);
+  FineInformation info(n);
+  if (!est.fine_associations.empty()) accumulateFineInformation(est, s, window_size, &info, res);
+  res->final_cost = info.cost;
+  if (est.fine_associations.empty()) return false;
+  if (!informationInvertible(info.H)) {
+    res->information = info.H.topLeftCorner<6, 6>();
+    res->covariance = res->covariance_model = res->covariance_statistical =
+        Matrix6d::Identity() * 1e6;
+    return false;
+  }
+  return covariancesFromInformation(info, s, res);
+}
+
+Matrix6d withLidarStereoBiases(const LidarStereoResult& r, const LidarStereoSettings& s,
+                               const Eigen::Matrix<double, 6, 2>& h) {
+  return withCommonBiases(r.covariance_statistical, h,
+                          {disparityBiasSigma(r, s), s.model_sigma_range_m});
+}
+
+Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {
+  return withLidarStereoBiases(r, s, r.bias_sensitivity_held);
+}
+
+}  // namespace tescalib

@@ -1,0 +1,69 @@
+#include "tescalib/core/solvers/lidar_stereo_fine.h"
+
+#include <cstdio>
+#include <cstdlib>
+
+#include "tescalib/core/solvers/lidar_stereo_association.h"
+
+namespace tescalib {
+namespace {
+
+/// Projective re-association makes the last updates wiggle at the 0.1 mm level: settled means
+/// well below the noise, not exactly still.
+bool belowSettleLimits(const Vector6d& x, const LidarStereoSettings& s) {
+  return x.head<3>().norm() * kDegPerRad < s.fine_settle_rot_deg &&
+         x.tail<3>().norm() < s.fine_settle_trans_m;
+}
+
+void printUpdate(int it, size_t associations, const Vector6d& d, double scale, double yaw) {
+  std::fprintf(stderr,
+               "fine it %d: %zu assoc, update %.5f deg %.5f m (rot [%.5f %.5f %.5f] deg, "
+               "t [%.5f %.5f %.5f] m), scale %.5f, yaw %.5f deg\n",
+               it, associations, d.head<3>().norm() * kDegPerRad, d.tail<3>().norm(),
+               d[0] * kDegPerRad, d[1] * kDegPerRad, d[2] * kDegPerRad, d[3], d[4], d[5], scale,
+               yaw * kDegPerRad);
+}
+
+}  // namespace
+
+bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoSettings& s,
+                  LidarStereoEstimate* est, LidarStereoResult* res) {
+  const ProjectiveAssociation association(window, s);
+  std::vector<LidarStereoAssociation>& as = est->fine_associations;
+  Vector6d d_prev = Vector6d::Zero();
+  for (int it = 0; it < s.fine_reassociations; ++it) {
+    if (s.cancelled()) {
+      res->message = "cancelled";
+      return false;
+    }
+    ++res->iterations;
+    as = association.associate(est->T, est->scale, est->yaw);
+    res->fine_inliers = static_cast<int>(as.size());
+    if (static_cast<int>(as.size()) < s.min_inliers) break;
+    const Vector6d d =
+        solveLidarStereoUpdate(as, est->T.translation(), LidarStereoObjective::kPointPointNormal, s,
+                               s.fine_huber, &est->scale, &est->yaw);
+    if (!d.allFinite()) {
+      est->solver_failed = true;
+      break;
+    }
+    if (std::getenv("TESCALIB_DEBUG")) printUpdate(it, as.size(), d, est->scale, est->yaw);
+    est->T = perturb(est->T, d);
+    if (belowSettleLimits(d, s)) {
+      est->settled = true;
+      break;
+    }
+    // Re-association can alternate between two association sets (a 2-cycle, seen with the
+    // stereo scale and yaw free): then the net move over the last two updates is what must be
+    // small, and the midpoint is kept.
+    if (it > 0 && belowSettleLimits(d + d_prev, s) && belowSettleLimits(0.2 * d, s)) {
+      est->T = perturb(est->T, -0.5 * d);
+      est->settled = true;
+      break;
+    }
+    d_prev = d;
+  }
+  return true;
+}
+
+}  // namespace tescalib

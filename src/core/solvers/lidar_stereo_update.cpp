@@ -1,0 +1,86 @@
+#include "tescalib/core/solvers/lidar_stereo_update.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <memory>
+
+#include <ceres/ceres.h>
+
+#include "tescalib/core/solvers/residuals/lidar_normal_residual.h"
+#include "tescalib/core/solvers/residuals/point_plane_normal_residual.h"
+
+namespace tescalib {
+namespace {
+
+/// Bounds the clouds' scale and yaw where this stage estimates them, holds them constant
+/// otherwise.
+void boundStereoNuisances(bool coarse, const LidarStereoSettings& s, double* scale, double* yaw,
+                          ceres::Problem* problem) {
+  const bool nuisances = !coarse || s.coarse_estimates_stereo_nuisances;
+  if (s.estimate_stereo_scale && nuisances) {
+    problem->SetParameterLowerBound(scale, 0, 1.0 / s.max_stereo_scale);
+    problem->SetParameterUpperBound(scale, 0, s.max_stereo_scale);
+  } else {
+    problem->SetParameterBlockConstant(scale);
+  }
+  if (s.estimate_stereo_yaw && nuisances) {
+    const double limit = s.max_stereo_yaw_deg / kDegPerRad;
+    problem->SetParameterLowerBound(yaw, 0, -limit);
+    problem->SetParameterUpperBound(yaw, 0, limit);
+  } else {
+    problem->SetParameterBlockConstant(yaw);
+  }
+}
+
+}  // namespace
+
+Vector6d solveLidarStereoUpdate(const std::vector<LidarStereoAssociation>& as,
+                                const Eigen::Vector3d& t_ref, LidarStereoObjective objective,
+                                const LidarStereoSettings& s, double loss_scale, double* scale,
+                                double* yaw) {
+  const bool coarse = objective == LidarStereoObjective::kPointPlaneNormal;
+  double delta[6] = {0, 0, 0, 0, 0, 0};
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  std::unique_ptr<ceres::LossFunction> loss;
+  if (coarse)
+    loss = std::make_unique<ceres::CauchyLoss>(loss_scale);
+  else
+    loss = std::make_unique<ceres::HuberLoss>(loss_scale);
+  for (const auto& a : as) {
+    if (coarse) {
+      problem.AddResidualBlock(
+          PointPlaneNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.n_s, a.inv_sigma,
+                                           s.normal_residual_weight, a.d, a.g),
+          loss.get(), delta, scale, yaw);
+    } else {
+      problem.AddResidualBlock(
+          LidarNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.inv_sigma, a.d, a.g), loss.get(),
+          delta, scale, yaw);
+    }
+  }
+  if (!as.empty()) boundStereoNuisances(coarse, s, scale, yaw, &problem);
+  ceres::Solver::Options opt;
+  opt.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  opt.max_num_iterations = s.ceres_iterations;
+  opt.num_threads = s.threads;
+  opt.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  const double scale_before = *scale, yaw_before = *yaw;
+  ceres::Solve(opt, &problem, &summary);
+  if (std::getenv("TESCALIB_DEBUG")) std::fprintf(stderr, "%s\n", summary.BriefReport().c_str());
+  Vector6d d;
+  // A failed solve leaves delta at 0, which the stages would take for "settled" at the start:
+  // NaN tells them it failed.
+  if (!summary.IsSolutionUsable()) {
+    *scale = scale_before, *yaw = yaw_before;
+    return Vector6d::Constant(std::numeric_limits<double>::quiet_NaN());
+  }
+  for (int i = 0; i < 6; ++i) d[i] = delta[i];
+  return d;
+}
+
+}  // namespace tescalib
