@@ -13,6 +13,9 @@
 namespace tescalib {
 
 struct NodeParams {
+  /// User-provided (every default comes from the members): with an implicit one GCC 12 reports
+  /// the vectors of a temporary NodeParams{} as maybe uninitialized.
+  NodeParams() {}
   OnlineSettings online;
   bool approximate_sync = true;  ///< message_filters ApproximateTime (else ExactTime)
   /// s; left and right image stamps further apart are not one stereo pair (a dropped frame paired

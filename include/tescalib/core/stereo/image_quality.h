@@ -18,7 +18,7 @@ struct ImageQuality {
   /// both alike. Only comparable between images of one scene: the pair's right/left ratio is
   /// 1.01 on generated drives, 0.92-0.95 on KITTI's frames (its right camera is slightly softer);
   /// a Gaussian blur of the right image by 1 px gives 0.74-0.76 on both, and a saturated top
-  /// 30 % or a flare disc 0.86-0.94 on KITTI (session 24).
+  /// 30 % or a flare disc 0.86-0.94 on KITTI.
   double sharpness = 0;
 };
 

@@ -1,0 +1,40 @@
+// tescalib_calibrate's command line: its options, their checks (the node's own parameter checks
+// on the window this run uses) and the sliding window's size.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "tescalib/ros/bag_sets.h"
+
+namespace tescalib::calibrate {
+
+struct Args {
+  std::vector<std::string> sequences;
+  std::string bag;
+  BagTopics topics;
+  std::string mode = "lidar_stereo";
+  int window = 0;                    // 0: the node's (OnlineSettings::window_size)
+  std::optional<int> min_keyframes;  // none: OnlineSettings' default (3)
+  bool consistent_sample = false;    // LidarMeshSettings::consistent_sample
+  std::string init;
+  double perturb_rot_deg = 0, perturb_trans_m = 0;
+  uint64_t seed = 1;
+  int deskew = -1;  // -1: as the data say (KittiSequence::sweptScans)
+  std::string out;
+  std::string lidar_frame;  // empty: the bag's cloud frame, velo_link for folders
+  std::string overlay;      // PNG: the last keyframe with the scan drawn, initial guess vs result
+  double search_deg = -1;   // LidarStereoSettings::search_step_deg; < 0: the default (10)
+  std::string bag_option;   // the last option of --bag only given (refused with --sequences)
+};
+
+/// Reads and checks the command line into `a`; false after printing why (a usage error). --help
+/// prints the options and exits.
+bool parse(int argc, char** argv, Args* a);
+
+/// The sliding window's size: --window, or the node's (OnlineSettings::window_size, window/size).
+int windowSize(const Args& a);
+
+}  // namespace tescalib::calibrate
