@@ -1,35 +1,23 @@
 // The package passes catkin_lint at its strictest level (-W2: errors, warnings and notices).
 // catkin_lint names the package after its folder, so it checks a symlink called tescalib; the
 // check skips (with a message) when catkin_lint is not installed (make test installs it).
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <memory>
 #include <string>
 
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+
+#include "run_command.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-/// The command's exit status and what it printed (stdout and stderr).
-int run(const std::string& command, std::string* output) {
-  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen((command + " 2>&1").c_str(), "r"), pclose);
-  if (!pipe) return -1;
-  char buffer[4096];
-  output->clear();
-  while (size_t n = fread(buffer, 1, sizeof(buffer), pipe.get())) output->append(buffer, n);
-  const int status = pclose(pipe.release());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 bool haveCatkinLint() {
   std::string out;
-  return run("catkin_lint --version", &out) == 0;
+  return tescalib_test::runCommand("catkin_lint --version", &out) == 0;
 }
 
 /// catkin_lint -W2 on `package_dir` seen through a folder named tescalib; its output.
@@ -41,7 +29,8 @@ std::string lint(const fs::path& package_dir, int* status) {
   fs::create_directory_symlink(fs::absolute(package_dir), link);
   std::string out;
   // Without ROS_PACKAGE_PATH, which (in a sourced workspace) names the repository's own folder.
-  *status = run("env -u ROS_PACKAGE_PATH catkin_lint -W2 --strict '" + link.string() + "'", &out);
+  *status = tescalib_test::runCommand(
+      "env -u ROS_PACKAGE_PATH catkin_lint -W2 --strict '" + link.string() + "'", &out);
   fs::remove_all(dir);
   return out;
 }

@@ -2,38 +2,26 @@
 // Checked with Debian 12's clang-format 14, which the files are formatted with; other versions
 // format some constructs differently, so the check skips (with a message) when clang-format is
 // missing or is another version.
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <memory>
 #include <regex>
 #include <string>
 #include <vector>
 
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+
+#include "run_command.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-/// The command's exit status and what it printed (stdout and stderr).
-int run(const std::string& command, std::string* output) {
-  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen((command + " 2>&1").c_str(), "r"), pclose);
-  if (!pipe) return -1;
-  char buffer[4096];
-  output->clear();
-  while (size_t n = fread(buffer, 1, sizeof(buffer), pipe.get())) output->append(buffer, n);
-  const int status = pclose(pipe.release());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
 /// The clang-format major version on PATH, or 0 when there is none.
 int clangFormatMajor() {
   std::string out;
-  if (run("clang-format --version", &out) != 0) return 0;
+  if (tescalib_test::runCommand("clang-format --version", &out) != 0) return 0;
   std::smatch m;
   return std::regex_search(out, m, std::regex(R"(version (\d+)\.)")) ? std::stoi(m[1]) : 0;
 }
@@ -42,9 +30,9 @@ int clangFormatMajor() {
 /// the first lines clang-format would change.
 bool isFormatted(const fs::path& file, std::string* report) {
   const fs::path style = fs::path(TESCALIB_SOURCE_DIR) / ".clang-format";
-  const int rc = run("clang-format --style=file:'" + style.string() + "' --dry-run --Werror '" +
-                         file.string() + "'",
-                     report);
+  const int rc = tescalib_test::runCommand("clang-format --style=file:'" + style.string() +
+                                               "' --dry-run --Werror '" + file.string() + "'",
+                                           report);
   if (report->size() > 600) report->resize(600);
   return rc == 0;
 }
