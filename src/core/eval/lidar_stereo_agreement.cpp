@@ -8,6 +8,7 @@
 
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/image_sampling.h"
+#include "tescalib/core/common/pinhole.h"
 #include "tescalib/core/common/statistics.h"
 
 namespace tescalib {
@@ -29,8 +30,9 @@ DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat&
   for (const auto& p : scan) {
     const Eigen::Vector3d c = T_cam_lidar * Eigen::Vector3d(p.x, p.y, p.z);
     if (c.z() < 2.0) continue;
-    const int u = static_cast<int>(std::lround(rig.left.fx * c.x() / c.z() + rig.left.cx));
-    const int v = static_cast<int>(std::lround(rig.left.fy * c.y() / c.z() + rig.left.cy));
+    const Eigen::Vector2d px = rig.left.project(c);
+    const int u = static_cast<int>(std::lround(px.x()));
+    const int v = static_cast<int>(std::lround(px.y()));
     const int d = static_cast<int>(std::lround(fb / c.z()));
     // The left patch and the gradient's neighbours, and every right patch searched (a disparity
     // under max_shift searches to the right of u, beyond the image's last column near its edge).
@@ -78,9 +80,8 @@ DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoClou
     const Eigen::Vector3d r = T * Eigen::Vector3d(p.x, p.y, p.z);
     if (!(r.z() >= edges[0] && r.z() < edges[DisparityResidual::kBins])) continue;
     double d = 0;
-    if (!cloud.disparityAt(cloud.fx * r.x() / r.z() + cloud.cx, cloud.fy * r.y() / r.z() + cloud.cy,
-                           &d))
-      continue;
+    const Eigen::Vector2d px = projectPinhole(cloud.fx, cloud.fy, cloud.cx, cloud.cy, r);
+    if (!cloud.disparityAt(px.x(), px.y(), &d)) continue;
     const double diff = d - cloud.fx * cloud.baseline / r.z();
     if (std::fabs(diff) > 3.0) continue;
     all.push_back(diff);

@@ -20,7 +20,8 @@ int drawLidarOverlay(const LidarScan& scan, const Eigen::Isometry3d& T, const Ca
   for (const auto& p : scan) {
     const Eigen::Vector3d c = T * Eigen::Vector3d(p.x, p.y, p.z);
     if (!c.allFinite() || c.z() < 1.0 || c.z() > max_depth) continue;
-    const double uf = cam.fx * c.x() / c.z() + cam.cx, vf = cam.fy * c.y() / c.z() + cam.cy;
+    const Eigen::Vector2d px = cam.project(c);
+    const double uf = px.x(), vf = px.y();
     if (!(uf > -1.0 && vf > -1.0 && uf < image->cols && vf < image->rows)) continue;
     const int u = static_cast<int>(std::lround(uf));
     const int v = static_cast<int>(std::lround(vf));

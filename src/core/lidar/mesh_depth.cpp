@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "tescalib/core/common/pinhole.h"
+
 namespace tescalib {
 
 MeshDepth renderMeshDepth(const LidarMesh& mesh, const Eigen::Isometry3d& T,
@@ -19,9 +21,9 @@ MeshDepth renderMeshDepth(const LidarMesh& mesh, const Eigen::Isometry3d& T,
     const MeshFace& f = mesh.faces[i];
     const Eigen::Vector3f a = R * f.a + t, b = R * f.b + t, c = R * f.c + t;
     if (a.z() < 0.5f || b.z() < 0.5f || c.z() < 0.5f) continue;
-    const Eigen::Vector2f pa(fx * a.x() / a.z() + cx, fy * a.y() / a.z() + cy);
-    const Eigen::Vector2f pb(fx * b.x() / b.z() + cx, fy * b.y() / b.z() + cy);
-    const Eigen::Vector2f pc(fx * c.x() / c.z() + cx, fy * c.y() / c.z() + cy);
+    const Eigen::Vector2f pa = projectPinhole(fx, fy, cx, cy, a);
+    const Eigen::Vector2f pb = projectPinhole(fx, fy, cx, cy, b);
+    const Eigen::Vector2f pc = projectPinhole(fx, fy, cx, cy, c);
     const int u0 = std::max(0, int(std::floor(std::min({pa.x(), pb.x(), pc.x()}))));
     const int u1 = std::min(cam.width - 1, int(std::ceil(std::max({pa.x(), pb.x(), pc.x()}))));
     const int v0 = std::max(0, int(std::floor(std::min({pa.y(), pb.y(), pc.y()}))));
@@ -54,7 +56,7 @@ bool intersectFace(const MeshFace& f, const Eigen::Isometry3d& T, const CameraIn
   const Eigen::Vector3d a = T * f.a.cast<double>(), b = T * f.b.cast<double>();
   const Eigen::Vector3d p0 = T * f.c.cast<double>();
   const Eigen::Vector3d n = (b - a).cross(p0 - a);
-  const Eigen::Vector3d ray((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0);
+  const Eigen::Vector3d ray = cam.ray(u, v);
   const double den = n.dot(ray);
   if (std::fabs(den) < 1e-9) return false;
   const double z = n.dot(p0) / den;
@@ -66,8 +68,9 @@ bool intersectFace(const MeshFace& f, const Eigen::Isometry3d& T, const CameraIn
 Visibility visibility(const Eigen::Vector3d& Y, const CameraIntrinsics& cam, const MeshDepth& md,
                       double tolerance) {
   if (!(Y.z() > 0)) return Visibility::kOutside;
-  const int iu = int(std::lround(cam.fx * Y.x() / Y.z() + cam.cx));
-  const int iv = int(std::lround(cam.fy * Y.y() / Y.z() + cam.cy));
+  const Eigen::Vector2d px = cam.project(Y);
+  const int iu = int(std::lround(px.x()));
+  const int iv = int(std::lround(px.y()));
   if (iu < 0 || iv < 0 || iu >= cam.width || iv >= cam.height) return Visibility::kOutside;
   return Y.z() > md.depth.at<float>(iv, iu) * (1.0 + tolerance) ? Visibility::kOccluded
                                                                 : Visibility::kVisible;

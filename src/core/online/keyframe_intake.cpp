@@ -100,7 +100,8 @@ std::string keyframeProblem(const Keyframe& keyframe, const LidarScan& scan,
     for (const auto& p : scan) {
       const Eigen::Vector3d c = T_cam_lidar * Eigen::Vector3d(p.x, p.y, p.z);
       if (c.z() < 1.0) continue;
-      const double u = cam.fx * c.x() / c.z() + cam.cx, v = cam.fy * c.y() / c.z() + cam.cy;
+      const Eigen::Vector2d px = cam.project(c);
+      const double u = px.x(), v = px.y();
       in_view += u >= 0 && v >= 0 && u < cam.width && v < cam.height;
     }
     std::string msg = "LiDAR scan gives only " + std::to_string(keyframe.mesh.faces.size()) +

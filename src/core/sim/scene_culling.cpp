@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "tescalib/core/common/pinhole.h"
+
 namespace tescalib {
 namespace sim {
 namespace {
@@ -62,7 +64,8 @@ TileCandidates cullPinhole(const std::vector<Primitive>& prims, const PinholeVie
     float umin = std::numeric_limits<float>::max(), umax = -umin, vmin = umin, vmax = -umin;
     bool any = false;
     auto project = [&](const Eigen::Vector3f& c) {
-      const float u = view.fx * c.x() / c.z() + view.cx, v = view.fy * c.y() / c.z() + view.cy;
+      const Eigen::Vector2f px = projectPinhole(view.fx, view.fy, view.cx, view.cy, c);
+      const float u = px.x(), v = px.y();
       umin = std::min(umin, u), umax = std::max(umax, u);
       vmin = std::min(vmin, v), vmax = std::max(vmax, v);
       any = true;

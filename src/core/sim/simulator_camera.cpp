@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "tescalib/core/common/parallel.h"
+#include "tescalib/core/common/pinhole.h"
 #include "tescalib/core/sim/scene_surface.h"
 #include "tescalib/core/sim/simulator_random.h"
 
@@ -78,7 +79,7 @@ class CameraRays {
   /// Traces the ray through image point (u, v).
   Ray trace(float u, float v) const {
     Ray ray;
-    ray.r = R_ * Vec3((u - float(K_.cx)) / float(K_.fx), (v - float(K_.cy)) / float(K_.fy), 1.f);
+    ray.r = R_ * pinholeRay(float(K_.fx), float(K_.fy), float(K_.cx), float(K_.cy), u, v);
     ray.len = ray.r.norm();
     ray.d = ray.r / ray.len;
     const int tx = std::clamp(static_cast<int>(u) / kTile, 0, tiles_.tilesX() - 1);

@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tescalib/core/common/image_sampling.h"
+#include "tescalib/core/common/pinhole.h"
 #include "tescalib/core/common/timing.h"
 #include "tescalib/core/lidar/mesh_depth.h"
 #include "tescalib/core/solvers/joint_covariance.h"
@@ -186,7 +187,8 @@ int addLidarResiduals(JointProblem* jp, const std::vector<Keyframe*>& window, co
       const Eigen::Vector3d c = q + T_cl.translation();
       const Eigen::Vector3d pr = sc.R_rect_left * c;
       if (pr.z() < 1.0 || pr.z() > ls.max_depth) continue;
-      const double u = sc.fx * pr.x() / pr.z() + sc.cx, v = sc.fy * pr.y() / pr.z() + sc.cy;
+      const Eigen::Vector2d px = projectPinhole(sc.fx, sc.fy, sc.cx, sc.cy, pr);
+      const double u = px.x(), v = px.y();
       double d;
       if (!sc.disparityAt(u, v, &d)) continue;
       const Eigen::Vector3d p_s = sc.pointAt(u, v, d);

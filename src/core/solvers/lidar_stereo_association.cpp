@@ -7,6 +7,7 @@
 #include <pcl/point_representation.h>
 #include <pcl/point_types.h>
 
+#include "tescalib/core/common/pinhole.h"
 #include "tescalib/core/solvers/residuals/point_plane_distance.h"
 
 namespace tescalib {
@@ -31,7 +32,8 @@ bool projectInDepthRange(const StereoCloud& st, const Eigen::Vector3d& c, double
                          double* u, double* v) {
   const Eigen::Vector3d pr = st.R_rect_left * c;
   if (pr.z() < 1.0 || pr.z() > max_depth) return false;
-  *u = st.fx * pr.x() / pr.z() + st.cx, *v = st.fy * pr.y() / pr.z() + st.cy;
+  const Eigen::Vector2d px = projectPinhole(st.fx, st.fy, st.cx, st.cy, pr);
+  *u = px.x(), *v = px.y();
   return true;
 }
 
@@ -126,7 +128,7 @@ void NormalSpaceAssociation::associateKeyframe(size_t k, const Eigen::Isometry3d
     a.p_s = sp.p.cast<double>(), a.n_s = sp.n.cast<double>();
     a.d = sp.disparity;
     const Eigen::Vector3d sr = st.R_rect_left * a.p_s;
-    a.g = stereoYawGain(st, st.fx * sr.x() / sr.z() + st.cx, a.d);
+    a.g = stereoYawGain(st, projectPinhole(st.fx, st.fy, st.cx, st.cy, sr).x(), a.d);
     // Point-to-plane noise: LiDAR along the normal plus stereo depth noise along it.
     const Eigen::Vector3d beam = c.normalized();
     a.inv_sigma =

@@ -25,7 +25,7 @@ struct Match {
 };
 
 Eigen::Vector3d normalised(const CameraIntrinsics& c, const cv::Point2f& p) {
-  return {(p.x - c.cx) / c.fx, (p.y - c.cy) / c.fy, 1.0};
+  return c.ray(p.x, p.y);
 }
 
 /// ORB matches of one keyframe that pass the ratio test, refined with LK and kept when tracking

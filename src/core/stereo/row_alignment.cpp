@@ -51,8 +51,8 @@ VerticalAlignment verticalAlignment(const cv::Mat& left, const cv::Mat& right,
     const double dy = to[i].y - start[i].y;
     // A match that left the row or its disparity by pixels is a wrong one, not misalignment.
     if (!found[i] || std::fabs(dy) > 2.0 || std::fabs(to[i].x - start[i].x) > 2.0) continue;
-    J.emplace_back(1.0, (from[i].x - rig.left.cx) / rig.left.fx,
-                   (from[i].y - rig.left.cy) / rig.left.fy);
+    const Eigen::Vector3d ray = rig.left.ray(from[i].x, from[i].y);
+    J.emplace_back(1.0, ray.x(), ray.y());
     dv.push_back(dy);
   }
   out.points = static_cast<int>(dv.size());

@@ -11,6 +11,7 @@
 
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
+#include "tescalib/core/common/pinhole.h"
 #include "tescalib/core/common/timing.h"
 
 namespace tescalib {
@@ -109,7 +110,8 @@ void samplePoints(const StereoSettings& s, StereoCloud* out) {
       const double a = (r - l) / (2.0 * k), bb = (b - t) / (2.0 * k);
       const double c0 = d - a * (u - out->cx) - bb * (v - out->cy);
       Eigen::Vector3d n(a * out->fx, bb * out->fy, c0);
-      Eigen::Vector3d p_rect((u - out->cx) / out->fx * Z, (v - out->cy) / out->fy * Z, Z);
+      const Eigen::Vector3d p_rect =
+          backProjectPinhole<double>(out->fx, out->fy, out->cx, out->cy, u, v, Z);
       n.normalize();
       if (n.dot(p_rect) > 0) n = -n;
       StereoPoint sp;
@@ -152,7 +154,7 @@ bool StereoCloud::disparityAt(double u, double v, double* d) const {
 
 Eigen::Vector3d StereoCloud::pointAt(double u, double v, double d) const {
   const double Z = fx * baseline / d;
-  const Eigen::Vector3d p_rect((u - cx) / fx * Z, (v - cy) / fy * Z, Z);
+  const Eigen::Vector3d p_rect = backProjectPinhole(fx, fy, cx, cy, u, v, Z);
   return R_rect_left.transpose() * p_rect;
 }
 

@@ -10,6 +10,8 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "tescalib/core/common/pinhole.h"
+
 namespace tescalib {
 
 /// One LiDAR return, in the LiDAR frame.
@@ -37,6 +39,18 @@ struct CameraIntrinsics {
     return k;
   }
   bool valid() const { return fx > 0 && fy > 0 && width > 0 && height > 0; }
+
+  /// The pixel (u, v) of a camera-frame point (projectPinhole, in double).
+  template <typename P>
+  Eigen::Vector2d project(const P& p) const {
+    return projectPinhole(fx, fy, cx, cy, p);
+  }
+  /// The ray through pixel (u, v) at depth 1 (pinholeRay).
+  Eigen::Vector3d ray(double u, double v) const { return pinholeRay(fx, fy, cx, cy, u, v); }
+  /// The camera-frame point at depth z seen in pixel (u, v) (backProjectPinhole).
+  Eigen::Vector3d backProject(double u, double v, double z) const {
+    return backProjectPinhole(fx, fy, cx, cy, u, v, z);
+  }
 };
 
 /// The sensor rig: both cameras' rectified intrinsics and the two extrinsics.

@@ -8,6 +8,7 @@
 #include <ceres/rotation.h>
 #include <Eigen/Core>
 
+#include "tescalib/core/common/pinhole.h"
 #include "tescalib/core/solvers/residuals/photometric_residual.h"
 
 namespace tescalib {
@@ -35,12 +36,14 @@ struct JointLidarResidual {
     T b2 = T(0);
     for (int i = 0; i < 3; ++i) b2 += (T(t_rl[i]) + d_rl[3 + i]) * (T(t_rl[i]) + d_rl[3 + i]);
     const T phi[3] = {d_rl[0] + T(phi0.x()), d_rl[1] + T(phi0.y()), d_rl[2] + T(phi0.z())};
-    const double xr = (u - d - cx) / fx, y = (v - cy) / fy;
+    const Eigen::Vector3d ray_r = pinholeRay(fx, fy, cx, cy, u - d, v);
+    const double xr = ray_r.x(), y = ray_r.y();
     const T dx = phi[1] * (1.0 + xr * xr) - phi[2] * y - phi[0] * xr * y;
     const T disp = T(d) + T(fx) * dx;
     if (disp < T(0.5)) return false;
     const T Z = T(fx) * ceres::sqrt(b2) / disp;
-    const T pr[3] = {T((u - cx) / fx) * Z, T((v - cy) / fy) * Z, Z};
+    const Eigen::Vector3d ray_l = pinholeRay(fx, fy, cx, cy, u, v);
+    const T pr[3] = {T(ray_l.x()) * Z, T(ray_l.y()) * Z, Z};
     Eigen::Matrix<T, 3, 1> p;
     for (int i = 0; i < 3; ++i)
       p[i] = T(R_rect(0, i)) * pr[0] + T(R_rect(1, i)) * pr[1] + T(R_rect(2, i)) * pr[2];
@@ -89,10 +92,9 @@ struct JointPhotometricResidual {
       ceres::AngleAxisRotatePoint(d_rl, x, y);
       for (int i = 0; i < 3; ++i) y[i] += T(t_rl[i]) + d_rl[3 + i];
       if (y[2] < T(0.1)) return false;
-      const T u = T(fx) * y[0] / y[2] + T(cx);
-      const T v = T(fy) * y[1] / y[2] + T(cy);
+      const Eigen::Matrix<T, 2, 1> px = projectPinhole(T(fx), T(fy), T(cx), T(cy), y);
       T value;
-      right->Evaluate(v, u, &value);
+      right->Evaluate(px.y(), px.x(), &value);
       residual[k] = T(sqrt_w) * (value - ab[1] - gain * T(left[k]));
     }
     return true;

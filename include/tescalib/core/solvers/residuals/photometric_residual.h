@@ -16,6 +16,8 @@
 #include <ceres/rotation.h>
 #include <Eigen/Core>
 
+#include "tescalib/core/common/pinhole.h"
+
 namespace tescalib {
 
 constexpr int kPatternSize = 8;
@@ -57,10 +59,9 @@ struct PhotometricResidual {
       ceres::AngleAxisRotatePoint(delta, q, y);
       for (int i = 0; i < 3; ++i) y[i] += T(t_ref_[i]) + delta[3 + i];
       if (y[2] < T(0.1)) return false;
-      const T u = T(fx_) * y[0] / y[2] + T(cx_);
-      const T v = T(fy_) * y[1] / y[2] + T(cy_);
+      const Eigen::Matrix<T, 2, 1> px = projectPinhole(T(fx_), T(fy_), T(cx_), T(cy_), y);
       T value;
-      right_->Evaluate(v, u, &value);
+      right_->Evaluate(px.y(), px.x(), &value);
       residual[k] = T(sqrt_w_) * (value - ab[1] - gain * T(left_[k]));
     }
     return true;
