@@ -18,6 +18,7 @@
 #include "tescalib/core/solvers/joint_covariance.h"
 #include "tescalib/core/solvers/residuals/joint_residuals.h"
 #include "tescalib/core/solvers/residuals/point_plane_distance.h"
+#include "tescalib/core/solvers/shared_loss_options.h"
 
 namespace tescalib {
 namespace {
@@ -148,16 +149,10 @@ void initJointState(const std::vector<Keyframe*>& window, const StereoRig& rig,
     st->ab[k] = {res.stereo.brightness[k].x(), res.stereo.brightness[k].y()};
 }
 
-ceres::Problem::Options problemOptions() {
-  ceres::Problem::Options po;
-  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  return po;
-}
-
 /// One outer iteration's problem over both extrinsics' corrections (and the brightness).
 struct JointProblem {
   JointProblem(const CoCalibrationSettings& s, double sigma_ph)
-      : problem(problemOptions()),
+      : problem(sharedLossProblemOptions()),
         lidar_loss(s.lidar.fine_huber),
         photo_loss(s.stereo.huber / sigma_ph) {}
   double d_cl[6] = {0, 0, 0, 0, 0, 0}, d_rl[6] = {0, 0, 0, 0, 0, 0};

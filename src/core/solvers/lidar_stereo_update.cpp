@@ -9,6 +9,7 @@
 
 #include "tescalib/core/solvers/residuals/lidar_normal_residual.h"
 #include "tescalib/core/solvers/residuals/point_plane_normal_residual.h"
+#include "tescalib/core/solvers/shared_loss_options.h"
 
 namespace tescalib {
 namespace {
@@ -41,10 +42,7 @@ Vector6d solveLidarStereoUpdate(const std::vector<LidarStereoAssociation>& as,
                                 double* yaw) {
   const bool coarse = objective == LidarStereoObjective::kPointPlaneNormal;
   double delta[6] = {0, 0, 0, 0, 0, 0};
-  ceres::Problem::Options po;
-  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(po);
+  ceres::Problem problem(sharedLossProblemOptions());
   std::unique_ptr<ceres::LossFunction> loss;
   if (coarse)
     loss = std::make_unique<ceres::CauchyLoss>(loss_scale);

@@ -16,6 +16,7 @@
 #include "tescalib/core/solvers/photometric_lidar_sensitivity.h"
 #include "tescalib/core/solvers/residuals/baseline_length_prior.h"
 #include "tescalib/core/solvers/residuals/photometric_residual.h"
+#include "tescalib/core/solvers/shared_loss_options.h"
 #include "tescalib/core/uncertainty/ceres_covariance.h"
 #include "tescalib/core/uncertainty/trust.h"
 
@@ -130,12 +131,6 @@ void buildPyramids(PhotometricWindow* w) {
   });
 }
 
-ceres::Problem::Options problemOptions() {
-  ceres::Problem::Options po;
-  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  return po;
-}
-
 /// The photometric problem of one pyramid level (paper eq. Photometric_object_function):
 /// T_right_left = perturb(T, delta), per keyframe (a, b); with free depth a log-depth
 /// correction per key point and, with the LiDAR error nuisance, xi shared by them.
@@ -147,7 +142,7 @@ struct LevelProblem {
         lidar_nuisance(free_depth && s.lidar_error_sigma_rot_deg > 0 &&
                        s.lidar_error_sigma_trans_m > 0),
         sensitivity(L == 0 && !free_depth),
-        problem(problemOptions()),
+        problem(sharedLossProblemOptions()),
         huber(s.huber) {}
 
   const int level;
