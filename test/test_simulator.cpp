@@ -272,6 +272,77 @@ TEST(Simulator, WritesKittiLayoutWithRingsPosesAndInfo) {
   EXPECT_NEAR(std::stod(info.at("brightness_b")), o.right_offset, 1e-9);
 }
 
+TEST(Simulator, RandomRigIsDrawnFromTheSeedWithinRealRanges) {
+  std::set<int> conventions;
+  for (uint64_t seed = 1; seed <= 60; ++seed) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    SimOptions o = options(Scenario::kUrban, 1, seed);
+    useRandomRig(seed, &o);
+    const StereoRig rig = rigFromOdometryCalib(o.calib);
+    EXPECT_EQ(o.rig_source, "random");
+    EXPECT_GE(o.width, 640);
+    EXPECT_LE(o.width, 1400);
+    EXPECT_GE(o.height, 240);
+    EXPECT_LE(o.height, 600);
+    EXPECT_GE(rig.left.fx, 400.0);
+    EXPECT_LE(rig.left.fx, 1100.0);
+    EXPECT_NEAR(rig.left.cx, 0.5 * o.width, 0.031 * o.width);
+    EXPECT_NEAR(rig.left.cy, 0.5 * o.height, 0.051 * o.height);
+    // The right camera a baseline to the right and a few mm off the left camera's x axis.
+    const Eigen::Vector3d t = rig.T_right_left.translation();
+    EXPECT_GE(-t.x(), 0.12);
+    EXPECT_LE(-t.x(), 0.6);
+    for (double off : {t.y(), t.z()}) {
+      EXPECT_GE(std::fabs(off), 0.0005);
+      EXPECT_LE(std::fabs(off), 0.004);
+    }
+    // The LiDAR within 1 m of the left camera, upright within a few degrees.
+    const Eigen::Isometry3d T_lidar_cam = rig.T_cam_lidar.inverse();
+    EXPECT_LE(T_lidar_cam.translation().norm(), 1.12);  // plus the left camera's offset
+    const Eigen::Vector3d lidar_up = o.T_vehicle_lidar.linear().col(2);
+    EXPECT_GT(lidar_up.z(), std::cos(4.5 / kDegPerRad));
+    EXPECT_GE(o.T_vehicle_lidar.translation().z() + 1.73, 1.2);
+    const Eigen::Vector3d lidar_x = o.T_vehicle_lidar.linear().col(0);
+    conventions.insert(static_cast<int>(std::lround(std::atan2(lidar_x.y(), lidar_x.x()) /
+                                                    (M_PI / 2))) &
+                       3);
+    // The same seed, the same rig.
+    SimOptions again = options(Scenario::kUrban, 1, seed);
+    useRandomRig(seed, &again);
+    EXPECT_EQ(again.calib.Tr, o.calib.Tr);
+    EXPECT_EQ(again.calib.P[3], o.calib.P[3]);
+  }
+  EXPECT_EQ(conventions.size(), 4u) << "every axis convention drawn in 60 rigs";
+}
+
+TEST(Simulator, RandomRigIsWhatTheImagesAndTheScanShow) {
+  // A rig unlike the default one: the LiDAR where the seed puts it, the right camera a few mm
+  // off the x axis. The generator must render it as calib.txt says.
+  SimOptions o = options(Scenario::kUrban, 1, 104);
+  useRandomRig(o.seed, &o);
+  const Simulator sim(o);
+  const StereoRig& rig = sim.rig();
+  ASSERT_FALSE(isRectified(rig.T_right_left));
+  const Frame f = sim.renderFrame(0);
+  ASSERT_EQ(f.left.cols, o.width);
+  ASSERT_EQ(f.left.rows, o.height);
+  const StereoCloud cloud = computeStereoCloud(f.left, f.right, rig, rig.T_right_left);
+  const DisparityResidual res = lidarDisparityResidual(f.scan, cloud, rig.T_cam_lidar);
+  const VerticalAlignment rows = verticalAlignment(f.left, f.right, cloud, rig, rig.T_right_left);
+  std::cout << "[ random   ] " << o.width << "x" << o.height << ", baseline " << rig.baseline()
+            << " m: disparity residual median " << res.median_px << " px of " << res.points
+            << " points; rows median " << rows.median_px << " px of " << rows.points << "\n";
+  EXPECT_GT(res.points, 3000);
+  EXPECT_LT(std::fabs(res.median_px), 0.15);
+  EXPECT_GT(rows.points, 300);
+  EXPECT_LT(std::fabs(rows.median_px), 0.05);
+  // The LiDAR still sits where the trajectory's vehicle frame puts it.
+  EXPECT_LT((sim.worldFromLidar(0).translation() -
+             (sim.worldFromVehicleAt(0.0) * o.T_vehicle_lidar).translation())
+                .norm(),
+            1e-12);
+}
+
 TEST(Simulator, GroundTruthAgreesWithSgbmAndPhotometry) {
   const SimOptions o = options(Scenario::kUrban, 21);
   const Simulator sim(o);

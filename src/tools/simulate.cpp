@@ -24,7 +24,8 @@ const char* const kFooter = "The same arguments give the same bytes.";
 
 struct Args {
   tescalib::SimOptions options;
-  std::string out, calib;
+  std::string out, calib, rig = "default";
+  bool size_given = false;
 };
 
 /// A whole number >= 0 of up to 63 bits (a seed).
@@ -75,9 +76,21 @@ void addSensorOptions(CLI::App* app, Args* a) {
   using tescalib::cli::add;
   using tescalib::cli::to;
   const char* g = "Sensors";
+  add(
+      app, "--rig", "default|random",
+      [a](const std::string& v) {
+        if (v != "default" && v != "random")
+          throw CLI::ValidationError("--rig must be default or random, not '" + v + "'");
+        a->rig = v;
+      },
+      "default: KITTI-like (fx 718.856, 1241x376, 0.54 m baseline, the right camera on the left "
+      "camera's x axis, the 2011_09_30 Tr); random: drawn from --seed (baseline 0.12-0.6 m, "
+      "focal length, image size, principal point, the right camera a few mm off the x axis as "
+      "real rectified pairs are, the LiDAR anywhere within 1 m of the camera in any driver's "
+      "axis convention); sim_info.txt records it")
+      ->group(g);
   add(app, "--calib", "FILE", to(&a->calib, tescalib::cli::text),
-      "KITTI calib.txt whose P2, P3 and Tr become the rig (default: KITTI-like fx 718.856, 0.54 m "
-      "baseline, the 2011_09_30 Tr)")
+      "KITTI calib.txt whose P2, P3 and Tr become the rig (instead of --rig)")
       ->group(g);
   add(
       app, "--noise", "LEVEL",
@@ -89,7 +102,11 @@ void addSensorOptions(CLI::App* app, Args* a) {
       "levels), high (5 cm, 0.1 deg, 6) or none")
       ->group(g);
   add(
-      app, "--size", "WxH", [a](const std::string& v) { setSize(v, &a->options); },
+      app, "--size", "WxH",
+      [a](const std::string& v) {
+        setSize(v, &a->options);
+        a->size_given = true;
+      },
       "image size (default 1241x376); the intrinsics (P2, P3) stay as they are: a smaller size "
       "crops the top-left of the view, it does not scale")
       ->group(g);
@@ -121,14 +138,24 @@ int main(int argc, char** argv) {
     return 2;
   }
   tescalib::SimOptions& options = args.options;
+  if (args.rig == "random" && (!args.calib.empty() || args.size_given)) {
+    std::cerr << "tescalib_simulate: --rig random draws the calibration and the image size; "
+                 "leave out --calib and --size\n";
+    return 2;
+  }
   try {
-    if (!args.calib.empty()) options.calib = tescalib::readKittiOdometryCalib(args.calib);
+    if (args.rig == "random") tescalib::useRandomRig(options.seed, &options);
+    if (!args.calib.empty()) {
+      options.calib = tescalib::readKittiOdometryCalib(args.calib);
+      options.rig_source = "calib " + args.calib;
+    }
     const auto start = std::chrono::steady_clock::now();
     tescalib::simulateSequence(options, args.out);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::cout << "tescalib_simulate: wrote " << options.frames << " frames of "
               << tescalib::sim::scenarioName(options.scenario) << " (seed " << options.seed
+              << ", rig " << options.rig_source << ", " << options.width << "x" << options.height
               << ") to " << args.out << " in " << seconds << " s\n";
   } catch (const tescalib::DataError& e) {
     std::cerr << "tescalib_simulate: " << e.what() << "\n";

@@ -175,8 +175,21 @@ Simulator::~Simulator() = default;
 
 Eigen::Isometry3d Simulator::worldFromLidar(int i) const { return worldFromLidarAt(stamp(i)); }
 
-Eigen::Isometry3d Simulator::worldFromLidarAt(double t) const {
+Eigen::Isometry3d Simulator::worldFromVehicleAt(double t) const {
   return impl_->trajectory->worldFromLidar(t);
+}
+
+Eigen::Isometry3d Simulator::worldFromLidarAt(double t) const {
+  return worldFromVehicleAt(t) * options_.T_vehicle_lidar;
+}
+
+void useRandomRig(uint64_t seed, SimOptions* options) {
+  const sim::SimRig rig = sim::randomSimRig(seed);
+  options->calib = rig.calib;
+  options->width = rig.width;
+  options->height = rig.height;
+  options->T_vehicle_lidar = rig.T_vehicle_lidar;
+  options->rig_source = "random";
 }
 
 Eigen::Isometry3d Simulator::cam0Pose(int i) const {
@@ -277,7 +290,12 @@ void writeSimInfo(const Simulator& sim, const sim::LidarModel& lidar, const std:
        << "lidar_beams: " << lidar.elevation_deg.size() << "\n"
        << "lidar_points_per_ring: " << lidar.points_per_ring << "\n"
        << "lidar_max_range_m: " << lidar.max_range << "\n"
+       << "# rig: default (KITTI-like), random (drawn from the seed) or calib FILE\n"
+       << "rig: " << o.rig_source << "\n"
+       << "# the vehicle frame (x forward, y left, z up) is lidar_height_m above the ground; the\n"
+       << "# LiDAR sits at T_vehicle_lidar in it (3x4, row major)\n"
        << "lidar_height_m: " << kLidarHeight << "\n"
+       << "T_vehicle_lidar: " << yamlList(o.T_vehicle_lidar) << "\n"
        << "# 1: each scan swept over its revolution (clockwise, 10 Hz, forward at the frame's\n"
        << "# stamp) as a raw driver delivers it; 0: every beam from the pose at the stamp\n"
        << "lidar_sweep: " << (o.lidar_sweep ? 1 : 0) << "\n"

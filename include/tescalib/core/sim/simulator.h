@@ -18,6 +18,7 @@
 
 #include "tescalib/core/common/types.h"
 #include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/sim/random_rig.h"
 #include "tescalib/core/sim/scene_builder.h"
 
 namespace tescalib {
@@ -64,7 +65,17 @@ struct SimOptions {
   /// cameras triggered when it faces forward): a raw, motion-skewed scan. Off: every beam fires
   /// from the pose of the camera trigger (a perfectly motion-compensated scan).
   bool lidar_sweep = false;
+  /// Where the LiDAR sits on the vehicle: the trajectory moves the vehicle frame (x forward, y
+  /// left, z up, 1.73 m above the ground), the cameras follow the LiDAR through `calib`'s Tr.
+  /// Identity: the LiDAR is the vehicle frame, as KITTI's is.
+  Eigen::Isometry3d T_vehicle_lidar = Eigen::Isometry3d::Identity();
+  /// How the rig was chosen, for sim_info.txt ("default", "random", "calib FILE").
+  std::string rig_source = "default";
 };
+
+/// Options whose rig (calib, image size, LiDAR mounting) is drawn from `seed`
+/// (sim::randomSimRig): the other options are left as they are.
+void useRandomRig(uint64_t seed, SimOptions* options);
 
 /// A generated sequence: the world is built once; frames are rendered on demand.
 class Simulator {
@@ -81,6 +92,8 @@ class Simulator {
   const StereoRig& rig() const { return rig_; }
   /// Time stamp of frame i (s): 0.1 * i.
   double stamp(int i) const { return 0.1 * i; }
+  /// Pose of the vehicle frame in the world at time t (s).
+  Eigen::Isometry3d worldFromVehicleAt(double t) const;
   /// Pose of the LiDAR in the world at frame i.
   Eigen::Isometry3d worldFromLidar(int i) const;
   /// Pose of the LiDAR in the world at time t (s; the trajectory is continuous: a swept scan's
