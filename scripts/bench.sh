@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # make bench: the accuracy/speed benchmarks whose tables go into the README. Long; not in make test.
 # BENCH=sim|kitti|all (default all) selects the generated-drive or the real-KITTI part; BENCH=core
-# runs only the rows of the README's headline table, one per issue target (about 25 minutes).
+# runs only the rows of the README's headline table, one per issue target (about 25 minutes);
+# BENCH=rigs only the random-rig rows (RIGS rigs drawn by tescalib_simulate --rig random, about
+# 1.5 minutes each).
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
@@ -64,9 +66,29 @@ kitti_co() {  # day sequences rot-deg trans-m: co from the LiDAR that far off, 1
     --init-trans-m "$4" --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 --seed 1
 }
 case $BENCH in
-  sim | kitti | all | core) ;;
-  *) echo "[bench] BENCH=$BENCH: expected sim, kitti, all or core" >&2; exit 2 ;;
+  sim | kitti | all | core | rigs) ;;
+  *) echo "[bench] BENCH=$BENCH: expected sim, kitti, all, core or rigs" >&2; exit 2 ;;
 esac
+RIG_SEEDS=${RIG_SEEDS:-"301 302 303 304 305 306 307 308 309 310"}
+random_rigs() {  # name rot-deg trans-m: LiDAR-stereo on each random rig's urban drive, window 20
+  local files=()
+  for seed in $RIG_SEEDS; do
+    local dir="$OUT/sim_urban_rig$seed"
+    [ -f "$dir/sim_info.txt" ] || rosrun tescalib tescalib_simulate --scenario urban --seed "$seed" \
+      --frames 100 --rig random --out "$dir" > /dev/null || exit 1
+    rosrun tescalib tescalib_eval --sequences "$dir" --mode lidar_stereo --trials 3 \
+      --init-rot-deg "$2" --init-trans-m "$3" --seed 1 --window 20 --json "$OUT/$1_rig$seed.json" \
+      > /dev/null || { echo "[bench] $1 rig $seed failed" >&2; STATUS=1; }
+    files+=("$OUT/$1_rig$seed.json")
+  done
+  echo "=== $1"
+  python3 "$ROOT/scripts/rig_summary.py" "$1" "${files[@]}"
+}
+if [ "$BENCH" = rigs ]; then
+  random_rigs sim_urban_random_rigs_3deg 3 0.3
+  random_rigs sim_urban_random_rigs_10deg 10 1.0
+  exit $STATUS
+fi
 if [ "$BENCH" = core ]; then
   # The README's headline table ("Benchmarks"): each issue's generated-drive target, the baseline
   # a user would pick, and the real-KITTI rows (skipped without the frames).
@@ -91,6 +113,8 @@ if [ "$BENCH" = core ]; then
   exit $STATUS
 fi
 if [ "$BENCH" != kitti ]; then
+  random_rigs sim_urban_random_rigs_3deg 3 0.3
+  random_rigs sim_urban_random_rigs_10deg 10 1.0
   echo "=== tescalib_simulate speed"
   bash "$ROOT/scripts/bench_simulate.sh"
   URBAN=$(simulate urban 1 100)

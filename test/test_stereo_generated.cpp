@@ -279,6 +279,19 @@ TEST(LidarStereoGenerated, WideBasinSearchRecoversAStartTheSolverAloneCannot) {
   // The window's own optimum: the same 0.046 deg / 0.38 cm as from 3 deg / 0.3 m.
   EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.05);
   EXPECT_LT(e.tail<3>().norm(), 0.01);
+  // Spread over an online calibrator's solves, one turned start each: start 0 (+10 deg about x)
+  // is the one that converges, start 1 (-10 deg) turns away from the truth.
+  s.search_start = 0;
+  const LidarStereoResult towards = solveLidarStereoSearch(window, init, s);
+  EXPECT_TRUE(towards.converged) << towards.message;
+  EXPECT_EQ(towards.search_starts, 2);
+  EXPECT_LT(poseError(towards.T_cam_lidar, truth).head<3>().norm() * kDegPerRad, 0.05);
+  s.search_start = 9;  // 9 mod 8: start 1
+  const LidarStereoResult away = solveLidarStereoSearch(window, init, s);
+  EXPECT_FALSE(away.converged);
+  EXPECT_EQ(away.search_starts, 2);
+  EXPECT_NE(away.message.find("nor from the start turned by +-10 deg"), std::string::npos)
+      << away.message;
 }
 
 TEST(LidarStereoGenerated, HighwayIsWeakInTheDirectionsThePaperNames) {

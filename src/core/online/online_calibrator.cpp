@@ -179,6 +179,7 @@ bool OnlineCalibrator::startSolve(bool recording_ended, WindowSolveInput* input,
   input->lidar_sensitivity = co_sensitivity_;
   input->T_cam_lidar = estimate_ ? estimate_->T_cam_lidar : rig_.T_cam_lidar;
   input->T_right_left = estimate_ ? estimate_->T_right_left : rig_.T_right_left;
+  input->search_start = next_search_start_;
   return true;
 }
 
@@ -198,6 +199,7 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
     return false;
   }
   window_.storeInformation(input.keyframes, result.keyframe_information);
+  if (result.searched) next_search_start_ = (input.search_start + 1) % 8;
   OnlineEstimate& e = result.estimate;
   e.solve_id = ++solves_kept_;
   e.chi2_to_published = chi2ToPublished(e, estimate_);

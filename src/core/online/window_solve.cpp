@@ -25,6 +25,7 @@ CoCalibrationSettings coSettings(const WindowSolveInput& in, const OnlineSetting
   cs.lidar.cancel = cancel;
   // Its LiDAR-first fallback searches as the LiDAR-stereo solves do.
   if (!searchAllowed(in, s)) cs.lidar.search_step_deg = 0;
+  if (s.spread_search) cs.lidar.search_start = in.search_start;
   // The pair from feature matches only for a start without an estimate: from a LiDAR-first one
   // round 1's photometric solve has good depth, and its yaw is far tighter than the matches'
   // (generated windows: 0.03-0.07 deg off; real KITTI 0.13-0.15 deg).
@@ -90,6 +91,7 @@ WindowSolveResult coCalibrateWindow(const WindowSolveInput& in, const StereoRig&
   if (!warm && r.stable && !r.lidar_stereo_sensitivity.isZero())
     out.lidar_sensitivity = r.lidar_stereo_sensitivity;
   out.clouds_recomputed = true;
+  out.searched = r.lidar.search_starts > 1;
   out.keyframe_information = r.lidar.keyframe_information;
   out.estimate = coEstimate(r, warm);
   if (!warm)
@@ -113,8 +115,10 @@ WindowSolveResult solveLidarStereoWindow(const WindowSolveInput& in, const Onlin
   ls.disparity_sigma = s.keyframe.stereo.disparity_sigma;
   if (current && s.warm_start_fine_only) ls.run_coarse = false;
   if (!searchAllowed(in, s)) ls.search_step_deg = 0;
+  if (s.spread_search) ls.search_start = in.search_start;
   const LidarStereoResult r = solveLidarStereoSearch(cwin, in.T_cam_lidar, ls);
   WindowSolveResult out;
+  out.searched = r.search_starts > 1;
   out.solver_cancelled = r.message == "cancelled";
   out.keyframe_information = r.keyframe_information;
   OnlineEstimate& e = out.estimate;

@@ -20,7 +20,10 @@ LidarStereoResult solveLidarStereoSearch(const std::vector<const Keyframe*>& win
   const double offsets[8][2] = {{1, 0}, {-1, 0}, {0, 1},  {0, -1},
                                 {1, 1}, {1, -1}, {-1, 1}, {-1, -1}};
   std::optional<LidarStereoResult> best;
-  for (const auto& o : offsets) {
+  const int first_start = s.search_start >= 0 ? s.search_start % 8 : 0;
+  const int starts = s.search_start >= 0 ? 1 : 8;
+  for (int k = first_start; k < first_start + starts; ++k) {
+    const auto& o = offsets[k];
     if (s.cancelled()) break;
     Vector6d d = Vector6d::Zero();
     d(0) = o[0] * step, d(1) = o[1] * step;
@@ -33,11 +36,12 @@ LidarStereoResult solveLidarStereoSearch(const std::vector<const Keyframe*>& win
     return first;
   }
   if (best) {
-    best->search_starts = 9;
+    best->search_starts = 1 + starts;
     return *best;
   }
-  first.search_starts = 9;
-  first.message += " (and from none of 8 starts turned by +-" +
+  first.search_starts = 1 + starts;
+  const std::string which = starts == 1 ? "nor from the start " : "and from none of 8 starts ";
+  first.message += " (" + which + "turned by +-" +
                    std::to_string(static_cast<int>(std::lround(s.search_step_deg))) +
                    " deg about the camera's x and y axes)";
   return first;

@@ -148,6 +148,7 @@ class OnlineCalibrator {
   std::shared_ptr<const LidarScan> previous_scan_;  ///< GUARDED_BY(mutex_)
   double previous_scan_stamp_ = -1e300;             ///< GUARDED_BY(mutex_)
   bool rows_checked_ = false;  ///< GUARDED_BY(mutex_) OnlineSettings::max_row_offset_px done
+  int next_search_start_ = 0;  ///< GUARDED_BY(mutex_) OnlineSettings::spread_search
   /// GUARDED_BY(mutex_): the published full co-calibration's LiDAR sensitivity to the pair, for
   /// the warm updates after it (CoCalibrationSettings::reuse_lidar_sensitivity).
   std::optional<Matrix6d> co_sensitivity_;

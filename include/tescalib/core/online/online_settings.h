@@ -87,6 +87,10 @@ struct OnlineSettings {
   /// start turned 10 deg could settle where the few keyframes' constraints allow, and each search
   /// costs 9 solves.
   int search_min_keyframes = 8;
+  /// The search's 8 turned starts are spread over the successive solves, one start per solve
+  /// (the next solve tries the next start), so that a window that does not converge costs about
+  /// two plain solves per keyframe instead of nine; false: every such solve tries all 8.
+  bool spread_search = true;
   /// Co-calibration: once an estimate is published, an update runs this many warm rounds
   /// (photometric on the finest level, LiDAR-stereo fine stage) from it instead of the full
   /// alternation: the alternation continues across updates, so such an update is published when

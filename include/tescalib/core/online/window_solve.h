@@ -39,6 +39,9 @@ struct WindowSolveInput {
   /// The published full co-calibration's LiDAR sensitivity to the pair, for the warm updates
   /// after it (CoCalibrationSettings::reuse_lidar_sensitivity).
   std::optional<Matrix6d> lidar_sensitivity;
+  /// The search start this solve tries when its guess does not converge
+  /// (OnlineSettings::spread_search; LidarStereoSettings::search_start).
+  int search_start = 0;
 };
 
 struct WindowSolveResult {
@@ -57,6 +60,8 @@ struct WindowSolveResult {
   /// all end with the message "cancelled" when the flag is up at their end.
   bool solver_cancelled = false;
   std::string message;  ///< the solver's (empty for a converged warm co-calibration update)
+  /// The search ran (the guess did not converge): the next solve tries the next start.
+  bool searched = false;
 };
 
 /// Solves the window. Throws what the solvers throw (a DataError on an estimate gone far off,

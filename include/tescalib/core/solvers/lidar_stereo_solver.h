@@ -134,6 +134,10 @@ struct LidarStereoSettings {
   /// 100 % instead of 65 % (README, "Benchmarks").
   double search_step_deg = 10.0;
   static constexpr double kMaxSearchStepDeg = 20.0;  ///< the largest step the callers accept
+  /// Which of the 8 turned starts a search solves: -1 all of them; k >= 0 only start k mod 8.
+  /// An online calibrator spreads the search over its successive solves, one start each, so
+  /// that no solve costs more than about two plain ones (OnlineSettings::spread_search).
+  int search_start = -1;
   int threads = 2;
   /// When set and true: stop at the next re-association or search start, not converged, message
   /// "cancelled" (a node shutting down does not wait for a long solve).
@@ -245,7 +249,8 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
 
 /// solveLidarStereo from `T_init` and, when that does not converge and
 /// `settings.search_step_deg` > 0, from the 8 starts turned by +-step about the camera's x and y
-/// axes (LidarStereoSettings::search_step_deg). Returns the converged solve with the most fine
+/// axes (LidarStereoSettings::search_step_deg; only one of them with
+/// LidarStereoSettings::search_start >= 0). Returns the converged solve with the most fine
 /// inliers, or, when none converged, the solve from `T_init` (its message says how many starts
 /// were tried). Each solve checks its divergence bound against its own start, which is at most
 /// 1.42 step from `T_init`.
