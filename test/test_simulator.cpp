@@ -343,6 +343,34 @@ TEST(Simulator, RandomRigIsWhatTheImagesAndTheScanShow) {
             1e-12);
 }
 
+TEST(Simulator, OffAxisPairSeesWhatTheLeftCameraSees) {
+  // A real rectified pair's right camera sits a few mm off the left camera's x axis (KITTI's
+  // P3: 2-3 mm), so its rows fall a fraction of a pixel apart from the left camera's on the
+  // scene. Each pixel must integrate its area for the two images to show the same surface: with
+  // one sample per pixel the SGBM disparity of this frame is 0.06-0.07 px further off the LiDAR's
+  // than on the axis, of opposite sign for a right camera 3.3 mm above or below it.
+  const auto residual = [](double dy) {
+    SimOptions o = options(Scenario::kUrban, 1, 11);
+    o.noise = NoiseLevel::kNone;
+    o.calib.P[3].col(3) += o.calib.P[3].leftCols<3>() * Eigen::Vector3d(0, dy, 0);
+    const Simulator sim(o);
+    const Frame f = sim.renderFrame(0);
+    const StereoCloud cloud = computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left);
+    return lidarDisparityResidual(f.scan, cloud, sim.rig().T_cam_lidar);
+  };
+  // P = K [I | t]: a camera centre 3.3 mm further along y (down) is t_y 3.3 mm lower.
+  const DisparityResidual on_axis = residual(0.0), below = residual(-0.0033),
+                          above = residual(0.0033);
+  std::cout << "[ off-axis ] SGBM - LiDAR disparity, median: on the axis " << on_axis.median_px
+            << " px, 3.3 mm above " << above.median_px << " px, 3.3 mm below " << below.median_px
+            << " px\n";
+  EXPECT_GT(above.points, 5000);
+  EXPECT_GT(below.points, 5000);
+  EXPECT_LT(std::fabs(on_axis.median_px), 0.03);
+  EXPECT_LT(std::fabs(above.median_px - on_axis.median_px), 0.025);
+  EXPECT_LT(std::fabs(below.median_px - on_axis.median_px), 0.025);
+}
+
 TEST(Simulator, GroundTruthAgreesWithSgbmAndPhotometry) {
   const SimOptions o = options(Scenario::kUrban, 21);
   const Simulator sim(o);

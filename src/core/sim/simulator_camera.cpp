@@ -44,10 +44,9 @@ const Vec3 kHorizon(0.86f, 0.88f, 0.9f);
 const Vec3 kZenith(0.42f, 0.6f, 0.86f);
 constexpr float kHazeDistance = 900.f;  // m; aerial perspective towards the horizon colour
 
-/// One ray's result before anti-aliasing.
+/// One ray's result before the pixel's samples are averaged.
 struct Sample {
   Vec3 value = Vec3::Zero();  ///< scene value, RGB (0..230)
-  int32_t key = -1;           ///< what was hit: -1 sky, 0 ground, 8 * prim + face + 1
   bool lit = false;           ///< in direct sun
 };
 
@@ -136,7 +135,6 @@ class CameraRenderer {
     const Vec3 surface(kTone(radiance.x()), kTone(radiance.y()), kTone(radiance.z()));
     const float haze = 1.f - std::exp(-hit.t / kHazeDistance);
     s.value = surface + haze * (kWhite * kHorizon - surface);
-    s.key = hit.prim == TraceResult::kGround ? 0 : 8 * hit.prim + hit.hit.face + 1;
     return s;
   }
 
@@ -159,40 +157,21 @@ cv::Mat renderCamera(const SceneWorld& world, const SunShadowGrid& shadows,
                      const CameraExposure& exposure, const CameraRenderSettings& settings) {
   const CameraRenderer renderer(world, shadows, K, T_world_cam, settings.max_range);
   const int W = K.width, H = K.height;
-  std::vector<Sample> buffer(static_cast<size_t>(W) * H);
-  const int threads = resolveThreads(settings.threads);
-  parallelFor(H, threads, [&](int y) {
-    for (int x = 0; x < W; ++x) buffer[static_cast<size_t>(y) * W + x] = renderer.sample(x, y);
-  });
-  // Anti-aliasing: pixels whose 4-neighbours saw another surface or another side of a shadow
-  // edge get the mean of four rotated-grid samples.
-  std::vector<uint8_t> edge(buffer.size(), 0);
-  parallelFor(H, threads, [&](int y) {
-    for (int x = 0; x < W; ++x) {
-      const Sample& c = buffer[static_cast<size_t>(y) * W + x];
-      bool e = false;
-      const int nx[4] = {x - 1, x + 1, x, x}, ny[4] = {y, y, y - 1, y + 1};
-      for (int k = 0; k < 4 && !e; ++k) {
-        if (nx[k] < 0 || ny[k] < 0 || nx[k] >= W || ny[k] >= H) continue;
-        const Sample& n = buffer[static_cast<size_t>(ny[k]) * W + nx[k]];
-        e = n.key != c.key || n.lit != c.lit;
-      }
-      edge[static_cast<size_t>(y) * W + x] = e;
-    }
-  });
-  std::vector<Vec3> value(buffer.size());
+  // Each pixel integrates the light over its area, as a camera's does: the mean of four
+  // rotated-grid samples. A point sample per pixel would alias the finest texture detail, and two
+  // cameras whose rows fall a fraction of a pixel apart on the scene (a real rectified pair whose
+  // right camera sits a few mm off the left camera's x axis) would then see different images of
+  // the same surface: a disparity error of up to 0.1 px on the road, of opposite sign for a
+  // right camera above or below the axis (test Simulator.OffAxisPairSeesWhatTheLeftCameraSees).
+  std::vector<Vec3> value(static_cast<size_t>(W) * H);
   static const float kOffsets[4][2] = {
       {-0.125f, -0.375f}, {0.375f, -0.125f}, {0.125f, 0.375f}, {-0.375f, 0.125f}};
+  const int threads = resolveThreads(settings.threads);
   parallelFor(H, threads, [&](int y) {
     for (int x = 0; x < W; ++x) {
-      const size_t i = static_cast<size_t>(y) * W + x;
-      if (!edge[i]) {
-        value[i] = buffer[i].value;
-        continue;
-      }
       Vec3 sum = Vec3::Zero();
       for (const auto& o : kOffsets) sum += renderer.sample(x + o[0], y + o[1]).value;
-      value[i] = 0.25f * sum;
+      value[static_cast<size_t>(y) * W + x] = 0.25f * sum;
     }
   });
   // Exposure and noise. Noise comes from a per-pixel hash, so it does not depend on threads.

@@ -1,7 +1,7 @@
 // Renders a rectified pinhole image of a generated world: ray casting with exact geometry,
-// procedural textures, sun light with cast shadows plus sky light, anti-aliased edges (pixels on
-// an object or shadow boundary get four rotated-grid samples), haze, and per-camera affine
-// brightness (gain, offset) with Gaussian image noise.
+// procedural textures, sun light with cast shadows plus sky light, every pixel the mean of four
+// rotated-grid samples over its area, haze, and per-camera affine brightness (gain, offset) with
+// Gaussian image noise.
 #pragma once
 
 #include <cstdint>
