@@ -121,8 +121,7 @@ TEST(CalibrationIo, FilesReadBackAsTheEstimate) {
       std::string::npos)
       << yaml;
 
-  // A T_right_left that was not estimated is trusted on no axis, as on the topics (audit, session
-  // 31: the YAML said every axis).
+  // A T_right_left that was not estimated is trusted on no axis, as on the topics.
   OnlineEstimate given = e;
   given.stereo_estimated = false;
   const std::string y2 = calibrationYaml(given, frames);
@@ -214,8 +213,8 @@ TEST(CalibrationIo, UnwritableFolderIsNamed) {
 }
 
 TEST(CalibrationIo, AnUnknownCovarianceIsNullAndNotANumberIsYamls) {
-  // Review, session 34: the YAML wrote a placeholder covariance as sigmas (57 deg, 1 m) and NaN
-  // as "nan", which YAML reads as a string.
+  // A placeholder covariance must not be written as sigmas (57 deg, 1 m), nor NaN as "nan",
+  // which YAML reads as a string.
   OnlineEstimate e = someEstimate();
   e.cov_stereo_known = false;
   e.cov_lidar(0, 0) = std::nan("");
@@ -445,9 +444,9 @@ TEST(CalibrateToolReal, RefusesTheKittiWindowItCannotTrust) {
 TEST(CalibrateToolReal, CoCalibratesARecordingShorterThanTheWindowAtItsEnd) {
   SKIP_WITHOUT_KITTI();
   // --mode co on 2011_09_30: 8 keyframes never fill the window of 10 and the LiDAR-first solves
-  // are never trusted, so no co-calibration ran before the end of the input (until session 32).
-  // Now the 8 keyframes are co-calibrated once at the end; the pair's yaw is the +0.035 deg the
-  // photometric solver finds on these frames (README, Known limits).
+  // are never trusted, so no co-calibration runs before the end of the input: the 8 keyframes
+  // are co-calibrated once at the end; the pair's yaw is the +0.035 deg the photometric solver
+  // finds on these frames (doc/limitations.md).
   const std::string k = tescalib_test::kittiDir() + "/sequences/";
   const ToolRun r =
       runCalibrate("--sequences " + k + "04," + k + "05," + k + "06," + k + "07 --mode co");
@@ -468,8 +467,8 @@ TEST(CalibrateToolReal, CoCalibratesARecordingShorterThanTheWindowAtItsEnd) {
 
 TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
   // Usage errors (exit status 2), each named. Numbers are read whole (std::stoi alone took 7.9 as
-  // 7), and where the result goes is checked before any work (audit, session 31: a folder given
-  // as --out failed after the whole run).
+  // 7), and where the result goes is checked before any work (a folder given as --out must
+  // fail before the run, not after it).
   const std::pair<const char*, const char*> usage_errors[] = {
       {"--mode both", "--mode must be lidar_stereo, co or joint"},
       {"--window 2", "--window must be at least 3"},
@@ -614,9 +613,9 @@ TEST(EvalTool, ACoTrialDoesNotDependOnTheTrialsBeforeIt) {
 }
 
 TEST(EvalTool, WritesTheJsonOfTheContract) {
-  // DESIGN.md's contract: every trial has a "lidar" and a "stereo" block with the same fields,
-  // the summary both keys. An extrinsic the mode does not estimate says so, and a covariance
-  // that does not exist is null, never zeros (which would read as exact).
+  // The evaluation contract (doc/evaluation.md): every trial has a "lidar" and a "stereo" block
+  // with the same fields, the summary both keys. An extrinsic the mode does not estimate says so,
+  // and a covariance that does not exist is null, never zeros (which would read as exact).
   TempDir tmp;
   writeDrive(tmp, 11, 8);  // 3 keyframes
   const std::string common = "--sequences " + tmp.str() + "/drive --trials 1 --init-rot-deg 3 " +

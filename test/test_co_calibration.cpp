@@ -293,8 +293,8 @@ TEST(JointCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
 }
 
 // The joint estimate is declared converged only when its covariance solves converged at it
-// (session 35: a real KITTI start was declared converged 4.75 cm off with a LiDAR-stereo
-// covariance solve that had not settled; that case needs real data). Here that solve does not
+// (otherwise a real KITTI start can be declared converged 4.75 cm off with a LiDAR-stereo
+// covariance solve that has not settled; that case needs real data). Here that solve does not
 // converge because no window meets a trust limit of 0.01 mm, and the result says that
 // the covariance solve at the joint estimate is what failed (the initial rounds' LiDAR solves
 // fail the same way, which the joint problem does not need).
@@ -349,8 +349,8 @@ TEST(JointCalibration, RefusesMeshesWithOnlyTheSampleFitted) {
 
 // A cancel raised before the solve (a node shutting down; LidarStereoSettings::cancel, which the
 // alternation and the joint problem honour too): nothing runs, the initial guesses come back
-// unconverged and the message says why (review, session 35: no test called either with a cancel,
-// and the online test passes whether or not the solver looks at the flag).
+// unconverged and the message says why (the online test passes whether or not the solver looks
+// at the flag).
 TEST(CoCalibration, ACancelledAlternationOrJointSolveRunsNoRound) {
   CoCase c = coCase(2, 1.0, 0.1, 0);
   std::atomic<bool> cancel{true};
@@ -374,8 +374,8 @@ TEST(CoCalibration, ACancelledAlternationOrJointSolveRunsNoRound) {
 }
 
 TEST(CoCalibration, ASecondOpinionCatchesAnEstimateFarFromTheGuessInAnotherMinimum) {
-  // Session 26: a co start 3 deg / 0.3 m off settled 2.1 m off along the optical axis and was
-  // declared converged. An estimate that far from the initial guess is solved again from the guess
+  // A co start 3 deg / 0.3 m off can settle 2.1 m off along the optical axis, declared
+  // converged. An estimate that far from the initial guess is solved again from the guess
   // with the same clouds (CoCalibrationSettings::confirm_*); a converged solve 2 m away from it
   // means two minima, and the estimate is not trusted.
   SimOptions o;
@@ -416,7 +416,7 @@ TEST(CoCalibration, ASecondOpinionCatchesAnEstimateFarFromTheGuessInAnotherMinim
 }
 
 TEST(CoCalibration, TheLidarEstimatesSensitivityToTheStereoPairIsWhatAPerturbedPairDoes) {
-  // Session 29: co-calibration propagates the stereo pair's uncertainty into the LiDAR
+  // Co-calibration propagates the stereo pair's uncertainty into the LiDAR
   // covariance through the LiDAR estimate's sensitivity to the pair (central differences of the
   // fine stage). A pair perturbed in all four of its axes at once, once, moves the fine stage's
   // estimate as that sensitivity predicts; the clouds are left as they were.
@@ -467,7 +467,7 @@ TEST(CoCalibration, TheLidarEstimatesSensitivityToTheStereoPairIsWhatAPerturbedP
   std::cout << "[ co       ] moved     " << moved.transpose() << "\n"
             << "[ co       ] predicted " << predicted.transpose() << "\n";
   // Not negligible, and the rotation as predicted within 30 % (plus the fine stage's settle
-  // tolerance). The translation is not linear at this step (session 29: moved 10.1 mm, predicted
+  // tolerance). The translation is not linear at this step (measured: moved 10.1 mm, predicted
   // 11.7 mm, 7 mm apart in direction): only its size is checked, within a factor of 2.
   EXPECT_GT(predicted.head<3>().norm() * kDegPerRad, 0.005);
   EXPECT_LT((moved - predicted).head<3>().norm() * kDegPerRad,
@@ -524,7 +524,7 @@ TEST(CoCalibration, RunawayLidarEstimatesAreNotTaken) {
 
 TEST(CoCalibration, StopsWhenARejectedRoundWouldRepeatItself) {
   // Trial 0 of `tescalib_eval --mode co --init-rot-deg 10 --init-trans-m 1 --init-stereo-rot-deg 1
-  // --init-stereo-trans-m 0.1 --seed 1 --window 10` (doc/co_calibration.md, session 27): window 0
+  // --init-stereo-trans-m 0.1 --seed 1 --window 10`: window 0
   // of the generated urban drive of seed 1 (100 frames). With the LiDAR 10 deg / 1 m off, beyond
   // the alternation's basin, the LiDAR-stereo solves ran away from the initial guess from round 2
   // on, the same way each time (14 times, 35 s). Two rejections in a row from the same estimates
@@ -533,7 +533,7 @@ TEST(CoCalibration, StopsWhenARejectedRoundWouldRepeatItself) {
   const auto& [truth, T_cl_init, T_rl_init, w] = c;
   const std::vector<Keyframe*> window = c.w.window();
   CoCalibrationSettings s;
-  s.stereo_from_features = false;  // round 1 photometric, as before session 28
+  s.stereo_from_features = false;  // round 1 photometric
   s.max_rounds = 6;
   const CoCalibrationResult r = coCalibrate(window, w.rig, T_cl_init, T_rl_init, s);
   std::cout << "[ co       ] " << r.rounds << " rounds, " << r.rejected << " rejected, "
@@ -552,7 +552,7 @@ TEST(CoCalibration, StopsWhenARejectedRoundWouldRepeatItself) {
 TEST(CoCalibration, StereoFromFeaturesConvergesFromThatStart) {
   // The start of StopsWhenARejectedRoundWouldRepeatItself, with round 1 taking the stereo pair
   // from left-right feature matches (no depth needed) and solving LiDAR-stereo first, with the
-  // wide-basin search: both extrinsics converge (session 28: 12 of 12 such generated starts).
+  // wide-basin search: both extrinsics converge (12 of 12 such generated starts).
   CoCase c = evalCoTrial(1, 1, 10.0, 1.0);
   const auto& [truth, T_cl_init, T_rl_init, w] = c;
   CoCalibrationSettings s;
@@ -614,9 +614,9 @@ TEST(CoCalibration, LeavesAWrongPhotometricYawMinimum) {
 }
 
 TEST(CoCalibration, APairThatCannotBeRectifiedEndsTheAlternationWithoutThrowing) {
-  // Audit, session 31: from the LiDAR 90 deg / 3 m off, a round's photometric solve matched
-  // nothing and left a baseline more vertical than horizontal; rectifying the clouds with it threw
-  // (DataError) through coCalibrate and tescalib_eval aborted. Here the pair starts so: the
+  // From the LiDAR 90 deg / 3 m off, a round's photometric solve can match nothing and leave a
+  // baseline more vertical than horizontal; rectifying the clouds with it throws (DataError),
+  // which must not escape coCalibrate. Here the pair starts so: the
   // baseline straight down. The alternation must stop, not converged, and say why.
   const StereoRig rig = coCase(3, 0.0, 0.0).truth;
   Eigen::Isometry3d down = rig.T_right_left;

@@ -108,8 +108,8 @@ TEST(Geometry, WeakDirectionsFindACoupledDirectionNoAxisShows) {
 }
 
 TEST(Geometry, WeakDirectionsNeedPositiveLimitsAndLongRatiosAreWhole) {
-  // Review, session 34: a limit of 0 gave six directions of ratio 0 ("none computed" read as
-  // computed), and a ratio of 1e16 was cut off in the message.
+  // A limit of 0 must not give six directions of ratio 0 ("none computed" read as computed),
+  // and a ratio of 1e16 must not be cut off in the message.
   const Matrix6d cov = Matrix6d::Identity() * 1e-4;
   EXPECT_TRUE(weakDirections(cov, 0.0, 0.01).empty());
   EXPECT_TRUE(weakDirections(cov, 0.05, -1.0).empty());
@@ -137,8 +137,8 @@ TEST(Overlay, StatusTextOnADarkBand) {
 }
 
 TEST(Overlay, NonFinitePointsTransformsAndDepthsDrawNothing) {
-  // Review, session 34: a NaN point passed the depth test (NaN compares false), rounded to pixel
-  // (0, 0) and indexed the colour map with INT_MIN (a segfault in the optimised build).
+  // A NaN point passes a plain depth test (NaN compares false), rounds to pixel (0, 0) and would
+  // index the colour map with INT_MIN (a segfault in the optimised build).
   CameraIntrinsics cam;
   cam.fx = cam.fy = 100, cam.cx = 50, cam.cy = 40, cam.width = 100, cam.height = 80;
   LidarPoint in_view, nan_point;

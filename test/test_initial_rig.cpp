@@ -86,7 +86,7 @@ TEST(InitialRig, TheCameraFrameParameterAndTheLidarFrameParameterWin) {
 }
 
 TEST(InitialRig, OutputFramesThatAlreadyHaveAParentAreRefused) {
-  // ROS audit: frames/left set to the camera's real frame gave it two parents, silently.
+  // frames/left set to the camera's real frame would give it two parents, silently.
   Inputs in;
   in.publishTf("camera_left");        // camera_left -> velo_link, as the tests' tf has it
   geometry_msgs::TransformStamped t;  // and velo_link -> camera_right, as kitti2bag bags have it
@@ -148,7 +148,7 @@ TEST(InitialRig, ParametersGiveBothExtrinsicsWithoutTf) {
   EXPECT_LT((r.rig.T_right_left.translation() - Eigen::Vector3d(-0.5, 0.01, 0)).norm(), 1e-12);
   EXPECT_TRUE(r.rig.T_right_left.linear().isIdentity(1e-12));
   // Clouds without a frame_id: without the tf lookup nothing else would refuse them, and the
-  // estimate's tf edge would have an empty parent, which every tf listener drops (session 32).
+  // estimate's tf edge would have an empty parent, which every tf listener drops.
   in.cloud.header.frame_id = "";
   EXPECT_FALSE(initialRig(p, in.cloud, in.left, in.right, in.tf, 0.0, &r, &error));
   EXPECT_NE(error.find("no frame_id and frames/lidar is not set"), std::string::npos) << error;

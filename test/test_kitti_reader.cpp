@@ -115,7 +115,7 @@ TEST(KittiReaderReal, RightImageRowsAgreeWithTheCalibrationsVerticalBaseline) {
 // Every real pair passes the online node's image check (ImageQualitySettings' defaults) and is
 // matched as it is (no contrast equalisation), and the check sees what a user of these cameras
 // should know: KITTI's right colour camera is slightly softer than the left (sharpness ratio
-// 0.92-0.95 over the 28 pairs, session 24), where a blur of 1 px gives 0.74-0.76 and a generated
+// 0.92-0.95 over the 28 pairs), where a blur of 1 px gives 0.74-0.76 and a generated
 // pair 1.01.
 TEST(KittiReaderReal, EveryPairPassesTheImageCheckAndTheRightCameraIsSlightlySofter) {
   SKIP_WITHOUT_KITTI();
@@ -144,8 +144,8 @@ TEST(KittiReaderReal, EveryPairPassesTheImageCheckAndTheRightCameraIsSlightlySof
 }
 
 // A right camera exposed 1.3x / 1.6x the left (auto-exposure on each camera): on the real frame
-// SGBM keeps a fraction of its points unless the grey values are mapped first (session 24's
-// review: 3480 and 659 of 9509 with a linear mapping's contrast trigger, which saturation fooled).
+// SGBM keeps a fraction of its points unless the grey values are mapped first (3480 and
+// 659 of 9509 with a linear mapping's contrast trigger, which saturation fools).
 TEST(KittiReaderReal, AnOverExposedRightImageIsEqualisedBeforeMatching) {
   SKIP_WITHOUT_KITTI();
   const KittiSequence seq(tescalib_test::kittiDir() + "/sequences/00");
@@ -244,14 +244,14 @@ TEST(KittiReader, RawLayoutGivesTheSameRigAsOdometry) {
   EXPECT_LT(poseError(raw.rig().T_cam_lidar, expected.T_cam_lidar).norm(), 1e-9);
   EXPECT_LT(poseError(raw.rig().T_right_left, expected.T_right_left).norm(), 1e-9);
   EXPECT_EQ(raw.load(1).scan.size(), 64u * 400u);
-  // A malformed fraction of a second used to escape as std::invalid_argument (fuzzing audit).
+  // A malformed fraction of a second is a DataError, not an escaping std::invalid_argument.
   std::ofstream(drive / "image_02" / "timestamps.txt")
       << "2011-09-26 13:02:25.964389445\n2011-09-26 13:02:26.07x807654\n";
   expectDataError([&] { KittiSequence s(drive.string()); }, {"timestamps.txt:2", "fraction"});
 }
 
 TEST(KittiReaderErrors, AbsurdFrameNumbersAndSimInfoAreDataErrors) {
-  // Both used to escape as std::out_of_range / std::invalid_argument (session 21's fuzzing).
+  // Both are DataErrors, not escaping std::out_of_range / std::invalid_argument.
   TempDir tmp;
   tescalib_test::writeSyntheticSequence(tmp.str(), 2);
   std::ofstream(tmp.path / "sim_info.txt") << "lidar_sweep: yes\n";
@@ -290,8 +290,7 @@ TEST(KittiReaderErrors, MalformedCalib) {
 }
 
 TEST(KittiReaderErrors, CalibrationsTheSolversCannotStartFromAreRefused) {
-  // Each used to open, and to give NaN extrinsics or a zero baseline that crashed a solver later
-  // (session 21's fuzzing audit).
+  // Opened, each would give NaN extrinsics or a zero baseline that crashes a solver later.
   TempDir tmp;
   tescalib_test::writeSyntheticSequence(tmp.str(), 2);
   const std::string tr = "Tr: 0 -1 0 0.1 0 0 -1 -0.2 1 0 0 -0.3\n";
@@ -309,9 +308,9 @@ TEST(KittiReaderErrors, CalibrationsTheSolversCannotStartFromAreRefused) {
 }
 
 TEST(KittiReaderErrors, TimesAndCalibrationsAreReadStrictly) {
-  // Review, session 34: each of these was accepted. A blank line in times.txt gave every later
-  // frame the next one's stamp; "0.1abc", "nan" and decreasing stamps were taken; a sheared Tr
-  // of determinant 1 became some other rotation; a P with skew was read as if it had none.
+  // Each of these is refused: a blank line in times.txt would give every later frame the next
+  // one's stamp; "0.1abc", "nan" and decreasing stamps are not times; a sheared Tr of determinant
+  // 1 would become some other rotation; a P with skew would be read as if it had none.
   TempDir tmp;
   tescalib_test::writeSyntheticSequence(tmp.str(), 3);
   auto times = [&](const std::string& text) { std::ofstream(tmp.path / "times.txt") << text; };
@@ -341,8 +340,8 @@ TEST(KittiReaderErrors, TimesAndCalibrationsAreReadStrictly) {
 }
 
 TEST(KittiReader, ARawDriveOpensWithATrailingSlashAndRefusesJunkAfterItsSeconds) {
-  // Review, session 34: "drive/" (tab completion) looked for the calibration in the drive folder
-  // itself; "13:02:25garbage" was read as 13:02:25.
+  // "drive/" (tab completion) must find the calibration beside the drive folder, and
+  // "13:02:25garbage" is not 13:02:25.
   TempDir tmp;
   const fs::path drive = tmp.path / "2011_09_26_drive_0001_sync";
   tescalib_test::writeSyntheticRawDrive(
@@ -359,8 +358,8 @@ TEST(KittiReader, ARawDriveOpensWithATrailingSlashAndRefusesJunkAfterItsSeconds)
 }
 
 TEST(KittiReaderErrors, FrameNumbersOfMixedWidthsAreNamed) {
-  // Review, session 34: the width of the last file listed was applied to all three folders, so
-  // a frame whose scan was named 1.bin beside 000000.bin was listed and failed to load.
+  // Each folder has its own file-name width: a frame whose scan is named 1.bin beside 000000.bin
+  // is named, not listed and then failing to load.
   TempDir tmp;
   tescalib_test::writeSyntheticSequence(tmp.str(), 3);
   fs::rename(tmp.path / "velodyne" / "000001.bin", tmp.path / "velodyne" / "1.bin");

@@ -442,8 +442,8 @@ TEST(Conversions, CloudWithoutRingNaNsAndEmpty) {
 }
 
 TEST(Conversions, ABrokenCloudLayoutIsAMessageNotACrash) {
-  // Session 32 review: only data.size() was checked, so point_step 0 with no data read from
-  // address 0 (the nodelet manager died), and a field past point_step read beyond the buffer.
+  // Checking data.size() alone is not enough: point_step 0 with no data would read from address 0
+  // (killing the nodelet manager), and a field past point_step would read beyond the buffer.
   LidarScan scan = tescalib_test::syntheticScan(16, 50);
   recoverRings(scan);
   std_msgs::Header h;
@@ -623,8 +623,8 @@ TEST(Conversions, KeyframeCloudAndMeshForRviz) {
 }
 
 TEST(Conversions, AGivenExtrinsicIsNotCalledObservableOrExact) {
-  // ROS audit: ~left_to_right without co-calibration said observable on every axis, and its pose
-  // topic carried 36 zeros, which geometry_msgs users read as exact.
+  // ~left_to_right without co-calibration is observable on no axis, and its pose topic does not
+  // carry 36 zeros, which geometry_msgs users read as exact.
   std_msgs::Header h;
   const Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   Matrix6d cov = Matrix6d::Identity() * 1e-6;
@@ -663,7 +663,7 @@ TEST(Conversions, AGivenExtrinsicIsNotCalledObservableOrExact) {
 }
 
 TEST(Conversions, BinningAndRoiScaleTheIntrinsicsNotTheBaseline) {
-  // ROS audit: a binned camera was rejected for its image size instead of P being scaled.
+  // A binned camera's P is scaled, and the camera is not rejected for its image size.
   CameraIntrinsics c;
   c.fx = c.fy = 700.0, c.cx = 620.0, c.cy = 180.0, c.width = 1240, c.height = 376;
   std_msgs::Header h;

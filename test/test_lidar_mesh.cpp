@@ -1,5 +1,5 @@
-// The LiDAR triangle mesh (issue 4's preprocessing): faces from adjacent rings and azimuths,
-// none across a depth discontinuity or at a grazing angle, normals towards the sensor and
+// The LiDAR triangle mesh (the LiDAR-stereo solver's preprocessing): faces from adjacent rings and
+// azimuths, none across a depth discontinuity or at a grazing angle, normals towards the sensor and
 // fitted to the neighbourhood's plane.
 #include <gtest/gtest.h>
 
@@ -217,8 +217,8 @@ TEST(LidarMesh, NormalsAreFittedForTheSampleTheSolversDrawFrom) {
 TEST(LidarMesh, AConsistentSampleDoesNotDependOnTheViewCone) {
   // Two meshes of one scan, kept within 60 deg of axes 3 deg apart (two initial guesses), with
   // `consistent_sample`: of the faces both meshes hold, those in one's sample are in the other's.
-  // The default evenly strided sample of the faces in view shares 1021 of 3909 (checked in
-  // session 39): the stride shifts with the faces the other cone lets in or leaves out.
+  // The default evenly strided sample of the faces in view shares 1021 of 3909: the stride shifts
+  // with the faces the other cone lets in or leaves out.
   const LidarScan scan = stepScene(0.02, 3);
   LidarMeshSettings a, b;
   a.view_half_angle_deg = b.view_half_angle_deg = 60;
@@ -467,8 +467,8 @@ TEST(LidarMesh, KeepEveryNthRingRenumbersTheKeptRings) {
 
 TEST(LidarMesh, AScanCroppedToTheCamerasViewIsMeshedAsFinelyAsAFullTurn) {
   // A driver can crop its scans to a sector (velodyne_pointcloud's view_width): then the densest
-  // ring's returns cover that sector only. Counted over the whole turn they made bins 3.6 beams
-  // wide for a 100 deg sector, each keeping one return of three or four (review, session 34).
+  // ring's returns cover that sector only. Counted over the whole turn they would make bins 3.6
+  // beams wide for a 100 deg sector, each keeping one return of three or four.
   const LidarScan full = stepScene(0.0, 1);
   LidarScan cropped;
   for (const auto& p : full)
@@ -492,7 +492,7 @@ TEST(LidarMesh, AScanCroppedToTheCamerasViewIsMeshedAsFinelyAsAFullTurn) {
 
 TEST(LidarMesh, AWideNormalWindowOnASparseRingReadsEachPointOnce) {
   // 4 rings of 16 returns: a 16-column range image; smooth_cols 40 (allowed by azimuth_bins / 4)
-  // made the fit's window wrap past the row and read before the grid (review, session 34).
+  // must not make the fit's window wrap past the row and read before the grid.
   LidarScan scan;
   for (int r = 0; r < 4; ++r)
     for (int k = 0; k < 16; ++k) {

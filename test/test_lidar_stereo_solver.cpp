@@ -178,7 +178,7 @@ TEST(LidarStereoSolver, WithAConsistentSampleTheEstimateDoesNotDependOnTheGuessV
   // LidarMeshSettings::consistent_sample the faces the solver draws are chosen by their place in
   // the range image, so two guesses 3 deg / 0.3 m apart, each with meshes built around its own
   // axis, reach the same estimate. (With the default evenly strided sample these two end
-  // 0.0115 deg / 1.6 mm apart, checked in session 39: about the statistical sigma.)
+  // 0.0115 deg / 1.6 mm apart: about the statistical sigma.)
   const StereoRig rig = kittiLikeRig();
   std::vector<Keyframe> kfs = canyonKeyframes(rig, 21);
   LidarStereoSettings settings = testSettings();
@@ -306,10 +306,10 @@ TEST(LidarStereoSolver, EstimatesTheRightCameraYawOfTheClouds) {
 }
 
 TEST(LidarStereoSolver, ANuisanceOnItsBoundOrBadSettingsAreNotConverged) {
-  // Review, session 34. The clouds 0.11 deg off in yaw with the yaw allowed 0.1 deg: the yaw
-  // stopped on its bound and the estimate was declared converged, tz 3.2 cm off at sigma 0.48 cm.
-  // A bound of zero width made Ceres fail, which left the start "settled" and converged; NaN
-  // settings passed every gate.
+  // The clouds 0.11 deg off in yaw with the yaw allowed 0.1 deg: the yaw stops on its bound, tz
+  // 3.2 cm off at sigma 0.48 cm, which must not be declared converged. A bound of zero width makes
+  // Ceres fail, which must not leave the start "settled" and converged; NaN settings must fail a
+  // gate.
   const StereoRig rig = kittiLikeRig();
   const std::vector<Keyframe> kfs = canyonKeyframes(rig, 31, 0.11 / kDegPerRad);
   const std::vector<const Keyframe*> window = windowOf(kfs);
@@ -337,9 +337,9 @@ TEST(LidarStereoSolver, ANuisanceOnItsBoundOrBadSettingsAreNotConverged) {
 }
 
 TEST(LidarStereoSolver, ACancelledSolveIsNotConvergedWhereverItStops) {
-  // The header's contract. (Review, session 34: a cancel raised in the middle of the split-window
-  // check's fine stages left the halves' starts and placeholder covariances, which passed as
-  // agreement; that timing is not reproducible here, a cancel raised before the solve is.)
+  // The header's contract. (A cancel raised in the middle of the split-window check's fine stages
+  // would leave the halves' starts and placeholder covariances, which must not pass as agreement;
+  // that timing is not reproducible here, a cancel raised before the solve is.)
   const StereoRig rig = kittiLikeRig();
   const std::vector<Keyframe> kfs = canyonKeyframes(rig, 11);
   std::vector<Keyframe> more = canyonKeyframes(rig, 41);

@@ -450,8 +450,8 @@ TEST(OnlineCalibratorGenerated, ARecordingShorterThanTheWindowIsCoCalibratedAtIt
 TEST(OnlineCalibratorGenerated, TheFirstCoEstimateReplacesTheLidarFirstOne) {
   // With camera_info's stereo pair exact, the LiDAR-first estimate's covariance (stereo taken as
   // exact) is narrower than the co-calibrated one's (the clouds' scale and yaw free): the
-  // per-axis variance gate (max_variance_growth) refused every co estimate after it (session 23:
-  // tescalib_calibrate --mode co never published one on generated urban drives). The first co
+  // per-axis variance gate (max_variance_growth) alone would refuse every co estimate after it
+  // (tescalib_calibrate --mode co would never publish one on generated urban drives). The first co
   // estimate has its own bound, max_variance_growth_first_co (10): published under it, refused
   // with a bound below its growth.
   const auto drive = coDrive();
@@ -480,7 +480,7 @@ TEST(OnlineCalibratorGenerated, TheFirstCoEstimateReplacesTheLidarFirstOne) {
   EXPECT_TRUE(published) << msg;
   expectCoAccuracy(co, sim.rig(), "first co estimate after a LiDAR-first one, 5 keyframes");
   // Like with like: the gate compares the co estimate's LiDAR covariance given the pair (the
-  // pair's own uncertainty, propagated into cov_lidar since session 29, has no counterpart in
+  // pair's own uncertainty, propagated into cov_lidar, has no counterpart in
   // the LiDAR-first one). The published covariance carries it: wider on some axis (the
   // alternation's gain can narrow others, rx 0.91x when measured).
   EXPECT_GT((co.cov_lidar - co.cov_lidar_given_stereo).diagonal().maxCoeff(), 0);
@@ -542,9 +542,8 @@ TEST(OnlineCalibratorGenerated, ATimeJumpBackSeenDuringASolveDiscardsItsResult) 
 
 TEST(OnlineCalibratorGenerated, AKeyframeBuiltAcrossAResetIsDropped) {
   // ~reset while a keyframe is being built (SGBM and the mesh take 0.1-0.7 s): it was made with
-  // the extrinsics of the cleared estimate and must not start the fresh window (session 32
-  // review). The reset comes 20 ms into the build; a try where the thread had not yet started is
-  // repeated.
+  // the extrinsics of the cleared estimate and must not start the fresh window. The reset comes 20
+  // ms into the build; a try where the thread had not yet started is repeated.
   const auto drive = coDrive();
   const Simulator& sim = *drive;
   OnlineCalibrator cal(perturbedRig(sim, 3, 1.0, 0.1), coCalibrating());
@@ -687,8 +686,8 @@ TEST(OnlineCalibratorGenerated, CoCalibrationContinuesWarmAfterTheFirstEstimate)
   check("warm update, 6 keyframes");
   EXPECT_EQ(cal.estimate()->co_rounds, settings.warm_co_rounds);
   // The warm update's LiDAR covariance holds the pair's uncertainty, as the full run's does
-  // (review, session 34: it was the covariance given the pair, rz sigma 42 % smaller, compared
-  // against the full run's with it).
+  // (the covariance given the pair would be rz sigma 42 % smaller, compared against the full
+  // run's with it).
   const OnlineEstimate warm = *cal.estimate();
   EXPECT_GT(warm.cov_lidar(2, 2), 1.2 * warm.cov_lidar_given_stereo(2, 2))
       << "rz variance " << warm.cov_lidar(2, 2) << " vs given the pair "
@@ -802,10 +801,10 @@ std::unique_ptr<OnlineCalibrator> calibratedOnTheLoopDrive(const Simulator& sim,
 }
 
 TEST(OnlineCalibratorGenerated, AFewKeyframesAfterALoopDoNotReplaceAFullWindowsEstimate) {
-  // Session 22 audit: after a bag's loop the window restarts, and its first 3-keyframe solve
-  // replaced a 10-keyframe estimate (rotation errors 2-3x larger): the trace-ratio gate only saw
-  // translation (rotation was 0.5 % of the trace), and a few keyframes' covariance is mostly the
-  // model error's floor, like a full window's.
+  // After a bag's loop the window restarts, and its first 3-keyframe solve must not replace a
+  // 10-keyframe estimate (rotation errors 2-3x larger): a trace-ratio gate sees only translation
+  // (rotation is 0.5 % of the trace), and a few keyframes' covariance is mostly the model
+  // error's floor, like a full window's.
   const auto drive = loopDrive();
   const Simulator& sim = *drive;
   OnlineEstimate full;
@@ -818,7 +817,7 @@ TEST(OnlineCalibratorGenerated, AFewKeyframesAfterALoopDoNotReplaceAFullWindowsE
   Frame again = sim.renderFrame(0);
   again.stamp = sim.stamp(45) - 20.0;
   EXPECT_EQ(cal.addFrame(again, again.stamp, &msg), FrameResult::kReset) << msg;
-  // The loop's message says what happens to the published estimate (audit, session 31).
+  // The loop's message says what happens to the published estimate.
   EXPECT_NE(msg.find("time went backwards by 20.00 s (looping bag?): window cleared; the "
                      "published estimate is kept until a solve from 10 keyframes replaces it"),
             std::string::npos)
@@ -890,7 +889,7 @@ TEST(OnlineCalibratorGenerated, ASolveKeptBackSaysWhetherItStillAgreesWithThePub
 }
 
 TEST(OnlineCalibratorGenerated, AKeyframeWithoutAStereoCloudIsRejected) {
-  // Session 22 audit: right images gone black were taken as keyframes, silently.
+  // Right images gone black are not taken as keyframes, and the rejection says so.
   SimOptions o;
   o.frames = 1;
   o.seed = 4;
@@ -910,8 +909,8 @@ TEST(OnlineCalibratorGenerated, AKeyframeWithoutAStereoCloudIsRejected) {
 }
 
 TEST(OnlineCalibratorGenerated, AnInitialGuessInABodyFrameIsNamedNotCalledARingProblem) {
-  // Session 33 audit: with camera_frame set to an x-forward frame (a URDF camera_link, not the
-  // optical frame) every keyframe was refused as "no ring structure?".
+  // With camera_frame set to an x-forward frame (a URDF camera_link, not the optical frame) the
+  // keyframes must not be refused as "no ring structure?": the message names the frame.
   SimOptions o;
   o.frames = 1;
   o.seed = 4;
@@ -936,7 +935,7 @@ TEST(OnlineCalibratorGenerated, AnInitialGuessInABodyFrameIsNamedNotCalledARingP
   EXPECT_EQ(right.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
 }
 
-// Session 24: a camera gone dark, blinded or out of focus is named, with the measured value,
+// A camera gone dark, blinded or out of focus is named, with the measured value,
 // before its keyframe is built (a 1 px blur of the right image moved a generated urban window's
 // LiDAR-stereo estimate by 1.6 cm). Each degraded pair is refused for its own reason, naming the
 // camera; what affects both cameras alike (the sky saturated), a partly saturated image, a

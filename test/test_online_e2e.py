@@ -177,7 +177,7 @@ class OnlineEndToEnd(unittest.TestCase):
         else:
             self.assertEqual(stereo_weakest, 0.0)
         # Each estimate carries the stamp of its newest keyframe's left image, to the nanosecond
-        # (a ros::Time rebuilt from a double was up to ~0.1 us off; session 32).
+        # (a ros::Time rebuilt from a double would be up to ~0.1 us off).
         with self.lock:
             raw_stamps = set(self.raw.keys())
         for e in self.est['lidar_to_left']:

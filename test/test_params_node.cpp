@@ -14,8 +14,8 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   tescalib::NodeParams p;
   // Valid values other than the shipped file's (most of which equal the compiled-in defaults):
   // a key absent from the file keeps these, so each value checked below was read from the file
-  // into its own field (review, session 35: with the defaults as start values, a loader that
-  // read nothing passed).
+  // into its own field (with the defaults as start values, a loader that read nothing would
+  // pass).
   p.online.window_size = 7;
   p.online.keyframe_min_dt = 0.9;
   p.online.max_time_jump_back = 0.3;
@@ -221,8 +221,8 @@ TEST(Params, InvalidValuesAreNamed) {
 }
 
 TEST(Params, ValuesThatWouldRejectEveryFrameAreNamed) {
-  // Session 32 review: these were read but never checked; the node started and then rejected
-  // every keyframe with a message about the images, or every solve for too few associations.
+  // Unchecked, these would let the node start and then reject every keyframe with a message about
+  // the images, or every solve for too few associations.
   ros::NodeHandle pnh("~bad2");
   pnh.setParam("stereo/max_depth", 0.0);
   pnh.setParam("lidar_stereo/max_depth", -5.0);
@@ -252,9 +252,9 @@ TEST(Params, ValuesThatWouldRejectEveryFrameAreNamed) {
 }
 
 TEST(Params, NotANumberAndOtherSilentValuesAreNamed) {
-  // Session 38 audit: checks written "x <= 0" let NaN through (keyframe_min_dt NaN made every frame
-  // a keyframe, max_variance_growth NaN switched off the never-publish-worse rule); a max_depth
-  // under the clouds' 2 m near limit emptied every cloud; a negative perturbation was ignored.
+  // Checks written "x <= 0" would let NaN through (keyframe_min_dt NaN makes every frame a
+  // keyframe, max_variance_growth NaN switches off the never-publish-worse rule); a max_depth
+  // under the clouds' 2 m near limit empties every cloud; a negative perturbation is no size.
   ros::NodeHandle pnh("~bad4");
   const double nan = std::nan("");
   pnh.setParam("window/keyframe_min_dt", nan);
@@ -279,7 +279,7 @@ TEST(Params, NotANumberAndOtherSilentValuesAreNamed) {
 }
 
 TEST(Params, ValuesOfTheWrongTypeAreNamed) {
-  // roscpp alone keeps the default for "true" given to a bool and rounds 10.7 to 11 (ROS audit).
+  // roscpp alone keeps the default for "true" given to a bool and rounds 10.7 to 11.
   ros::NodeHandle pnh("~types");
   pnh.setParam("deskew/enabled", std::string("true"));
   pnh.setParam("sync/max_skew", std::string("0.2"));

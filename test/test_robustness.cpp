@@ -1,6 +1,6 @@
-// Bad input to the core's entry points (session 21's fuzzing audit): each used to crash (a PCL
-// assertion, a segfault in Ceres' covariance, std::terminate from SGBM) or to let an OpenCV
-// exception escape. Now: a result with converged = false and a message, or a DataError.
+// Bad input to the core's entry points, found by fuzzing: unguarded, each would crash (a PCL
+// assertion, a segfault in Ceres' covariance, std::terminate from SGBM) or let an OpenCV
+// exception escape. Each gives a result with converged = false and a message, or a DataError.
 #include <cmath>
 #include <memory>
 #include <string>
@@ -92,7 +92,8 @@ TEST(Robustness, ThePhotometricSolverChecksTheRigAgainstTheImages) {
 }
 
 TEST(Robustness, SolversRefuseSettingsTheyCannotRun) {
-  // Each used to be reported as a scene problem, or as converged from the true start.
+  // Each is named as a setting, not reported as a scene problem or as converged from the true
+  // start.
   const SmallWindow w;
   const StereoRig& rig = w.sim->rig();
   for (int bad : {0, 1}) {
@@ -113,7 +114,7 @@ TEST(Robustness, SolversRefuseSettingsTheyCannotRun) {
 }
 
 TEST(Robustness, ThePhotometricSolverSaysWhatItCannotConstrain) {
-  // Review, session 34: each of these was accepted or aborted the process.
+  // Each of these must be refused with a message, neither accepted nor aborting the process.
   SmallWindow w;
   const StereoRig& rig = w.sim->rig();
   // A covered right camera (uniform image): the pose's Jacobian is zero. Ceres' truncated
@@ -156,9 +157,9 @@ TEST(Robustness, ThePhotometricSolverSaysWhatItCannotConstrain) {
 }
 
 TEST(Robustness, ReTriangulatingWithTheSameExtrinsicKeepsEveryMatch) {
-  // Review, session 34: the bilinear lookup wanted all four neighbours matched even at a
-  // pixel's own position (weight 0 for the others), so each matched region lost its right and
-  // bottom edge; and a NaN extrinsic reached cv::stereoRectify's assertion.
+  // The bilinear lookup must not want all four neighbours matched at a pixel's own position
+  // (weight 0 for the others), or each matched region loses its right and bottom edge; and a NaN
+  // extrinsic must not reach cv::stereoRectify's assertion.
   const SmallWindow w;
   const Keyframe& kf = w.keyframes[0];
   const StereoRig& rig = w.sim->rig();
@@ -181,8 +182,8 @@ TEST(Robustness, ReTriangulatingWithTheSameExtrinsicKeepsEveryMatch) {
 }
 
 TEST(Robustness, TheLidarDisparityCheckStaysInsideTheRightImage) {
-  // Review, session 34: a point whose disparity is under the search's shift, near the right
-  // edge, read past the right image's last column (past the buffer on the last rows).
+  // A point whose disparity is under the search's shift, near the right edge, must not read past
+  // the right image's last column (past the buffer on the last rows).
   StereoRig rig;
   rig.left = {100, 100, 32, 16, 64, 32};
   rig.right = rig.left;

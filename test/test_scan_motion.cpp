@@ -125,7 +125,7 @@ TEST(ScanMotion, RegistrationRecoversTheGeneratedDrivesVelocity) {
 
 TEST(ScanMotion, ARoadBetweenGuardRailsIsNotAValidMotion) {
   // The generated highway (road, guard rails): scan-to-scan registration slides along the road
-  // (0.3-1.3 m per 0.1 s, a velocity 3-13 m/s wrong) and used to be declared valid.
+  // (0.3-1.3 m per 0.1 s, a velocity 3-13 m/s wrong), which must not be declared valid.
   SimOptions o;
   o.frames = 12;
   o.seed = 2;
@@ -146,8 +146,8 @@ TEST(ScanMotion, ARoadBetweenGuardRailsIsNotAValidMotion) {
 }
 
 TEST(ScanMotion, AStrayFarPointDoesNotTurnTheVoxelFilterOff) {
-  // Review, session 34: one return 7 km away made PCL's voxel grid index overflow, and PCL then
-  // returned the cloud unfiltered: six times the inliers, five times the time, another velocity.
+  // One return 7 km away makes PCL's voxel grid index overflow, and PCL then returns the cloud
+  // unfiltered: six times the inliers, five times the time, another velocity.
   SimOptions o;
   o.frames = 12;
   o.seed = 2;

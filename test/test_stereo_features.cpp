@@ -155,7 +155,7 @@ TEST(StereoFeaturesReal, RecoversTheRectifiedPairOnKitti) {
   std::mt19937_64 rng(5);
   const auto [guess, r, e] = runFrom5Deg(w, rng);
   ASSERT_TRUE(r.ok) << r.message;
-  // Measured (session 28): [0.003 0.146 -0.021] deg, direction 0.23 deg: the yaw is what KITTI's
+  // Measured: [0.003 0.146 -0.021] deg, direction 0.23 deg: the yaw is what KITTI's
   // rectified images leave loosest (the photometric solver finds 0.035 deg there).
   EXPECT_LT(std::fabs(e[0]) * kDegPerRad, 0.03);
   EXPECT_LT(std::fabs(e[2]) * kDegPerRad, 0.05);

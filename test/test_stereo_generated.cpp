@@ -108,7 +108,7 @@ TEST(StereoGenerated, RefinementRemovesTheRoadDisparityBias) {
 }
 
 // Cameras with their own auto-exposure: SGBM compares grey values, so a right image exposed 2x
-// the left lost 95 % of its stereo points (session 24: 593 instead of 11460 per keyframe, and a
+// the left loses 95 % of its stereo points unmapped (593 instead of 11460 per keyframe, and a
 // LiDAR-stereo window 29 cm off). With the lower-contrast image mapped onto the other's grey
 // values first, the pair keeps its points and its road disparity, whichever camera is the darker
 // one; the decision is taken on the images as delivered, so a re-rectified pair (co-calibration

@@ -1,5 +1,5 @@
 // tescalib_eval: runs the calibration on KITTI-layout sequences from perturbed initial guesses
-// and measures it against the ground truth (contract: DESIGN.md, "Evaluation protocol").
+// and measures it against the ground truth (contract: doc/evaluation.md).
 #include <iostream>
 #include <vector>
 

@@ -20,8 +20,7 @@ const char* const kUsage =
     "usage: rosrun tescalib tescalib_eval --sequences DIR[,DIR...] [OPTIONS]";
 const char* const kDescription =
     "Runs the calibration on KITTI-layout sequences from perturbed initial guesses and measures "
-    "it against the ground truth (DESIGN.md, \"Evaluation protocol\"; doc/evaluation.md has the "
-    "conventions and the JSON).";
+    "it against the ground truth (doc/evaluation.md has the conventions and the JSON).";
 const char* const kFooter =
     "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo (T_right_left "
     "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co (both: "

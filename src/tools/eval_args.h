@@ -1,4 +1,4 @@
-// tescalib_eval's command line: the options of DESIGN.md's contract ("Evaluation protocol") and
+// tescalib_eval's command line: the options of the evaluation contract (doc/evaluation.md) and
 // the study options of the solvers' settings.
 #pragma once
 

@@ -1,4 +1,4 @@
-// tescalib_eval's JSON (DESIGN.md, "Evaluation protocol"; doc/evaluation.md): the document is
+// tescalib_eval's JSON (the evaluation contract, doc/evaluation.md): the document is
 // built with nlohmann-json and written in the contract's layout.
 #pragma once
 

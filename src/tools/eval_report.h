@@ -1,5 +1,5 @@
-// tescalib_eval's report: the summary table over the trials and the JSON of DESIGN.md's contract
-// ("Evaluation protocol").
+// tescalib_eval's report: the summary table over the trials and the JSON of the evaluation
+// contract (doc/evaluation.md).
 #pragma once
 
 #include <string>

@@ -15,7 +15,7 @@ int drawLidarOverlay(const LidarScan& scan, const Eigen::Isometry3d& T, const Ca
   cv::applyColorMap(lut, colors, cv::COLORMAP_JET);
   int drawn = 0;
   // A NaN point, transform or depth limit would pass the comparisons below (NaN compares false)
-  // and index the colour map with INT_MIN (review, session 34: a segfault).
+  // and index the colour map with INT_MIN.
   if (!(max_depth > 0) || !std::isfinite(max_depth) || !T.matrix().allFinite()) return 0;
   for (const auto& p : scan) {
     const Eigen::Vector3d c = T * Eigen::Vector3d(p.x, p.y, p.z);

@@ -1,4 +1,4 @@
-// SO(3)/SE(3) helpers and the project's one perturbation model (see DESIGN.md, "Conventions"):
+// SO(3)/SE(3) helpers and the project's one perturbation model (doc/method.md, "Conventions"):
 //   R = Exp(phi) * R_ref,  t = t_ref + tau,  phi and tau in the target frame.
 #pragma once
 

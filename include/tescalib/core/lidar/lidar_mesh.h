@@ -52,9 +52,9 @@ struct LidarMeshSettings {
   /// place in the range image) instead of evenly strided over the faces in view. The strided
   /// sample depends on the view cone, i.e. on the initial guess: a cone a degree wider shifts
   /// the stride, other faces are drawn, and the LiDAR-stereo estimate moves by about its
-  /// statistical sigma with the guess (session 39, doc/lidar_stereo.md, "Face samples and the
-  /// initial guess"). Off by default: the covariances' model errors were fitted with the strided
-  /// sample, and every benchmark figure moves with the draw.
+  /// statistical sigma with the guess (doc/limitations.md, "Start dependence"). Off by default: the
+  /// covariances' model errors were fitted with the strided sample, and every benchmark figure
+  /// moves with the draw.
   bool consistent_sample = false;
   /// Keep only faces whose centroid lies within this half-angle (deg) of `view_axis` (LiDAR
   /// frame); <= 0 keeps everything. Used to keep the part of the scan the cameras can see.

@@ -19,7 +19,7 @@ namespace tescalib {
 /// The stereo clouds co-calibration matches: the keyframes' settings, but one exact disparity
 /// refinement round. The LiDAR-stereo default (a smoothed round, then an exact one) removes a
 /// disparity bias that co-calibration's stereo scale and yaw absorb anyway; here it measured
-/// worse and slower (doc/benchmarks.md, session 15).
+/// worse and slower.
 inline StereoSettings coStereoCloudSettings(StereoSettings s = {}) {
   s.refinement.iterations = 1;
   s.refinement.smoothed_gradient_rounds = 0;
@@ -107,16 +107,14 @@ struct CoCalibrationSettings {
   /// stereo baseline length and yaw follow the LiDAR depth. Calibrated like the solvers' own terms
   /// (doc/co_calibration.md); the observability flags do not use it (they stay the solvers').
   /// The stereo terms are what remains beyond the stereo scale's variance and the LiDAR
-  /// covariance propagated through the key points' depth (session 10: the rotation needs none).
-  /// The LiDAR terms were fitted again in session 29, with the stereo pair's uncertainty
-  /// propagated (propagate_stereo_into_lidar; before: 0.0187 / 0.0063 / 0.0186 deg, 1.9 / 1.9 /
-  /// 2.75 mm), the stereo terms in session 30, once the pair's covariance took the LiDAR's given
-  /// the pair (before: 0 / 0 / 0 deg, 0.7 / 0.27 / 0.19 mm).
+  /// covariance propagated through the key points' depth (the rotation needs none). The LiDAR
+  /// terms are fitted with the stereo pair's uncertainty propagated (propagate_stereo_into_lidar),
+  /// the stereo terms with the pair's covariance taking the LiDAR's given the pair.
   std::array<double, 3> model_sigma_lidar_rot_deg = {0.0119, 0.0, 0.0145};
   std::array<double, 3> model_sigma_lidar_trans_m = {0.0, 0.00079, 0.00141};
   std::array<double, 3> model_sigma_stereo_rot_deg = {0.0003, 0.0006, 0.0};
   std::array<double, 3> model_sigma_stereo_trans_m = {0.000535, 0.000064, 0.000135};
-  /// The stereo pair's uncertainty in the LiDAR covariance (session 29; an addition to the
+  /// The stereo pair's uncertainty in the LiDAR covariance (an addition to the
   /// paper): the LiDAR-stereo solve estimates the clouds' scale and yaw, but the rest of the pair
   /// (rotation about x and z, the baseline direction in y and z) moves the clouds, and so the
   /// LiDAR estimate, too. Its sensitivity (lidarSensitivityToStereo: central differences of the
@@ -129,8 +127,8 @@ struct CoCalibrationSettings {
   /// A warm update (one round, OnlineSettings::warm_co_rounds, which cannot be called stable)
   /// propagates the pair's uncertainty with this sensitivity of an earlier full run's
   /// (`lidar_stereo_sensitivity`) instead of none: without it the online node compared and
-  /// published a LiDAR covariance without the pair's uncertainty against one with it (review,
-  /// session 34: rz sigma 42 % smaller after one more keyframe). Used only when the run is not
+  /// published a LiDAR covariance without the pair's uncertainty against one with it (rz sigma
+  /// 42 % smaller after one more keyframe). Used only when the run is not
   /// stable; a stable run computes its own.
   bool reuse_lidar_sensitivity = false;
   Matrix6d lidar_sensitivity_to_stereo = Matrix6d::Zero();
@@ -141,9 +139,9 @@ struct CoCalibrationSettings {
   /// never asked; the yaw of the clouds starts where the last solve left it): LiDAR-stereo is
   /// solved once more, coarse and fine, from the initial guess with the final clouds; when that
   /// converges further than `confirm_disagree_deg` / `confirm_disagree_m` from the estimate, the
-  /// window has two minima and the result is not converged. Session 26: a start 3 deg / 0.3 m off
-  /// whose first rounds rectified with the baseline direction 11 deg off settled 2.1 m off along
-  /// the optical axis, declared converged (doc/known_limits.md).
+  /// window has two minima and the result is not converged. Without it, a start 3 deg / 0.3 m off
+  /// whose first rounds rectify with the baseline direction 11 deg off settles 2.1 m off along
+  /// the optical axis, declared converged (doc/limitations.md).
   double confirm_beyond_deg = 5.0;
   double confirm_beyond_m = 0.5;
   double confirm_disagree_deg = 0.5;
@@ -155,7 +153,7 @@ struct CoCalibrationSettings {
   /// (LidarStereoSettings::search_step_deg): after a failed photometric solve on clouds rectified
   /// with its rotation (unless it diverged) and the baseline from before, after a runaway on the
   /// round's clouds. It is taken only when it converged within the divergence bounds; otherwise
-  /// the round goes on as without it. Session 27 (doc/co_calibration.md): from the LiDAR
+  /// the round goes on as without it. From the LiDAR
   /// 10 deg / 1 m and the stereo pair 0.1 deg / 1 cm off, 5 of 12 generated starts instead of 4;
   /// on the 30 benchmark starts the same results, but it ran (and was not taken) on 14 of them,
   /// 2-14 s each.
@@ -166,8 +164,8 @@ struct CoCalibrationSettings {
   /// extrinsic's depth, and solves LiDAR-stereo on clouds rectified with them with the wide-basin
   /// search (LidarStereoSettings::search_step_deg); the photometric solves start in round 2, on
   /// that LiDAR estimate's depth. When the matches do not give an estimate
-  /// (FeatureStereoResult::ok), round 1 is the photometric one as without it. Session 28
-  /// (doc/co_calibration.md), generated urban, window 10: from the LiDAR 10 deg / 1 m and the
+  /// (FeatureStereoResult::ok), round 1 is the photometric one as without it. Generated
+  /// urban, window 10: from the LiDAR 10 deg / 1 m and the
   /// stereo pair 1 deg / 0.1 m off 96.7 % of 30 starts (30 % without); from 3 deg / 0.3 m 100 %
   /// of the 30 benchmark and the 54 held-out starts as without it, in about half the time.
   bool stereo_from_features = true;

@@ -32,10 +32,10 @@ struct StereoSettings {
   /// When the pair's mean grey value or contrast (standard deviation) differ by more than this
   /// factor, the image with the lower contrast is mapped onto the other's grey-value histogram
   /// before SGBM, which compares grey values (matchExposure). Decided on the images as delivered,
-  /// so every re-rectification of a keyframe decides alike. Session 24, a right image exposed
-  /// 1.5x / 2x the left: a generated window kept 2691 / 593 of 11460 stereo points per keyframe
-  /// and its LiDAR-stereo solve ended 29 cm off at 2x; KITTI's 00 frame 0 kept 655 of 9509 at
-  /// 1.6x. Generated pairs (contrast ratio 0.90) and KITTI's (0.98-1.05) are within it, so not
+  /// so every re-rectification of a keyframe decides alike. Without it, with a right image
+  /// exposed 1.5x / 2x the left, a generated window keeps 2691 / 593 of 11460 stereo points per
+  /// keyframe and its LiDAR-stereo solve ends 29 cm off at 2x; KITTI's 00 frame 0 keeps 655 of 9509
+  /// at 1.6x. Generated pairs (contrast ratio 0.90) and KITTI's (0.98-1.05) are within it, so not
   /// changed. <= 1: off.
   double equalize_exposure_ratio = 1.15;
   DisparityRefinementSettings refinement;  ///< slanted-window sub-pixel refinement after SGBM
