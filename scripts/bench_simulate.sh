@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Times tescalib_simulate on 100 frames of the urban scenario (the speed figure in the README).
+# Times tescalib_simulate on 100 frames of the urban scenario (the speed figure in doc/benchmarks.md).
 # TESCALIB_SIMULATE: the command to run (default: rosrun tescalib tescalib_simulate from the main
 # build). FRAMES, SCENARIO, SEED, THREADS: what to generate (defaults 100, urban, 1, all cores).
 set -euo pipefail

@@ -421,7 +421,7 @@ TEST(CalibrateTool, WritesNothingItDoesNotTrust) {
 TEST(CalibrateToolReal, RefusesTheKittiWindowItCannotTrust) {
   SKIP_WITHOUT_KITTI();
   // 2011_09_30's window: the solver measures a +0.2 px disparity offset between KITTI's stereo and
-  // LiDAR that leaves the optical axis unconstrained (README, Known limits): no estimate written.
+  // LiDAR that leaves the optical axis unconstrained (doc/limitations.md): no estimate written.
   TempDir tmp;
   const std::string k = tescalib_test::kittiDir() + "/sequences/";
   const ToolRun r =

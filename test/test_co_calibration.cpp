@@ -576,7 +576,7 @@ TEST(CoCalibration, StereoFromFeaturesConvergesFromThatStart) {
 }
 
 TEST(CoCalibration, LeavesAWrongPhotometricYawMinimum) {
-  // The one failure of the 54 held-out benchmark starts (README, "Co-calibration"): window 0 of the
+  // The one failure of the 54 held-out benchmark starts (doc/benchmarks.md): window 0 of the
   // generated urban drive of seed 31 (100 frames), trial 0 of `tescalib_eval --seed 61`. Its
   // round-1 photometric solve, with the LiDAR 2.7 deg / 0.28 m off, settles with the right
   // camera's yaw 0.9 deg off, and the LiDAR-stereo solves say so (clouds' yaw -0.56..-0.88 deg);

@@ -483,7 +483,7 @@ TEST(LidarStereoSolverReal, KittiWindowConvergesToOnePointFromPerturbations) {
     const LidarStereoResult r = solveLidarStereo(window, perturb(rig.T_cam_lidar, delta));
     const Vector6d e = poseError(r.T_cam_lidar, rig.T_cam_lidar);
     // Measured: 0.16 deg / 11 cm from KITTI's calibration on this 8-keyframe window (the
-    // objective's optimum on these frames; see README "Known limits").
+    // objective's optimum on these frames; see doc/limitations.md).
     EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.3);
     EXPECT_LT(e.tail<3>().norm(), 0.15);
     estimates.push_back(r.T_cam_lidar);

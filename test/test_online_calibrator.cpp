@@ -136,7 +136,7 @@ TEST(OnlineCalibratorReal, PublishesOnlyTrustworthyEstimates) {
     EXPECT_NE(msg.find(because), std::string::npos) << msg;
     EXPECT_FALSE(checked.estimate().has_value());
     // What the window gave is kept for a look, with the reason it was not published: the same
-    // point about 10 cm from KITTI's calibration from every start (README, Known limits).
+    // point about 10 cm from KITTI's calibration from every start (doc/limitations.md).
     const auto candidate = checked.lastSolve();
     ASSERT_TRUE(candidate.has_value());
     EXPECT_FALSE(candidate->converged);
@@ -147,7 +147,7 @@ TEST(OnlineCalibratorReal, PublishesOnlyTrustworthyEstimates) {
     EXPECT_LT(off.tail<3>().norm(), 0.15);
     EXPECT_GT(poseError(candidate->T_cam_lidar, rig.T_cam_lidar).tail<3>().norm(), 0.1);
   };
-  // The clouds' disparity is short by about 0.17 px against the LiDAR (README, "Known limits"):
+  // The clouds' disparity is short by about 0.17 px against the LiDAR (doc/limitations.md):
   // the solver measures that offset in its residuals, and with it the window does not constrain
   // tz. Nothing is published.
   publishesNothing(settings, "disparity offset");

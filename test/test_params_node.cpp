@@ -105,8 +105,8 @@ TEST(Params, KittiYamlHoldsTheCompiledInDefaults) {
 }
 
 TEST(Params, WithoutAConfigTheNodeRunsLidarStereoAsDocumented) {
-  // LiDAR-stereo only is the node's default (OnlineSettings::estimate_stereo), as the README and
-  // config/kitti.yaml say.
+  // LiDAR-stereo only is the node's default (OnlineSettings::estimate_stereo), as doc/parameters.md
+  // and config/kitti.yaml say.
   tescalib::NodeParams p;
   EXPECT_FALSE(p.online.estimate_stereo);
   EXPECT_FALSE(p.online.joint);

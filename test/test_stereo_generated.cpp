@@ -658,7 +658,8 @@ TEST(PhotometricGenerated, LidarSensitivityPredictsHowALidarErrorMovesTheEstimat
 TEST(PhotometricGenerated, FullResolutionKeyPointsLieOnSmoothLidarDepth) {
   // With a wrong LiDAR extrinsic a key point at a depth edge takes the depth of the wrong surface:
   // the full-resolution key points are chosen where the mesh depth is smooth around them.
-  // (The benefit with a wrong LiDAR extrinsic is a benchmark figure: `make bench`, README.)
+  // (The benefit with a wrong LiDAR extrinsic is a benchmark figure: `make bench`,
+  // doc/benchmarks.md.)
   SimOptions o;
   o.frames = 1;
   o.seed = 4;
@@ -775,7 +776,7 @@ TEST(PhotometricGenerated, TheLidarErrorAsANuisanceKeepsItOutOfTheBaselineLength
   // them. With the LiDAR's error a nuisance shared by the depths (lidar_error_sigma_*), they move
   // together as that error moves them: the length stays, and the nuisance finds the error. From
   // the truth, length free, 12 keyframes. (On 5 keyframes the nuisance is not better; on the
-  // benchmark's 20, README "The left-right photometric solver".)
+  // benchmark's 20, doc/benchmarks.md.)
   Vector6d lidar_off;
   lidar_off << 0.5 / kDegPerRad, 0, 0, 0, 0.05, 0;
   const WrongLidarWindow w = wrongLidarWindow(12, lidar_off);

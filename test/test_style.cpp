@@ -173,7 +173,7 @@ TEST(Style, TheHistoryCheckCatchesAPlantedLine) {
   fs::create_directories(dir / "build");
   // The markers are assembled here so that this file does not carry them itself.
   const std::string session = std::string("sess") + "ion 12";
-  const std::string issue = std::string("iss") + "ue #7";
+  const std::string issue = std::string("iss") + "ue " + "#" + "7";
   const std::string date = std::string("20") + "24-05-17";
   std::ofstream(dir / "src" / "planted.cpp") << "int f() { return 1; }\n"
                                              << "// Faster since " << session << ".\n"

@@ -65,7 +65,7 @@ struct IntakeResult {
   }
 };
 
-/// What the ring count means for the accuracy to expect (README, Known limits): "" for 64 rings
+/// What the ring count means for the accuracy to expect (doc/limitations.md): "" for 64 rings
 /// or more. Below 16 rings it is a warning, below 64 a note.
 std::string ringCountNote(int rings);
 

@@ -31,7 +31,7 @@ struct LidarMeshSettings {
   /// sit 10-35 cm off both surfaces and pulled the estimate by 0.05 deg; at 64 they are four times
   /// smaller, and the covariances' model error was calibrated with them, so they stay. (Not by ring
   /// gap: KITTI's HDL-64E has gaps of 0.66 deg, every 2nd ring of the generated one 0.67 deg.)
-  /// doc/lidar_stereo.md, "Folds".
+  /// doc/method.md.
   int fold_below_rings = 48;
   /// Face normals are fitted (PCA) to the points within +-smooth_cols azimuth bins and rings
   /// -1..+2 that lie near the face's plane, and kept when within `smooth_max_angle_deg` of the

@@ -61,7 +61,7 @@ struct CoCalibrationSettings {
   /// rectification as a nuisance (LidarStereoSettings::estimate_stereo_yaw): the photometric yaw
   /// of round 1, taken with the LiDAR still degrees off, is 0.1-0.5 deg wrong, and without it the
   /// LiDAR absorbed that disparity offset along the optical axis and often stayed in a wrong
-  /// basin with the baseline length (doc/co_calibration.md).
+  /// basin with the baseline length (doc/method.md).
   bool lidar_estimates_stereo_yaw = true;
   /// When two successive LiDAR-stereo solves find the clouds' yaw more than this far from the
   /// photometric one (the nuisance above) and the gap did not shrink, the photometric yaw sits in
@@ -98,14 +98,14 @@ struct CoCalibrationSettings {
   /// right from round 1, but the yaw is not (only the LiDAR depth fixes it), and clouds rectified
   /// with a yaw 0.3 deg off can keep the warm LiDAR-stereo solves from moving. A round that
   /// settles with free depth is repeated with the LiDAR depth; the final rounds always use it.
-  /// Off by default (0): measured in doc/co_calibration.md, faster on most generated
+  /// Off by default (0): measured in doc/method.md, faster on most generated
   /// starts, slower on some, and on KITTI one start in ten ran away.
   int free_depth_rounds = 0;
   double free_depth_prior_sigma = 0.05;
   /// Per-axis model error added to the final covariances (camera axes, 1 sigma): each solve's
   /// covariance is conditional on the other extrinsic being exact, and in the alternation the
   /// stereo baseline length and yaw follow the LiDAR depth. Calibrated like the solvers' own terms
-  /// (doc/co_calibration.md); the observability flags do not use it (they stay the solvers').
+  /// (doc/method.md); the observability flags do not use it (they stay the solvers').
   /// The stereo terms are what remains beyond the stereo scale's variance and the LiDAR
   /// covariance propagated through the key points' depth (the rotation needs none). The LiDAR
   /// terms are fitted with the stereo pair's uncertainty propagated (propagate_stereo_into_lidar),
@@ -122,7 +122,7 @@ struct CoCalibrationSettings {
   /// left-right covariance into the LiDAR one, S P S^T, with the fixed point's gain (I - S L)^-1
   /// of the alternation (L: the left-right solve's sensitivity to the LiDAR). On the benchmark one
   /// window of six held the LiDAR 3 sigma off about the optical axis through it
-  /// (doc/co_calibration.md).
+  /// (doc/method.md).
   bool propagate_stereo_into_lidar = true;
   /// A warm update (one round, OnlineSettings::warm_co_rounds, which cannot be called stable)
   /// propagates the pair's uncertainty with this sensitivity of an earlier full run's
