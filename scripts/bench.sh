@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# make bench: the accuracy/speed benchmarks whose tables go into the README. Long; not in make test.
+# make bench: the accuracy/speed benchmarks whose tables go into doc/benchmarks.md. Long; not in
+# make test.
 # BENCH=sim|kitti|all (default all) selects the generated-drive or the real-KITTI part; BENCH=core
-# runs only the rows of the README's headline table, one per issue target (about 25 minutes);
+# runs only the rows of doc/benchmarks.md's main table, one per benchmark target (about 25 minutes);
 # BENCH=rigs only the random-rig rows (RIGS rigs drawn by tescalib_simulate --rig random, about
 # 1.5 minutes each).
 set -o pipefail
@@ -33,7 +34,7 @@ simulate_swept() {  # scenario seed frames: raw (swept, motion-skewed) scans, de
     --frames "$3" --noise default --lidar-sweep 1 --out "$dir" > /dev/null || exit 1
   echo "$dir"
 }
-# The rows of the README's headline table, run by BENCH=core and by the full bench alike; their
+# The rows of doc/benchmarks.md's main table, run by BENCH=core and by the full bench alike; their
 # JSON names start with $P ("core_" under BENCH=core, so that they do not overwrite the full
 # bench's).
 P=""
@@ -90,7 +91,7 @@ if [ "$BENCH" = rigs ]; then
   exit $STATUS
 fi
 if [ "$BENCH" = core ]; then
-  # The README's headline table ("Benchmarks"): each issue's generated-drive target, the baseline
+  # doc/benchmarks.md's main table: each generated-drive target, the baseline
   # a user would pick, and the real-KITTI rows (skipped without the frames).
   URBAN=$(simulate urban 1 100) || exit 1
   urban_lidar_stereo tescalib 3 0.3 1
@@ -118,7 +119,7 @@ if [ "$BENCH" != kitti ]; then
   echo "=== tescalib_simulate speed"
   bash "$ROOT/scripts/bench_simulate.sh"
   URBAN=$(simulate urban 1 100)
-  # Issue 4: window 20 (the paper's protocol), 3 deg / 0.3 m and the wide basin 10 deg / 1 m.
+  # LiDAR-stereo: window 20 (the paper's protocol), 3 deg / 0.3 m and the wide basin 10 deg / 1 m.
   urban_lidar_stereo tescalib 3 0.3 1
   urban_lidar_stereo pcl_gicp 3 0.3 1
   # Sparser LiDARs from the same drive: every 2nd ring (32) and every 4th (16, about a VLP-16).
@@ -127,7 +128,7 @@ if [ "$BENCH" != kitti ]; then
   done
   urban_lidar_stereo tescalib 10 1.0 2
   # Beyond it: 15 deg / 1.5 m and 20 deg / 2 m, with the wide-basin search (the default) and
-  # without it (README, "Benchmarks").
+  # without it (doc/benchmarks.md).
   for start in "15 1.5" "20 2.0"; do
     read -r rot trans <<< "$start"
     for search in 10 0; do
@@ -136,18 +137,18 @@ if [ "$BENCH" != kitti ]; then
         --search-deg $search
     done
   done
-  # The same with the clouds' scale and yaw as nuisances (README, "Benchmarks").
+  # The same with the clouds' scale and yaw as nuisances (doc/benchmarks.md).
   urban_lidar_stereo tescalib 3 0.3 1 _scale_yaw --stereo-scale 1 --stereo-yaw 1
   urban_lidar_stereo tescalib 10 1.0 2 _scale_yaw --stereo-scale 1 --stereo-yaw 1
-  # The offline tool on the same drive, from its folder and from its bag (README, "Calibrating a
-  # recording offline"): the node's pipeline, as fast as the CPU allows.
+  # The offline tool on the same drive, from its folder and from its bag (doc/offline.md): the
+  # node's pipeline, as fast as the CPU allows.
   echo "=== tescalib_calibrate (folder, then bag), 3 deg / 0.3 m"
   rosrun tescalib tescalib_calibrate --sequences "$URBAN" --perturb-rot-deg 3 --perturb-trans-m 0.3 |
     grep -E '^[0-9]+ keyframes|^error against' || STATUS=1
   [ -f "$OUT/sim_urban_s1.bag" ] || rosrun tescalib kitti_to_bag --in "$URBAN" --out "$OUT/sim_urban_s1.bag" > /dev/null
   rosrun tescalib tescalib_calibrate --bag "$OUT/sim_urban_s1.bag" --perturb-rot-deg 3 --perturb-trans-m 0.3 |
     grep -E '^[0-9]+ keyframes|^error against' || STATUS=1
-  # Both extrinsics with the offline tool, alternation and joint problem (README, "Known limits",
+  # Both extrinsics with the offline tool, alternation and joint problem (doc/limitations.md,
   # joint mode): the last estimate and the per-update solve times.
   for m in co joint; do
     echo "=== tescalib_calibrate --mode $m, LiDAR 2 deg / 0.2 m"
@@ -155,13 +156,13 @@ if [ "$BENCH" != kitti ]; then
       --perturb-trans-m 0.2 --seed 1 | grep -E '^[0-9]+ keyframes|^NEES of|against' || STATUS=1
   done
   # Raw swept scans (the same drive, each scan swept over its revolution): de-skewed (the
-  # default for such data) and as they are (README, "Motion compensation").
+  # default for such data) and as they are (doc/method.md).
   SWEPT=$(simulate_swept urban 1 100)
   run "sim_urban_swept_tescalib_3deg_deskew" --sequences "$SWEPT" --mode lidar_stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
   run "sim_urban_swept_tescalib_3deg_raw" --sequences "$SWEPT" --mode lidar_stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20 --deskew 0
-  # Issue 5: left-right from 1 deg / 0.1 m, with the LiDAR at the truth and 1 deg / 0.1 m off.
+  # Left-right: left-right from 1 deg / 0.1 m, with the LiDAR at the truth and 1 deg / 0.1 m off.
   urban_stereo 4
   # The baseline a user would pick: an essential matrix from left-right feature matches (rotation
   # and baseline direction; the length stays the start's).
@@ -176,18 +177,18 @@ if [ "$BENCH" != kitti ]; then
   urban_stereo 5 _lidar_off_free_depth_nuisance "${LIDAR_OFF[@]}" --depth-prior 0.01 \
     --lidar-sigma 0.58,0.058
   urban_stereo 4 _free_depth --depth-prior 0.05
-  # Issue 6: NEES over independent windows of 10 keyframes (15 urban drives; 4 held out).
+  # Covariance (NEES): NEES over independent windows of 10 keyframes (15 urban drives; 4 held out).
   NEES_SEQS=$URBAN
   for s in 11 12 13 14 15 16 21 22 23 24 31 32 33 34; do NEES_SEQS=$NEES_SEQS,$(simulate urban $s 100); done
   run "sim_urban_nees" --sequences "$NEES_SEQS" --mode lidar_stereo --trials 60 \
     --init-rot-deg 3 --init-trans-m 0.3 --seed 21 --window 10 --windows disjoint
-  # Issue 6, co-calibration: the 6 windows of three drives from 30 starts, and the co covariance
+  # Co-calibration: the 6 windows of three drives from 30 starts, and the co covariance
   # over 54 starts on 18 held-out windows (its model error is fitted on s1, s11-s16, s21-s24;
-  # README).
+  # doc/method.md).
   CO_SEQS=$URBAN,$(simulate urban 11 100),$(simulate urban 12 100)
   urban_both co
   # From the LiDAR 10 deg / 1 m off: round 1's stereo pair from feature matches, LiDAR first
-  # (CoCalibrationSettings::stereo_from_features; 30 % of these starts without it, session 27).
+  # (CoCalibrationSettings::stereo_from_features; 30 % of these starts without it).
   run "sim_urban_co_10deg" --sequences "$CO_SEQS" --mode co --trials "$SIM_TRIALS" \
     --init-rot-deg 10 --init-trans-m 1 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
     --seed 1 --window 10 --windows disjoint
@@ -197,12 +198,12 @@ if [ "$BENCH" != kitti ]; then
     --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
     --seed 61 --window 10 --windows disjoint
   # The joint problem (--mode joint) on the same starts: its model error is fitted on the first
-  # run's converged starts, the second is held out (README, "Co-calibration").
+  # run's converged starts, the second is held out (doc/method.md).
   urban_both joint
   run "sim_urban_joint_nees_held_out" --sequences "$CO_HELD_OUT" --mode joint --trials 54 \
     --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
     --seed 61 --window 10 --windows disjoint
-  # The LiDAR-stereo model error by scene type (README, "Uncertainty"): one start per window on the
+  # The LiDAR-stereo model error by scene type (doc/method.md): one start per window on the
   # windows it was fitted on (urban: 20 drives, residential 41-46, highway 1-5), then held out.
   nees_scene() {  # name scenario seed-list seed
     local seqs="" s

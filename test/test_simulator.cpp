@@ -303,9 +303,8 @@ TEST(Simulator, RandomRigIsDrawnFromTheSeedWithinRealRanges) {
     EXPECT_GT(lidar_up.z(), std::cos(4.5 / kDegPerRad));
     EXPECT_GE(o.T_vehicle_lidar.translation().z() + 1.73, 1.2);
     const Eigen::Vector3d lidar_x = o.T_vehicle_lidar.linear().col(0);
-    conventions.insert(static_cast<int>(std::lround(std::atan2(lidar_x.y(), lidar_x.x()) /
-                                                    (M_PI / 2))) &
-                       3);
+    conventions.insert(
+        static_cast<int>(std::lround(std::atan2(lidar_x.y(), lidar_x.x()) / (M_PI / 2))) & 3);
     // The same seed, the same rig.
     SimOptions again = options(Scenario::kUrban, 1, seed);
     useRandomRig(seed, &again);
@@ -355,7 +354,8 @@ TEST(Simulator, OffAxisPairSeesWhatTheLeftCameraSees) {
     o.calib.P[3].col(3) += o.calib.P[3].leftCols<3>() * Eigen::Vector3d(0, dy, 0);
     const Simulator sim(o);
     const Frame f = sim.renderFrame(0);
-    const StereoCloud cloud = computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left);
+    const StereoCloud cloud =
+        computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left);
     return lidarDisparityResidual(f.scan, cloud, sim.rig().T_cam_lidar);
   };
   // P = K [I | t]: a camera centre 3.3 mm further along y (down) is t_y 3.3 mm lower.

@@ -62,13 +62,6 @@ const std::vector<std::regex>& historyPatterns() {
   return patterns;
 }
 
-/// Files (relative to the source folder) whose history lines are cleaned by their owners in a
-/// separate change; the maintainer empties this list then, and the check covers every file.
-const std::set<std::string> kHistoryAllowListToEmpty = {
-    "include/tescalib/core/solvers/lidar_stereo_solver.h",
-    "scripts/bench.sh",
-};
-
 /// The first history marker on `line`, or "" when it has none.
 std::string historyMarker(const std::string& line) {
   static const std::regex commit(R"(\bcommit\b)", std::regex::ECMAScript | std::regex::icase);
@@ -92,8 +85,8 @@ bool isText(const fs::path& file) {
 }
 
 /// Every line with a history marker in the text files under `root`, as "file:line: marker | text",
-/// skipping the build folders, git's data and the files of `allowed` (paths relative to `root`).
-std::vector<std::string> historyLines(const fs::path& root, const std::set<std::string>& allowed) {
+/// skipping the build folders and git's data.
+std::vector<std::string> historyLines(const fs::path& root) {
   std::vector<std::string> hits;
   for (auto it = fs::recursive_directory_iterator(root); it != fs::recursive_directory_iterator();
        ++it) {
@@ -103,8 +96,8 @@ std::vector<std::string> historyLines(const fs::path& root, const std::set<std::
       continue;
     }
     const std::string rel = fs::relative(it->path(), root).generic_string();
-    if (!it->is_regular_file() || name == ".git" || allowed.count(rel) ||
-        fs::file_size(it->path()) > (4u << 20) || !isText(it->path()))
+    if (!it->is_regular_file() || name == ".git" || fs::file_size(it->path()) > (4u << 20) ||
+        !isText(it->path()))
       continue;
     std::ifstream in(it->path());
     std::string line;
@@ -156,8 +149,7 @@ TEST(Style, TheFormatCheckCatchesAnUnformattedFile) {
 }
 
 TEST(Style, NoFileCarriesDevelopmentHistory) {
-  const std::vector<std::string> hits =
-      historyLines(fs::path(TESCALIB_SOURCE_DIR), kHistoryAllowListToEmpty);
+  const std::vector<std::string> hits = historyLines(fs::path(TESCALIB_SOURCE_DIR));
   std::ostringstream report;
   for (const std::string& h : hits) report << "  " << h << "\n";
   EXPECT_TRUE(hits.empty()) << hits.size()
@@ -182,8 +174,7 @@ TEST(Style, TheHistoryCheckCatchesAPlantedLine) {
                                   << "| table | " << date << ", commit 0123abc, 2 cores |\n"
                                   << "stamp " << date << " 13:02:25.964 of a KITTI frame\n";
   std::ofstream(dir / "build" / "log.txt") << session << "\n";  // build output is not checked
-  std::ofstream(dir / "allowed.h") << "// " << session << "\n";
-  const std::vector<std::string> hits = historyLines(dir, {"allowed.h"});
+  const std::vector<std::string> hits = historyLines(dir);
   std::ostringstream all;
   for (const std::string& h : hits) all << h << "\n";
   ASSERT_EQ(hits.size(), 3u) << all.str();

@@ -134,8 +134,8 @@ bool covariancesFromInformation(const FineInformation& info, const LidarStereoSe
                                   std::pow(s.model_sigma_range_m * bias_moves(6, 1), 2);
   }
   res->covariance_statistical = res->covariance;
-  // Model error that more data does not average away (calibrated on generated drives, see the
-  // README): common biases through this window's sensitivity to them, and a floor per axis.
+  // Model error that more data does not average away (calibrated on generated drives, see
+  // doc/method.md): common biases through this window's sensitivity to them, and a floor per axis.
   // What the window constrains is the statistical part and the common biases (a weakly
   // constrained axis is the one they move furthest: the highway's optical axis), without the
   // scene-independent floor.

@@ -24,7 +24,7 @@ namespace sim {
 /// A generated rig: what calib.txt holds, the image size, and where the LiDAR sits on the
 /// vehicle.
 struct SimRig {
-  KittiOdometryCalib calib;  ///< P0..P3 (one K; cam2 the left, cam3 the right camera) and Tr
+  KittiOdometryCalib calib;   ///< P0..P3 (one K; cam2 the left, cam3 the right camera) and Tr
   int width = 0, height = 0;  ///< image size (px)
   /// The LiDAR in the vehicle frame the trajectory moves: x forward, y left, z up, its origin
   /// where the default rig's LiDAR sits (1.73 m above the ground).

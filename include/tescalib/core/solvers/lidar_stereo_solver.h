@@ -61,15 +61,15 @@ struct LidarStereoSettings {
   /// The coarse stage estimates the stereo scale and yaw too (when they are estimated at all);
   /// off, it holds them at their start values and only the fine stage estimates them. From a far
   /// start the coarse stage can otherwise slide along the valley where the LiDAR's forward offset,
-  /// the clouds' scale and their yaw trade against each other (session 16: a co-calibration start
-  /// 3 deg / 0.3 m off ended 1.6 m off along z).
+  /// the clouds' scale and their yaw trade against each other (a co-calibration start 3 deg /
+  /// 0.3 m off can end 1.6 m off along z).
   bool coarse_estimates_stereo_nuisances = false;
   /// Start of the yaw (rad): a warm start knows it from the previous solve; starting at 0 with
   /// clouds 0.3 deg off in yaw, the fine stage's gate can reject nearly every association.
   double initial_stereo_yaw_rad = 0.0;
   /// Start of the scale (with estimate_stereo_scale, clamped to its bounds): re-solves on the
   /// clouds of a solve that estimated it (the split-window halves, co-calibration's sensitivity
-  /// and second opinion) start from that solve's scale, not from 1 (session 32 review).
+  /// and second opinion) start from that solve's scale, not from 1.
   double initial_stereo_scale = 1.0;
   // Noise model (paper eq. lidar_noise and the disparity noise).
   double lidar_range_sigma = 0.02;     ///< m
@@ -94,7 +94,7 @@ struct LidarStereoSettings {
   // point, one range offset for every LiDAR point), propagated through this window's geometry
   // (LidarStereoResult::bias_sensitivity), so a scene that constrains an axis weakly also lets
   // such a bias move it further; plus a 1-sigma floor per camera axis. Calibrated on independent
-  // generated urban, residential and highway windows (doc/uncertainty.md); real data may need
+  // generated urban, residential and highway windows (doc/method.md); real data may need
   // larger values.
   int cov_cells_x = 8;
   int cov_cells_y = 3;
@@ -131,7 +131,7 @@ struct LidarStereoSettings {
   /// puts the LiDAR's faces outside the image (0 associations) and a yaw error slides along the
   /// yaw / lateral-translation valley into a wrong minimum; both are not declared converged.
   /// Generated urban, window 20: from 20 deg / 2 m 90 % instead of 50 %, from 15 deg / 1.5 m
-  /// 100 % instead of 65 % (README, "Benchmarks").
+  /// 100 % instead of 65 % (doc/benchmarks.md).
   double search_step_deg = 10.0;
   static constexpr double kMaxSearchStepDeg = 20.0;  ///< the largest step the callers accept
   /// Which of the 8 turned starts a search solves: -1 all of them; k >= 0 only start k mod 8.
@@ -198,8 +198,8 @@ struct LidarStereoResult {
   /// offset, which a matcher's bias is not (generated clouds: -0.03 px on camera-facing surfaces
   /// only), so what the window constrains (the `observable` flags) takes these when the
   /// nuisances are estimated: on a 5-keyframe generated urban window whose forward offset the
-  /// clouds' scale and yaw leave loose, the marginalised sensitivity called tz trusted at
-  /// 3-7 cm error (sigma 0.5-0.9 cm; session 23).
+  /// clouds' scale and yaw leave loose, the marginalised sensitivity would call tz trusted at
+  /// 3-7 cm error (sigma 0.5-0.9 cm).
   Eigen::Matrix<double, 6, 2> bias_sensitivity_held = Eigen::Matrix<double, 6, 2>::Zero();
   /// Per axis: constrained within max_sigma_* (false: do not trust this axis of the estimate),
   /// judged with the common biases through `bias_sensitivity_held`.
