@@ -26,12 +26,11 @@ env -i HOME="$HOME" PATH="$PATH" WORK="$WORK" ROOT="$ROOT" bash -euo pipefail -c
   [ "$(rospack find tescalib)" = "$WORK/install/share/tescalib" ] || fail "rospack find tescalib"
   rospack plugins --attrib=plugin nodelet | grep -q "^tescalib " || fail "nodelet plugins not registered"
   for f in launch/kitti.launch launch/live.launch launch/calibration.launch launch/overlay.launch \
-           config/kitti.yaml config/live.yaml rviz/tescalib.rviz; do
+           config/kitti.yaml config/expert.yaml config/live.yaml rviz/tescalib.rviz; do
     [ -f "$WORK/install/share/tescalib/$f" ] || fail "$f not installed"
   done
   python3 -c "import tescalib.msg, tescalib.srv" || fail "python messages"
-  for t in tescalib_simulate tescalib_calibrate tescalib_eval kitti_to_bag tescalib_check_data \
-           tescalib_error_budget; do
+  for t in tescalib_simulate tescalib_calibrate tescalib_eval kitti_to_bag tescalib_check_data; do
     out=$(rosrun tescalib $t --help 2>&1 || true)
     echo "$out" | grep -q "usage" || fail "$t: $out"
   done

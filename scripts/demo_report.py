@@ -100,20 +100,41 @@ def fmt(values, scale=1.0, digits=4):
     return ' '.join('%.*f' % (digits, scale * v) for v in values)
 
 
-def print_estimate(title, msg, ref):
+def trust_line(msg, published):
+    """One line on whether the estimate can be used, from its per-axis trust flags."""
+    if min(msg.sigma_rot_deg) < 0 or min(msg.sigma_trans_m) < 0:  # -1: unknown
+        return 'trusted: no - the solve ended before its covariance'
+    if not msg.estimated:
+        return 'trusted: no - not estimated (the given value)'
+    weak = [a for a, o in zip(AXES, msg.observable) if not o]
+    if weak:
+        return 'trusted: no - %s looser than %s trust limit%s' % (
+            ' '.join(weak), 'its' if len(weak) == 1 else 'their', '' if len(weak) == 1 else 's')
+    if not published:
+        return 'trusted: no - every axis is within its limit, but the solve was not published'
+    return 'trusted: yes, every axis'
+
+
+def print_estimate(title, msg, ref, published=True):
     q, t = ex.from_msg(msg.transform)
-    print('  %s (%s -> %s): converged=%s, %d keyframes, %d iterations%s' % (
+    # The message holds T_parent_child (T_cam_lidar); tf publishes its inverse, from the LiDAR
+    # frame (child_frame_id) to the camera: shown in that direction, as a user reads tf.
+    q_tf, t_tf = ex.invert(q, t)
+    if q_tf[0] < 0:
+        q_tf = tuple(-c for c in q_tf)
+    print('  %s, %s -> %s: converged=%s, %d keyframes, %d iterations%s' % (
         title, msg.child_frame_id, msg.parent_frame_id, msg.converged, msg.keyframes_used,
         msg.iterations, '' if msg.estimated else ' (not estimated: the given value)'))
-    print('    translation [%s] m, rotation vector [%s] deg' % (
-        fmt(t), fmt(ex.rotvec(q), 57.29577951308232)))
+    print('    translation [%s] m' % fmt(t_tf))
+    print('    quaternion (x y z w) [%s]' % fmt(q_tf[1:] + q_tf[:1], digits=6))
+    print('    roll/pitch/yaw [%s] deg (R = Rz(yaw) Ry(pitch) Rx(roll), as tf)' % fmt(
+        ex.roll_pitch_yaw(q_tf), 57.29577951308232))
     if min(msg.sigma_rot_deg) < 0 or min(msg.sigma_trans_m) < 0:  # -1: unknown
         print('    no covariance (the solve ended before it)')
     else:
-        print('    sigma rot [%s] deg, sigma trans [%s] cm' % (
-            fmt(msg.sigma_rot_deg), fmt(msg.sigma_trans_m, 100, 2)))
-    print('    observable: %s' % ' '.join(
-        '%s=%s' % (a, 'yes' if o else 'NO') for a, o in zip(AXES, msg.observable)))
+        print('    sigma rot [%s] deg, sigma trans [%s] cm (about and along %s\'s x y z)' % (
+            fmt(msg.sigma_rot_deg), fmt(msg.sigma_trans_m, 100, 2), msg.parent_frame_id))
+    print('    %s' % trust_line(msg, published))
     if msg.weakest_ratio > 0:
         comps = [(c, a) for c, a in sorted(zip(msg.weakest_direction, AXES),
                                            key=lambda p: -abs(p[0])) if abs(c) >= 0.2]
@@ -201,11 +222,12 @@ def main():
             cand = est['candidate'][-1][1]
             print('[demo] the last solve, not trusted (/tescalib/candidate/lidar_to_left): %s'
                   % cand.status)
-            print_estimate('T_cam_lidar', cand, ref['T_cam_lidar'] if ref else None)
+            print_estimate('LiDAR -> left camera', cand, ref['T_cam_lidar'] if ref else None,
+                           published=False)
         return 1
     print('[demo] %d estimates published; the last one:' % len(est['lidar_to_left']))
     lidar = est['lidar_to_left'][-1][1]
-    print_estimate('T_cam_lidar', lidar, ref['T_cam_lidar'] if ref else None)
+    print_estimate('LiDAR -> left camera', lidar, ref['T_cam_lidar'] if ref else None)
     co = [i for i, (_, m) in enumerate(est['left_to_right']) if any(s > 0 for s in m.sigma_trans_m)]
     if co and est['lidar_to_left']:
         print('[demo] first co-calibrated estimate (T_right_left estimated too): estimate %d of %d, '
@@ -214,9 +236,9 @@ def main():
                   est['left_to_right'][co[0]][0] - est['lidar_to_left'][0][0]))
     stereo = est['left_to_right'][-1][1] if est['left_to_right'] else None
     if stereo is not None and any(s > 0 for s in stereo.sigma_trans_m):
-        print_estimate('T_right_left', stereo, ref.get('T_right_left') if ref else None)
+        print_estimate('left -> right camera', stereo, ref.get('T_right_left') if ref else None)
     elif stereo is not None:
-        print('  T_right_left: not estimated (LiDAR-stereo only, or co-calibration not yet run), '
+        print('  left -> right camera: not estimated (LiDAR-stereo only, or co-calibration not yet run), '
               'kept at the camera_info baseline %.4f m' % -stereo.transform.translation.x)
     if tf_est is not None:
         phi, tau = ex.error(tf_est, ex.from_msg(lidar.transform))

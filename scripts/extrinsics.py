@@ -40,6 +40,16 @@ def rotvec(q):
     return tuple(angle * c / s for c in q[1:])
 
 
+def roll_pitch_yaw(q):
+    """Roll, pitch, yaw (rad) of a unit quaternion (w, x, y, z): R = Rz(yaw) Ry(pitch) Rx(roll),
+    about the parent's fixed x, y, z axes, as ROS tf (getRPY) and URDF's rpy."""
+    w, x, y, z = q
+    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
 def quat_from_matrix(R):
     """Unit quaternion (w, x, y, z) of a 3x3 rotation given as nested lists."""
     tr = R[0][0] + R[1][1] + R[2][2]

@@ -261,6 +261,31 @@ TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
             << err.tail<3>().norm() * 100 << " cm\n";
   EXPECT_LT(err.head<3>().norm() * kDegPerRad, 0.1);
   EXPECT_LT(err.tail<3>().norm(), 0.015);
+  // The estimate is printed as tf publishes it (the LiDAR frame -> the left camera, T_cam_lidar's
+  // inverse), in m, as a quaternion and as roll/pitch/yaw, with one line on its trust.
+  const size_t block = r.output.find("LiDAR -> left camera, my_velo -> tescalib_left:\n");
+  ASSERT_NE(block, std::string::npos) << r.output;
+  double t[3], q[4], rpy[3];
+  ASSERT_EQ(std::sscanf(r.output.c_str() + r.output.find("translation [", block),
+                        "translation [%lf %lf %lf] m", &t[0], &t[1], &t[2]),
+            3);
+  ASSERT_EQ(std::sscanf(r.output.c_str() + r.output.find("quaternion (x y z w) [", block),
+                        "quaternion (x y z w) [%lf %lf %lf %lf]", &q[0], &q[1], &q[2], &q[3]),
+            4);
+  ASSERT_EQ(std::sscanf(r.output.c_str() + r.output.find("roll/pitch/yaw [", block),
+                        "roll/pitch/yaw [%lf %lf %lf] deg", &rpy[0], &rpy[1], &rpy[2]),
+            3);
+  const Eigen::Isometry3d T_lidar_cam = back.T_cam_lidar.inverse();
+  EXPECT_LT((Eigen::Vector3d(t[0], t[1], t[2]) - T_lidar_cam.translation()).norm(), 1e-4);
+  const Eigen::Quaterniond printed(q[3], q[0], q[1], q[2]);
+  EXPECT_LT(printed.angularDistance(Eigen::Quaterniond(T_lidar_cam.linear())), 1e-5);
+  const Eigen::Matrix3d from_rpy =
+      (Eigen::AngleAxisd(rpy[2] / kDegPerRad, Eigen::Vector3d::UnitZ()) *
+       Eigen::AngleAxisd(rpy[1] / kDegPerRad, Eigen::Vector3d::UnitY()) *
+       Eigen::AngleAxisd(rpy[0] / kDegPerRad, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
+  EXPECT_LT((from_rpy - T_lidar_cam.linear()).norm(), 1e-5);
+  EXPECT_NE(r.output.find("  trusted: ", block), std::string::npos) << r.output;
   const std::string yaml = readAll(base + ".yaml");
   EXPECT_NE(yaml.find("converged: true"), std::string::npos);
   // Each estimate's NEES against the truth: the last one printed is the written estimate's,
@@ -434,7 +459,7 @@ TEST(CalibrateToolReal, RefusesTheKittiWindowItCannotTrust) {
   // What the window gave is shown for a look, with the axes it does not trust.
   EXPECT_NE(r.output.find("the last solve's result, not trusted (8 keyframes)"), std::string::npos)
       << r.output;
-  EXPECT_NE(r.output.find("not trusted: "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("  trusted: no - "), std::string::npos) << r.output;
   EXPECT_FALSE(tescalib_test::fs::exists(tmp.str() + "/result.yaml"));
   // The overlay is for a look too: written, with the untrusted solve labelled so.
   EXPECT_NE(r.output.find("overlay written to"), std::string::npos) << r.output;
@@ -454,15 +479,18 @@ TEST(CalibrateToolReal, CoCalibratesARecordingShorterThanTheWindowAtItsEnd) {
   EXPECT_NE(r.output.find("end of the input: 8 keyframes"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("co-calibrating them"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("7 solves"), std::string::npos) << r.output;
-  const size_t at = r.output.find("T_right_left: rotation vector [");
+  // Printed as tf publishes it, tescalib_left -> tescalib_right (T_right_left's inverse): the
+  // turn about the cameras' y axis is tf's pitch, -0.035 deg in that direction.
+  const size_t block = r.output.find("left -> right camera, tescalib_left -> tescalib_right:");
+  ASSERT_NE(block, std::string::npos) << r.output;
+  const size_t at = r.output.find("roll/pitch/yaw [", block);
   ASSERT_NE(at, std::string::npos) << r.output;
-  double rx = 0, ry = 0, rz = 0;
-  ASSERT_EQ(std::sscanf(r.output.c_str() + at, "T_right_left: rotation vector [%lf %lf %lf]", &rx,
-                        &ry, &rz),
+  double roll = 0, pitch = 0, yaw = 0;
+  ASSERT_EQ(std::sscanf(r.output.c_str() + at, "roll/pitch/yaw [%lf %lf %lf]", &roll, &pitch, &yaw),
             3);
-  EXPECT_GT(ry, 0.02);
-  EXPECT_LT(ry, 0.05);
-  EXPECT_LT(std::fabs(rz), 0.02);
+  EXPECT_LT(pitch, -0.02);
+  EXPECT_GT(pitch, -0.05);
+  EXPECT_LT(std::fabs(yaw), 0.02);
 }
 
 TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {

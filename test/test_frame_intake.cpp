@@ -235,7 +235,7 @@ TEST(FrameIntake, FewRingsAndRecoveredRingsAreSaid) {
   IntakeResult r = sparse.into(&intake);
   ASSERT_EQ(r.outcome, IntakeOutcome::kCandidate) << r.reason;
   EXPECT_EQ(r.rings, 16);
-  EXPECT_NE(ringCountNote(r.rings).find("the LiDAR has 16 rings: on a generated drive"),
+  EXPECT_NE(ringCountNote(r.rings).find("the LiDAR has 16 rings: its mesh is sparser"),
             std::string::npos);
   EXPECT_NE(ringCountNote(8).find("its mesh has few faces in view"), std::string::npos);
   EXPECT_EQ(ringCountNote(64), "");

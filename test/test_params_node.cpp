@@ -81,8 +81,9 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
 }
 
 TEST(Params, KittiYamlHoldsTheCompiledInDefaults) {
-  // One source of defaults: the core's settings structs. config/kitti.yaml spells them out for
-  // users to copy and change, so every value it sets equals the compiled-in one.
+  // One source of defaults: the core's settings structs. config/kitti.yaml (the user parameters)
+  // and config/expert.yaml (the expert ones), both loaded here, spell them out for users to copy
+  // and change, so every value they set equals the compiled-in one.
   const std::map<std::string, std::string> defaults = tescalib::nodeParamValues({});
   tescalib::NodeParams p;
   ros::NodeHandle pnh("~kitti");
@@ -96,7 +97,7 @@ TEST(Params, KittiYamlHoldsTheCompiledInDefaults) {
     ++in_file;
     EXPECT_EQ(loaded.at(name), value) << name << " in config/kitti.yaml differs from the default";
   }
-  EXPECT_GT(in_file, 40);  // the file sets most parameters
+  EXPECT_GT(in_file, 40);  // the files set most parameters
   // The list is what the loader reads: a value the loader changes shows in it.
   tescalib::NodeParams changed;
   changed.online.window_size = 7;

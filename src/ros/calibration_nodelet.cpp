@@ -86,8 +86,8 @@ bool CalibrationNodelet::loadParams(ros::NodeHandle& pnh) {
     for (const auto& u : unknown) names += (names.empty() ? "" : ", ") + pnh.resolveName(u);
     unknown_params_ = names;
     NODELET_WARN(
-        "tescalib: unknown parameter(s) ignored: %s (a typo? config/kitti.yaml lists "
-        "every parameter)",
+        "tescalib: unknown parameter(s) ignored: %s (a typo? config/kitti.yaml and "
+        "config/expert.yaml list every parameter)",
         names.c_str());
   }
   return true;

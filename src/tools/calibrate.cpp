@@ -36,55 +36,16 @@
 #include "tescalib/ros/params.h"
 
 #include "calibrate_args.h"
+#include "calibrate_print.h"
 #include "cli.h"
 
 using namespace tescalib;
 using calibrate::Args;
+using calibrate::ExtrinsicReport;
+using calibrate::pose6;
 using calibrate::windowSize;
 
 namespace {
-
-/// "rx ry rz deg, tx ty tz cm" of a 6-vector [phi (rad); tau (m)].
-std::string pose6(const Vector6d& v) {
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "[%+.4f %+.4f %+.4f] deg, [%+.2f %+.2f %+.2f] cm",
-                v(0) * kDegPerRad, v(1) * kDegPerRad, v(2) * kDegPerRad, 100 * v(3), 100 * v(4),
-                100 * v(5));
-  return buf;
-}
-
-std::string sigma6(const Matrix6d& cov) {
-  Vector6d s;
-  for (int i = 0; i < 6; ++i) s(i) = std::sqrt(std::max(0.0, cov(i, i)));
-  std::string out = pose6(s);
-  for (char& c : out)
-    if (c == '+') c = ' ';
-  return out;
-}
-
-std::string trusted(const bool observable[6]) {
-  const std::string weak = untrustedAxes(observable);
-  return weak.empty() ? "every axis trusted" : "not trusted: " + weak;
-}
-
-void printExtrinsic(const char* name, const Eigen::Isometry3d& T, const Matrix6d& cov,
-                    const bool observable[6], bool covariance_known = true) {
-  const Eigen::Vector3d r = logSO3(T.linear()) * kDegPerRad;
-  const Eigen::Vector3d& t = T.translation();
-  std::printf("%s: rotation vector [%+.4f %+.4f %+.4f] deg, translation [%+.4f %+.4f %+.4f] m\n",
-              name, r.x(), r.y(), r.z(), t.x(), t.y(), t.z());
-  if (covariance_known)
-    std::printf("  sigma %s; %s\n", sigma6(cov).c_str(), trusted(observable).c_str());
-  else
-    std::printf("  no covariance (the solve ended before it); %s\n", trusted(observable).c_str());
-}
-
-/// A solve's weakest direction, against the trust limits.
-void printWeakest(const WeakDirection& w) {
-  if (w.ratio > 0)
-    std::printf("  weakest direction %s (above 1: looser than the limits)\n",
-                describeWeakest(w).c_str());
-}
 
 /// Feeds frames to the calibrator, solves as the node does after each new keyframe, and prints
 /// what happened to each keyframe.
@@ -268,6 +229,40 @@ struct Session {
     std::printf("\n");
   }
 
+  /// The frames of the printed extrinsics and of --out's files: the LiDAR's (--lidar-frame, a
+  /// bag's cloud frame or velo_link) and the cameras' as the node publishes them.
+  CalibrationFrames frames(const Args& args) const {
+    CalibrationFrames f;
+    f.lidar = args.lidar_frame.empty() ? lidar_frame : args.lidar_frame;
+    return f;
+  }
+
+  /// T_cam_lidar of an estimate or of the last solve (`published` false), for the printout.
+  ExtrinsicReport lidarReport(const OnlineEstimate& e, const Args& args, bool published) const {
+    const CalibrationFrames f = frames(args);
+    ExtrinsicReport r{"LiDAR -> left camera", f.lidar, f.left, e.T_cam_lidar, e.cov_lidar};
+    r.covariance_known = e.cov_lidar_known;
+    r.observable = e.observable_lidar;
+    r.published = published;
+    r.limit_rot_deg = settings.co.lidar.max_sigma_rot_deg;
+    r.limit_trans_m = settings.co.lidar.max_sigma_trans_m;
+    r.weakest = e.weakest_lidar;
+    return r;
+  }
+
+  /// T_right_left, as lidarReport.
+  ExtrinsicReport stereoReport(const OnlineEstimate& e, const Args& args, bool published) const {
+    const CalibrationFrames f = frames(args);
+    ExtrinsicReport r{"left -> right camera", f.left, f.right, e.T_right_left, e.cov_stereo};
+    r.covariance_known = e.cov_stereo_known;
+    r.observable = e.observable_stereo;
+    r.published = published;
+    r.limit_rot_deg = settings.co.stereo.max_sigma_rot_deg;
+    r.limit_trans_m = settings.co.stereo.max_sigma_trans_m;
+    r.weakest = e.weakest_stereo;
+    return r;
+  }
+
   /// The final estimate (or the last untrusted solve), the files; the exit status.
   int report(const Args& args, double seconds) const {
     std::printf("%d keyframes, %d rejected, %d solves, %d estimates, %.1f s\n", keyframes, rejected,
@@ -282,14 +277,8 @@ struct Session {
       if (const auto c = calibrator ? calibrator->lastSolve() : std::nullopt) {
         // What the window gives, untrusted: for a look, not for use (nothing is written).
         std::printf("the last solve's result, not trusted (%d keyframes):\n", c->keyframes_used);
-        printExtrinsic("T_cam_lidar", c->T_cam_lidar, c->cov_lidar, c->observable_lidar,
-                       c->cov_lidar_known);
-        printWeakest(c->weakest_lidar);
-        if (c->stereo_estimated) {
-          printExtrinsic("T_right_left", c->T_right_left, c->cov_stereo, c->observable_stereo,
-                         c->cov_stereo_known);
-          printWeakest(c->weakest_stereo);
-        }
+        printExtrinsic(lidarReport(*c, args, false));
+        if (c->stereo_estimated) printExtrinsic(stereoReport(*c, args, false));
         std::printf("change from the initial guess: %s\n",
                     pose6(poseError(c->T_cam_lidar, T_initial)).c_str());
         if (!args.overlay.empty())
@@ -300,13 +289,12 @@ struct Session {
       return 1;
     }
     std::printf("estimate from %d keyframes:\n", e->keyframes_used);
-    printExtrinsic("T_cam_lidar", e->T_cam_lidar, e->cov_lidar, e->observable_lidar);
-    printWeakest(e->weakest_lidar);
+    printExtrinsic(lidarReport(*e, args, true));
     if (e->stereo_estimated) {
-      printExtrinsic("T_right_left", e->T_right_left, e->cov_stereo, e->observable_stereo);
-      printWeakest(e->weakest_stereo);
+      printExtrinsic(stereoReport(*e, args, true));
     } else
-      std::printf("T_right_left: as calibrated (%s)\n",
+      std::printf("left -> right camera, %s -> %s: as calibrated (%s)\n", frames(args).left.c_str(),
+                  frames(args).right.c_str(),
                   settings.estimate_stereo
                       ? "no co-calibrated estimate was published; the last solve's message says why"
                       : "not estimated; --mode co or joint estimates it");
@@ -322,9 +310,7 @@ struct Session {
     // The result files first: an overlay that cannot be written must not cost them.
     if (!args.out.empty()) {
       std::string msg;
-      CalibrationFrames frames;
-      frames.lidar = args.lidar_frame.empty() ? lidar_frame : args.lidar_frame;
-      if (!writeCalibrationFiles(args.out, calibrator->rig(), *e, frames, &msg)) {
+      if (!writeCalibrationFiles(args.out, calibrator->rig(), *e, frames(args), &msg)) {
         std::cerr << "tescalib_calibrate: " << msg << "\n";
         return 1;
       }

@@ -26,7 +26,8 @@ const char* const kDescription =
     "are played one after the other) or in a rosbag with the online pipeline.";
 const char* const kFooter =
     "Exit status: 0 when an estimate converged, 1 when none did, the data are unusable or "
-    "--overlay could not be written, 2 on a usage error.";
+    "--overlay could not be written, 2 on a usage error.\n"
+    "--help-expert also lists the options of the node's expert parameters (doc/offline.md).";
 
 /// An image topic's setter: the topic itself, and its camera_info in the topic's folder.
 std::function<void(const std::string&)> imageTopic(std::string* image, std::string* info) {
@@ -76,10 +77,11 @@ void addInputOptions(CLI::App* app, Args* a) {
 /// The online calibrator's settings and the perturbed start.
 void addCalibrationOptions(CLI::App* app, Args* a) {
   const char* g = "Calibration";
-  cli::add(app, "--mode", "MODE", cli::to(&a->mode, cli::text),
-           "lidar_stereo: T_cam_lidar only (the stereo pair as calibrated; default); co: both "
-           "extrinsics (co-calibration, alternating the two solvers); joint: both in one Ceres "
-           "problem (started from alternation rounds; its meshes fit every face's normal)")
+  cli::add(
+      app, "--mode", "MODE", cli::to(&a->mode, cli::text),
+      "lidar_stereo: T_cam_lidar only (the stereo pair as calibrated; default); co: both "
+      "extrinsics (co-calibration, alternating the two solvers); joint: both in one least-squares "
+      "problem (started from alternation rounds; its meshes fit every face's normal)")
       ->group(g);
   cli::add(app, "--window", "N", cli::to(&a->window, cli::toInt),
            "keyframes in the sliding window (default, or 0: the node's window/size, 10; co, "
@@ -89,17 +91,6 @@ void addCalibrationOptions(CLI::App* app, Args* a) {
            "no solve before the window holds N keyframes (default 3, at most the window; the "
            "node's window/min_keyframes): fewer, better first estimates. co, joint: "
            "co-calibration waits for 5 keyframes in any case (LiDAR-stereo before)")
-      ->group(g);
-  cli::add(app, "--consistent-sample", "0|1", cli::to(&a->consistent_sample, cli::toSwitch),
-           "draw the meshes' faces by their place in the range image: the estimates depend much "
-           "less on the estimate each keyframe's mesh was built with "
-           "(LidarMeshSettings::consistent_sample; default 0), as the node does with "
-           "lidar_stereo/consistent_sample")
-      ->group(g);
-  cli::add(app, "--search-deg", "D", cli::to(&a->search_deg, cli::toNonNegative),
-           "before the first estimate, a LiDAR-stereo solve that does not converge is tried "
-           "again from the start turned +-D deg about the camera's x and y axes (default 10; 0: "
-           "off), as the node does (lidar_stereo/search_deg)")
       ->group(g);
   cli::add(app, "--perturb-rot-deg", "R", cli::to(&a->perturb_rot_deg, cli::toDouble),
            "with --perturb-trans-m (either or both): start that far from the initial "
@@ -112,6 +103,21 @@ void addCalibrationOptions(CLI::App* app, Args* a) {
       ->group(g);
   cli::add(app, "--seed", "S", cli::to(&a->seed, cli::toSeed),
            "the perturbation's random direction (default 1)")
+      ->group(g);
+}
+
+/// Options of the node's expert parameters (doc/parameters.md), for studies.
+void addExpertOptions(CLI::App* app, Args* a, const cli::ExpertOptions& expert) {
+  const std::string g = expert.group("Calibration");
+  cli::add(app, "--consistent-sample", "0|1", cli::to(&a->consistent_sample, cli::toSwitch),
+           "draw the meshes' faces by their place in the range image: the estimates depend much "
+           "less on the estimate each keyframe's mesh was built with (default 0; the node's "
+           "lidar_stereo/consistent_sample)")
+      ->group(g);
+  cli::add(app, "--search-deg", "D", cli::to(&a->search_deg, cli::toNonNegative),
+           "before the first estimate, a LiDAR-stereo solve that does not converge is tried "
+           "again from the start turned +-D deg about the camera's x and y axes (default 10; 0: "
+           "off; the node's lidar_stereo/search_deg)")
       ->group(g);
 }
 
@@ -218,9 +224,11 @@ bool parse(int argc, char** argv, Args* a) {
   CLI::App app(kDescription, "tescalib_calibrate");
   cli::setUp(&app, kUsage, "Input");
   app.footer(kFooter);
+  const cli::ExpertOptions expert(&app, argc, argv, "Input");
   addInputOptions(&app, a);
   addCalibrationOptions(&app, a);
   addOutputOptions(&app, a);
+  addExpertOptions(&app, a, expert);
   if (!cli::parse(&app, argc, argv)) return false;
   for (const CLI::Option* opt : app.parse_order())  // the last option of --bag only given
     for (const char* name : {"--points", "--left", "--right", "--max-skew"})

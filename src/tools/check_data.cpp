@@ -12,6 +12,7 @@
 #include "cli.h"
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
+#include "tescalib/core/common/pose_format.h"
 #include "tescalib/core/eval/lidar_stereo_agreement.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/stereo/image_quality.h"
@@ -38,7 +39,6 @@ void printReader(const std::string& dir, const tescalib::KittiSequence& seq,
   for (const auto& p : f.scan) rings.insert(p.ring);
   const auto agree =
       tescalib::lidarDisparityAgreement(f.scan, f.left, f.right, rig, rig.T_cam_lidar);
-  const Eigen::Vector3d rpy = tescalib::logSO3(rig.T_cam_lidar.linear()) * tescalib::kDegPerRad;
   std::cout << std::fixed << std::setprecision(4) << dir << "\n"
             << "  layout "
             << (seq.layout() == tescalib::KittiLayout::kOdometry ? "odometry" : "raw") << ", "
@@ -49,8 +49,10 @@ void printReader(const std::string& dir, const tescalib::KittiSequence& seq,
                     ? ""
                     : "  note: frames left out, their files or stamp incomplete (" +
                           seq.incompleteFrames() + ")\n")
-            << "  T_cam_lidar: rotation vector [" << rpy.transpose() << "] deg, translation ["
-            << rig.T_cam_lidar.translation().transpose() << "] m\n"
+            << "  the data's LiDAR extrinsic (frames as kitti_to_bag names them), "
+            << tescalib::describeTransform("velo_link", "camera_color_left",
+                                           rig.T_cam_lidar.inverse(), "    ")
+            << "\n"
             << "  frame " << f.index << ": " << f.scan.size() << " LiDAR points, " << rings.size()
             << " rings\n"
             << "  LiDAR-predicted disparity vs images: " << agree.points << " textured points, "

@@ -144,6 +144,27 @@ inline void setUp(CLI::App* app, const std::string& usage, const std::string& he
   app->get_help_ptr()->description("print this help and exit")->group(help_group);
 }
 
+/// The expert options of a tool: study switches of the method that a user never needs. They
+/// are accepted on every command line; --help leaves them out (CLI11 hides options of the group
+/// "") and --help-expert lists them, each group's name prefixed with "Expert: ".
+class ExpertOptions {
+ public:
+  /// Adds --help-expert to `help_group` of `app`; `argc`/`argv` tell whether it is given.
+  ExpertOptions(CLI::App* app, int argc, char** argv, const std::string& help_group) {
+    for (int i = 1; i < argc; ++i) shown_ = shown_ || std::string(argv[i]) == "--help-expert";
+    app->add_flag_callback(
+           "--help-expert", [] { throw CLI::CallForHelp(); },
+           "print this help with the expert options (studies of the method, which a user does "
+           "not need) and exit")
+        ->group(help_group);
+  }
+  /// The group an expert option of `name` goes into: hidden unless --help-expert is given.
+  std::string group(const std::string& name) const { return shown_ ? "Expert: " + name : ""; }
+
+ private:
+  bool shown_ = false;
+};
+
 /// Adds the option `name` (a value named `value_name` in the help) whose value `set` takes: an
 /// exception from it is "bad value 'VALUE' for NAME" unless it is a CLI::Error with its own
 /// reason.

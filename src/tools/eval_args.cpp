@@ -24,13 +24,15 @@ const char* const kDescription =
 const char* const kFooter =
     "Modes: lidar_stereo (T_cam_lidar estimated, stereo at ground truth), stereo (T_right_left "
     "estimated from the --init sizes, LiDAR at ground truth or perturbed by --lidar-*), co (both: "
-    "LiDAR from the --init sizes, stereo from the --init-stereo sizes), joint (as co, one Ceres "
+    "LiDAR from the --init sizes, stereo from the --init-stereo sizes), joint (as co, one "
+    "least-squares "
     "problem over both extrinsics).\n"
     "Sequences are KITTI folders (odometry or raw layout) sharing one calibration (real, or "
     "written by tescalib_simulate). Keyframes are frames >= 0.5 s apart; the window holds the "
     "first W.\n"
     "A trial perturbs the ground truth by exactly R deg about a random axis and T m in a random "
-    "direction and succeeds when the error is below 0.2 deg and 3 cm.";
+    "direction and succeeds when the error is below 0.2 deg and 3 cm.\n"
+    "--help-expert also lists the study options of the solvers (doc/evaluation.md).";
 
 /// The run: data, mode, trials, initial guesses and output.
 void addRunOptions(CLI::App* app, Args* a) {
@@ -75,7 +77,7 @@ void addRunOptions(CLI::App* app, Args* a) {
   add(app, "--json", "FILE", to(&a->json, cli::text), "writes the results as JSON")->group(g);
 }
 
-/// The keyframes: de-skewing, sparser scans, the meshes' sample and the stereo clouds.
+/// The keyframes: de-skewing and sparser scans.
 void addDataOptions(CLI::App* app, Args* a) {
   const char* g = "Keyframes";
   add(app, "--deskew", "0|1", to(&a->deskew, cli::toSwitch),
@@ -87,21 +89,6 @@ void addDataOptions(CLI::App* app, Args* a) {
   add(app, "--keep-rings", "N", to(&a->keep_rings, cli::atLeast(1)),
       "keep every Nth laser ring of each scan (a sparser LiDAR from the same drive: 64 rings with "
       "N = 2 are 32, with N = 4 16 rings about 1.7 deg apart)")
-      ->group(g);
-  add(app, "--consistent-sample", "0|1", to(&a->consistent_sample, cli::toSwitch),
-      "draw each mesh's faces by their place in the range image "
-      "(LidarMeshSettings::consistent_sample; default 0: evenly strided over the faces in view, "
-      "which moves with the initial guess' view cone)")
-      ->group(g);
-  add(app, "--refine-iterations", "N", to(&a->refine_iterations, cli::atLeast(0)),
-      "rounds of the stereo clouds' disparity refinement (StereoSettings::refinement.iterations; "
-      "0 keeps SGBM's disparities; default 2 in lidar_stereo mode, 1 for the clouds co and joint "
-      "match, coStereoCloudSettings)")
-      ->group(g);
-  add(app, "--refine-smoothed-rounds", "N", to(&a->refine_smoothed, cli::atLeast(0)),
-      "of those rounds, the first N take the smoothed gradient "
-      "(DisparityRefinementSettings::smoothed_gradient_rounds; default 1 in lidar_stereo mode, 0 "
-      "in co and joint)")
       ->group(g);
 }
 
@@ -125,9 +112,51 @@ std::vector<double> coarseGates(const std::string& v) {
   return gates;
 }
 
-/// The LiDAR-stereo solver's study options (LidarStereoSettings).
-void addLidarStereoOptions(CLI::App* app, Args* a) {
-  const char* g = "LiDAR-stereo solver";
+/// --lidar-sigma DEG,M: both >= 0.
+void setLidarSigma(const std::string& v, Args* a) {
+  const auto parts = cli::splitList(v);
+  if (parts.size() != 2) throw std::invalid_argument(v);
+  a->lidar_sigma_deg = cli::toNonNegative(parts[0]);
+  a->lidar_sigma_m = cli::toNonNegative(parts[1]);
+}
+
+/// Stereo mode's given LiDAR extrinsic: how far off it is and how uncertain it is said to be.
+void addStereoModeOptions(CLI::App* app, Args* a) {
+  const char* g = "Stereo mode";
+  add(app, "--lidar-rot-deg", "R", to(&a->lidar_rot_deg, cli::toNonNegative),
+      "the given LiDAR extrinsic's rotation error (default 0)")
+      ->group(g);
+  add(app, "--lidar-trans-m", "T", to(&a->lidar_trans_m, cli::toNonNegative),
+      "the given LiDAR extrinsic's translation error (default 0)")
+      ->group(g);
+  add(
+      app, "--lidar-sigma", "DEG,M", [a](const std::string& v) { setLidarSigma(v, a); },
+      "the given LiDAR extrinsic's 1-sigma per axis; the left-right covariance adds what it does "
+      "to the key points' depth (default 0: exact); with --depth-prior (an expert option) its "
+      "error is also a nuisance of the key points' depths, with this prior")
+      ->group(g);
+}
+
+/// Study options of the keyframes: the meshes' sample and the stereo clouds' refinement.
+void addKeyframeStudyOptions(CLI::App* app, Args* a, const cli::ExpertOptions& expert) {
+  const std::string g = expert.group("Keyframes");
+  add(app, "--consistent-sample", "0|1", to(&a->consistent_sample, cli::toSwitch),
+      "draw each mesh's faces by their place in the range image (default 0: evenly strided over "
+      "the faces in view, which moves with the initial guess' view cone)")
+      ->group(g);
+  add(app, "--refine-iterations", "N", to(&a->refine_iterations, cli::atLeast(0)),
+      "rounds of the stereo clouds' sub-pixel disparity refinement (0 keeps SGBM's disparities; "
+      "default 2 in lidar_stereo mode, 1 for the clouds co and joint match again)")
+      ->group(g);
+  add(app, "--refine-smoothed-rounds", "N", to(&a->refine_smoothed, cli::atLeast(0)),
+      "of those rounds, the first N follow a smoothed image gradient (default 1 in lidar_stereo "
+      "mode, 0 in co and joint)")
+      ->group(g);
+}
+
+/// Study options of the LiDAR-stereo solver.
+void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& expert) {
+  const std::string g = expert.group("LiDAR-stereo solver");
   add(app, "--stages", "coarse,fine", to(&a->stages, cli::text),
       "lidar_stereo mode: the stages to run (coarse, fine or both)")
       ->group(g);
@@ -140,39 +169,34 @@ void addLidarStereoOptions(CLI::App* app, Args* a) {
          }),
       "lidar_stereo mode (co: the LiDAR-first fallback's solve): a solve that does not converge "
       "is tried again from the start turned by +-D deg about the camera's x and y axes, 8 more "
-      "starts (LidarStereoSettings::search_step_deg; default 10; 0: off)")
+      "starts (default 10; 0: off)")
       ->group(g);
   add(app, "--coarse-gates", "M,M,...", to(&a->coarse_gates, coarseGates),
-      "the coarse stage's 6-D association gates, one stage each "
-      "(LidarStereoSettings::coarse_gates; default 2,1,0.5; co and joint: their LiDAR-stereo "
-      "solves)")
+      "the coarse stage's association gates (6-D distances), one stage each (default 2,1,0.5; co "
+      "and joint: their LiDAR-stereo solves)")
       ->group(g);
   add(app, "--coarse-nuisances", "0|1", to(&a->coarse_nuisances, cli::toSwitch),
       "the coarse stage also estimates the clouds' scale and yaw where they are estimated (co; "
-      "LidarStereoSettings::coarse_estimates_stereo_nuisances; off by default: only the fine "
-      "stage does)")
+      "default 0: only the fine stage does)")
       ->group(g);
   add(app, "--stereo-yaw", "0|1", to(&a->stereo_yaw, cli::toSwitch),
       "the solve also estimates the right camera's yaw relative to the clouds' rectification (a "
-      "disparity offset; LidarStereoSettings::estimate_stereo_yaw, co: "
-      "CoCalibrationSettings::lidar_estimates_stereo_yaw)")
+      "disparity offset; co: the node's co_calibration/lidar_estimates_stereo_yaw)")
       ->group(g);
   add(app, "--stereo-scale", "0|1", to(&a->stereo_scale, cli::toSwitch),
-      "lidar_stereo mode: the solve also estimates a scale of the stereo clouds "
-      "(LidarStereoSettings::estimate_stereo_scale; always on in co)")
+      "lidar_stereo mode: the solve also estimates a scale of the stereo clouds (always on in co)")
       ->group(g);
   add(app, "--check-halves", "0|1", to(&a->check_halves, cli::toSwitch),
-      "the split-window check of the noise model after a converged solve "
-      "(LidarStereoSettings::check_window_halves; on by default)")
+      "after a converged solve, solve each half of the window again; disagreeing halves widen the "
+      "covariance (default 1)")
       ->group(g);
   add(app, "--measure-offset", "0|1", to(&a->measure_offset, cli::toSwitch),
       "measure the disparity offset the residuals show and widen the covariance's bias term with "
-      "it (LidarStereoSettings::measure_disparity_offset; on by default)")
+      "it (default 1)")
       ->group(g);
   add(
       app, "--cov-cells", "XxY", [a](const std::string& v) { setCovCells(v, a); },
-      "image cells per keyframe of the covariance's sandwich estimator "
-      "(LidarStereoSettings::cov_cells_x/y; default 8x3)")
+      "image cells per keyframe of the covariance's sandwich estimator (default 8x3)")
       ->group(g);
   add(app, "--cov-model-scale", "K", to(&a->cov_model_scale, cli::toNonNegative),
       "scales the covariance's model error (the common biases and per-axis floor; default 1, 0: "
@@ -180,66 +204,41 @@ void addLidarStereoOptions(CLI::App* app, Args* a) {
       ->group(g);
 }
 
-/// --lidar-sigma DEG,M: both >= 0.
-void setLidarSigma(const std::string& v, Args* a) {
-  const auto parts = cli::splitList(v);
-  if (parts.size() != 2) throw std::invalid_argument(v);
-  a->lidar_sigma_deg = cli::toNonNegative(parts[0]);
-  a->lidar_sigma_m = cli::toNonNegative(parts[1]);
-}
-
-/// The left-right photometric solver's study options (PhotometricSettings) and stereo mode's
-/// given LiDAR extrinsic.
-void addStereoOptions(CLI::App* app, Args* a) {
-  const char* g = "Left-right photometric solver";
+/// Study options of the left-right photometric solver.
+void addStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& expert) {
+  const std::string g = expert.group("Left-right photometric solver");
   add(app, "--smooth-keypoints", "PX", to(&a->smooth_keypoints_px, cli::atLeast(0)),
       "full-resolution photometric key points only where the LiDAR depth is smooth within PX "
-      "pixels (PhotometricSettings::smooth_depth_radius_px; 0: off)")
+      "pixels (0: off)")
       ->group(g);
   add(app, "--depth-prior", "SIGMA", to(&a->depth_prior, cli::toNonNegative),
-      "photometric key points' depth free at full resolution with a log-depth prior of SIGMA "
-      "(PhotometricSettings::depth_prior_sigma; 0: the LiDAR's). (co: the prior of the rounds "
-      "with free depth, CoCalibrationSettings::free_depth_prior_sigma)")
-      ->group(g);
-  add(app, "--lidar-rot-deg", "R", to(&a->lidar_rot_deg, cli::toNonNegative),
-      "stereo mode: the given LiDAR extrinsic's rotation error (default 0)")
-      ->group(g);
-  add(app, "--lidar-trans-m", "T", to(&a->lidar_trans_m, cli::toNonNegative),
-      "stereo mode: the given LiDAR extrinsic's translation error (default 0)")
-      ->group(g);
-  add(
-      app, "--lidar-sigma", "DEG,M", [a](const std::string& v) { setLidarSigma(v, a); },
-      "stereo mode: the given LiDAR extrinsic's 1-sigma per axis; the left-right covariance adds "
-      "what it does to the key points' depth (default 0: exact); with --depth-prior its error is "
-      "also a nuisance of the key points' depths, with this prior "
-      "(PhotometricSettings::lidar_error_sigma_*)")
+      "photometric key points' depth free at full resolution with a log-depth prior of SIGMA (0: "
+      "the LiDAR's depth); co: the prior of the rounds with free depth")
       ->group(g);
 }
 
-/// Co-calibration's study options (CoCalibrationSettings).
-void addCoOptions(CLI::App* app, Args* a) {
-  const char* g = "Co-calibration";
+/// Study options of co-calibration.
+void addCoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& expert) {
+  const std::string g = expert.group("Co-calibration");
   add(app, "--free-depth-rounds", "N", to(&a->free_depth_rounds, cli::atLeast(0)),
       "co: photometric solves of rounds 1..N with free key point depth")
       ->group(g);
   add(app, "--lidar-first", "0|1", to(&a->lidar_first, cli::toSwitch),
-      "co: the LiDAR-first fallback (CoCalibrationSettings::lidar_first_fallback; default 0); its "
-      "LiDAR-stereo search follows --search-deg")
+      "co: the LiDAR-first fallback (default 0); its LiDAR-stereo search follows --search-deg")
       ->group(g);
   add(app, "--features", "0|1", to(&a->features, cli::toSwitch),
-      "co: round 1 from the stereo pair of left-right feature matches, LiDAR first "
-      "(CoCalibrationSettings::stereo_from_features); its search follows --search-deg")
+      "co: round 1 from the stereo pair of left-right feature matches, LiDAR first; its search "
+      "follows --search-deg")
       ->group(g);
   add(app, "--propagate-stereo", "0|1", to(&a->propagate_stereo, cli::toSwitch),
-      "co: the stereo pair's uncertainty in the LiDAR covariance "
-      "(CoCalibrationSettings::propagate_stereo_into_lidar; default 1)")
+      "co: the stereo pair's uncertainty in the LiDAR covariance (default 1)")
       ->group(g);
   add(app, "--rematch-deg", "X", to(&a->rematch_deg, cli::toDouble),
       "co: SGBM matches again beyond X deg about x/z (and 5 X of baseline direction) from its "
       "last matches, re-triangulates below (< 0: always matches again)")
       ->group(g);
   add(app, "--co-model-scale", "K", to(&a->co_model_scale, cli::toNonNegative),
-      "scales co-calibration's model error (CoCalibrationSettings::model_sigma_*; default 1)")
+      "scales co-calibration's model error (default 1)")
       ->group(g);
 }
 
@@ -332,11 +331,14 @@ bool parse(int argc, char** argv, Args* a) {
   CLI::App app(kDescription, "tescalib_eval");
   cli::setUp(&app, kUsage, "Run");
   app.footer(kFooter);
+  const cli::ExpertOptions expert(&app, argc, argv, "Run");
   addRunOptions(&app, a);
   addDataOptions(&app, a);
-  addLidarStereoOptions(&app, a);
-  addStereoOptions(&app, a);
-  addCoOptions(&app, a);
+  addStereoModeOptions(&app, a);
+  addKeyframeStudyOptions(&app, a, expert);
+  addLidarStereoOptions(&app, a, expert);
+  addStereoOptions(&app, a, expert);
+  addCoOptions(&app, a, expert);
   return cli::parse(&app, argc, argv) && checkChoices(*a) && checkCombinations(*a);
 }
 
