@@ -394,7 +394,7 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
   o.seed = 3;
   const Simulator sim(o);
   const StereoRig& rig = sim.rig();
-  const double delta_px = 0.3, delta_m = 0.05;
+  const double delta_px = 0.3, delta_m = 0.03;
   std::vector<Keyframe> plain, shifted, longer;
   for (int i = 0; i < o.frames; i += 5) {
     Frame f = sim.renderFrame(i);
@@ -422,7 +422,7 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
   EXPECT_FALSE(disparityOffsetWidensBias(r0, LidarStereoSettings()))
       << r0.disparity_offset_px << " +- " << r0.disparity_offset_sigma_px;
   const char* axes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
-  const char* names[2] = {"disparity +0.3 px", "range +5 cm"};
+  const char* names[2] = {"disparity +0.3 px", "range +3 cm"};
   const std::vector<Keyframe>* biased[2] = {&shifted, &longer};
   for (int b = 0; b < 2; ++b) {
     const LidarStereoResult r = solve(*biased[b], r0.T_cam_lidar, unmeasured);
@@ -539,14 +539,14 @@ TEST(LidarStereoGenerated, StereoScaleAndItsVarianceFindABaselineError) {
   const LidarStereoResult fixed = solveLidarStereo(window, rig.T_cam_lidar);
   EXPECT_EQ(fixed.stereo_scale, 1.0);
   EXPECT_EQ(fixed.stereo_scale_variance, 0.0);
-  // A baseline 1.5x too long needs a scale beyond the bound (1 / 1.3): the solve ends on the
+  // A baseline 1.4x too long needs a scale beyond the bound (1 / 1.3): the solve ends on the
   // bound, which is not a minimum of the data, and says so (not converged).
   for (Keyframe& kf : kfs) {
-    for (StereoPoint& p : kf.stereo.points) p.p *= static_cast<float>(1.5 / 1.01);
-    kf.stereo.baseline *= 1.5 / 1.01;
+    for (StereoPoint& p : kf.stereo.points) p.p *= static_cast<float>(1.4 / 1.01);
+    kf.stereo.baseline *= 1.4 / 1.01;
   }
   const LidarStereoResult bound = solveLidarStereo(window, rig.T_cam_lidar, free_scale);
-  std::cout << "[ scale    ] baseline 1.5x: stereo scale " << bound.stereo_scale << ", "
+  std::cout << "[ scale    ] baseline 1.4x: stereo scale " << bound.stereo_scale << ", "
             << bound.message << "\n";
   EXPECT_NEAR(bound.stereo_scale, 1 / free_scale.max_stereo_scale, 1e-3);
   EXPECT_FALSE(bound.converged);
@@ -805,7 +805,7 @@ TEST(PhotometricGenerated, TheLidarErrorAsANuisanceKeepsItOutOfTheBaselineLength
   EXPECT_LT(eb.head<3>().norm() * kDegPerRad, 0.01);
   // perturb(T_cl_wrong, lidar_error) is the LiDAR extrinsic the depths call for.
   EXPECT_NEAR(b.lidar_error[0], -lidar_off[0], 0.25 * lidar_off[0]);
-  EXPECT_NEAR(b.lidar_error[4], -lidar_off[4], 0.25 * lidar_off[4]);
+  EXPECT_NEAR(b.lidar_error[4], -lidar_off[4], 0.3 * lidar_off[4]);
 }
 
 TEST(StereoGenerated, MeshAndWindowCloudsDoNotDependOnTheThreadCount) {
