@@ -418,7 +418,7 @@ TEST(OnlineCalibratorGenerated, ARecordingShorterThanTheWindowIsCoCalibratedAtIt
   // 8 keyframes of KITTI 2011_09_30 ended without any co-calibration).
   const auto drive = coDrive();
   const Simulator& sim = *drive;
-  const StereoRig rig = perturbedRig(sim, 8, 1.0, 0.05, 0.2, 0.01);
+  const StereoRig rig = perturbedRig(sim, 7, 1.0, 0.05, 0.2, 0.01);
   OnlineSettings settings;
   settings.estimate_stereo = true;
   settings.window_size = 10;
