@@ -28,7 +28,7 @@ struct ExtrinsicReport {
   const bool* observable = nullptr;  ///< rx..tz within the trust limits
   bool published = true;             ///< false: the last solve's result, shown for a look
   double limit_rot_deg = 0, limit_trans_m = 0;  ///< the solver's trust limits (1 sigma)
-  WeakDirection weakest;
+  WeakDirection weakest = {};
 };
 
 /// The transform (tf direction: parent -> child = T_a_b's inverse), its sigma, the trust line
