@@ -11,7 +11,6 @@ namespace sim {
 namespace {
 
 constexpr double kRad = M_PI / 180.0;
-constexpr double kVehicleHeight = 1.73;  // m, the vehicle frame's origin above the ground
 
 /// A value of magnitude in [lo, hi) and random sign.
 double signedMagnitude(SimRandom* r, double lo, double hi) {
@@ -64,7 +63,7 @@ Eigen::Isometry3d drawCameraMount(SimRandom* r) {
   const double roll = r->uniform(-1.0, 1.0), pitch_down = r->uniform(-1.0, 3.0);
   T.linear() = rpy(roll * kRad, pitch_down * kRad, r->uniform(-2.0, 2.0) * kRad) * forward;
   T.translation() = Eigen::Vector3d(r->uniform(0.0, 0.6), r->uniform(-0.3, 0.3),
-                                    r->uniform(1.3, 1.8) - kVehicleHeight);
+                                    r->uniform(1.3, 1.8) - kVehicleFrameHeight);
   return T;
 }
 
@@ -75,7 +74,7 @@ Eigen::Isometry3d drawLidarMount(SimRandom* r, const Eigen::Vector3d& camera) {
   do {
     offset = Eigen::Vector3d(r->uniform(-0.9, 0.3), r->uniform(-0.6, 0.6), r->uniform(-0.1, 0.6));
   } while (offset.norm() > 1.0 || offset.norm() < 0.1 ||
-           camera.z() + offset.z() + kVehicleHeight < 1.2);
+           camera.z() + offset.z() + kVehicleFrameHeight < 1.2);
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   const double convention = 90.0 * r->uniformInt(0, 3);
   T.linear() = rpy(r->uniform(-3.0, 3.0) * kRad, r->uniform(-3.0, 3.0) * kRad,

@@ -24,7 +24,6 @@ namespace tescalib {
 namespace {
 
 constexpr double kFrameRate = 10.0;
-constexpr double kLidarHeight = 1.73;   // m above the ground, like KITTI's HDL-64E
 constexpr double kMaxSpeed = 14.0;      // m/s, bounds the route length
 constexpr double kRouteBehind = 100.0;  // m of world behind the start
 constexpr double kRouteAhead = 250.0;   // m of world beyond the last frame
@@ -163,8 +162,8 @@ Simulator::Simulator(const SimOptions& options)
   const double route = kMaxSpeed / kFrameRate * (options_.frames - 1);
   world_ = std::make_unique<sim::SceneWorld>(
       sim::buildScene(options_.scenario, options_.seed, -kRouteBehind, route + kRouteAhead));
-  impl_->trajectory = std::make_unique<sim::VehicleTrajectory>(*world_->road, world_->lane_offset,
-                                                               options_.seed, kLidarHeight);
+  impl_->trajectory = std::make_unique<sim::VehicleTrajectory>(
+      *world_->road, world_->lane_offset, options_.seed, sim::kVehicleFrameHeight);
   const SimNoise n = noise();
   impl_->lidar_noise.range_sigma = n.lidar_range_sigma_m;
   impl_->lidar_noise.direction_sigma_rad = n.lidar_direction_sigma_deg * M_PI / 180.0;
@@ -294,7 +293,7 @@ void writeSimInfo(const Simulator& sim, const sim::LidarModel& lidar, const std:
        << "rig: " << o.rig_source << "\n"
        << "# the vehicle frame (x forward, y left, z up) is lidar_height_m above the ground; the\n"
        << "# LiDAR sits at T_vehicle_lidar in it (3x4, row major)\n"
-       << "lidar_height_m: " << kLidarHeight << "\n"
+       << "lidar_height_m: " << sim::kVehicleFrameHeight << "\n"
        << "T_vehicle_lidar: " << yamlList(o.T_vehicle_lidar) << "\n"
        << "# 1: each scan swept over its revolution (clockwise, 10 Hz, forward at the frame's\n"
        << "# stamp) as a raw driver delivers it; 0: every beam from the pose at the stamp\n"

@@ -21,6 +21,10 @@
 namespace tescalib {
 namespace sim {
 
+/// Height of the vehicle frame the trajectory moves above the ground (m): where KITTI's HDL-64E
+/// sits, and the default rig's LiDAR.
+constexpr double kVehicleFrameHeight = 1.73;
+
 /// A generated rig: what calib.txt holds, the image size, and where the LiDAR sits on the
 /// vehicle.
 struct SimRig {
