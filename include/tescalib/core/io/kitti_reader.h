@@ -7,8 +7,8 @@
 //   calib_cam_to_cam.txt, calib_velo_to_cam.txt, image_02/data/*.png, image_03/data/*.png,
 //   velodyne_points/data/*.bin, image_02/timestamps.txt
 //
-// Only frames whose three files all exist are listed. Ground truth (see the data README):
-//   T_cam_lidar = [I | K^-1 P2[:,3]] * Tr,   T_right_left = [I | K^-1 (P3[:,3] - P2[:,3])].
+// Only frames whose three files all exist are listed. The calibration files: kitti_calib.h; the
+// scans: velodyne_bin.h.
 #pragma once
 
 #include <memory>
@@ -18,51 +18,12 @@
 #include <Eigen/Core>
 
 #include "tescalib/core/common/types.h"
+#include "tescalib/core/io/kitti_calib.h"
+#include "tescalib/core/io/velodyne_bin.h"
 
 namespace tescalib {
 
 enum class KittiLayout { kOdometry, kRaw };
-
-/// The parsed calibration of a KITTI odometry `calib.txt`.
-struct KittiOdometryCalib {
-  Eigen::Matrix<double, 3, 4> P[4];  ///< rectified projection matrices P0..P3
-  Eigen::Matrix<double, 3, 4> Tr;    ///< velodyne -> rectified cam0
-  /// Not part of KITTI's format: the rotation of the right camera relative to the left one,
-  /// which a rectified P3 cannot hold. tescalib writes it as an extra line `R_right_left:` (9
-  /// values, row major) when a co-calibrated pair is not exactly rectified, so that its
-  /// `_calib.txt` reads back as the estimate; KITTI's files have none (identity).
-  Eigen::Matrix3d R_right_left = Eigen::Matrix3d::Identity();
-};
-
-/// Parses a KITTI odometry calib.txt. Throws DataError naming the file and the bad key.
-KittiOdometryCalib readKittiOdometryCalib(const std::string& path);
-
-/// A KITTI odometry calib.txt's text (P0..P3 and Tr, 12 values each, row major).
-std::string kittiOdometryCalibText(const KittiOdometryCalib& calib);
-
-/// Writes a KITTI odometry calib.txt (kittiOdometryCalibText).
-void writeKittiOdometryCalib(const std::string& path, const KittiOdometryCalib& calib);
-
-/// Rig from odometry calibration: rectified intrinsics from P2/P3, ground truth as above.
-/// Image sizes are left 0 here; the reader fills them from the images.
-StereoRig rigFromOdometryCalib(const KittiOdometryCalib& calib);
-
-/// readKittiOdometryCalib + rigFromOdometryCalib, checked as a sequence's calibration is
-/// (positive focal lengths, a rotation in Tr, a rigid left->right transform with a baseline):
-/// throws DataError naming what is wrong. For a calibration given on its own (an initial guess).
-StereoRig readCheckedOdometryRig(const std::string& path);
-
-/// Reads a KITTI velodyne .bin (float32 x y z reflectance). Throws DataError on a missing or
-/// truncated file. Rings are recovered with recoverRings().
-LidarScan readVelodyneBin(const std::string& path);
-
-/// Writes a KITTI velodyne .bin (ring is not stored; the reader recovers it from scan order).
-void writeVelodyneBin(const std::string& path, const LidarScan& scan);
-
-/// Recovers the laser index of every point of a KITTI scan stored in sensor order: the scan is
-/// ring after ring (top beam first), each ring one revolution, so a new ring starts where the
-/// azimuth wraps around. Rings are numbered 0 = lowest beam. Returns the number of rings found.
-int recoverRings(LidarScan& scan);
 
 /// An opened KITTI sequence: its rig and the list of frames present on disk.
 class KittiSequence {
