@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include "shared_drive.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/sim/simulator.h"
 #include "tescalib/core/solvers/co_calibration.h"
@@ -50,30 +51,18 @@ CoStart lidarStart(std::mt19937_64& rng) {
   return c;
 }
 
-/// A generated urban drive shared by the tests of this binary: each frame is rendered once, the
-/// first time a test asks for it (rendering is most of a window's set-up time).
-struct GeneratedDrive {
-  std::unique_ptr<Simulator> sim;
-  mutable std::map<int, Frame> frames;
-  const Frame& frame(int i) const {
-    auto it = frames.find(i);
-    if (it == frames.end()) it = frames.emplace(i, sim->renderFrame(i)).first;
-    return it->second;
-  }
-};
-
-/// The urban drive of `seed` and `frames` frames (its scene depends on both).
-const GeneratedDrive& generatedDrive(uint64_t seed, int frames) {
-  static std::map<std::pair<uint64_t, int>, GeneratedDrive> drives;
-  GeneratedDrive& d = drives[{seed, frames}];
-  if (!d.sim) {
+/// The urban drive of `seed` and `frames` frames (its scene depends on both), shared by the tests.
+const tescalib_test::SharedDrive& generatedDrive(uint64_t seed, int frames) {
+  static std::map<std::pair<uint64_t, int>, std::unique_ptr<tescalib_test::SharedDrive>> drives;
+  auto& d = drives[{seed, frames}];
+  if (!d) {
     SimOptions o;
     o.scenario = Scenario::kUrban;
     o.frames = frames;
     o.seed = seed;
-    d.sim = std::make_unique<Simulator>(o);
+    d = std::make_unique<tescalib_test::SharedDrive>(o);
   }
-  return d;
+  return *d;
 }
 
 /// `n` keyframes 0.5 s apart of a generated urban drive; meshes view-filtered with `T_cl_guess`,
@@ -84,9 +73,10 @@ const GeneratedDrive& generatedDrive(uint64_t seed, int frames) {
 GeneratedWindow generatedWindow(int n, uint64_t seed, const Eigen::Isometry3d* T_cl_guess,
                                 int drive_frames = 0,
                                 int sampled_faces = LidarMeshSettings().sampled_faces) {
-  const GeneratedDrive& drive = generatedDrive(seed, std::max(5 * (n - 1) + 1, drive_frames));
+  const tescalib_test::SharedDrive& drive =
+      generatedDrive(seed, std::max(5 * (n - 1) + 1, drive_frames));
   GeneratedWindow w;
-  w.rig = drive.sim->rig();
+  w.rig = drive.sim().rig();
   for (int i = 0; i < 5 * (n - 1) + 1; i += 5) {
     const Frame& f = drive.frame(i);
     KeyframeSettings ks;

@@ -13,6 +13,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "shared_drive.h"
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/io/kitti_reader.h"
@@ -278,11 +279,24 @@ void addKeyframes(OnlineCalibrator& cal, const Simulator& sim, int first, int en
   }
 }
 /// The generated drive of the co-calibration tests: 21 frames, 5 keyframes 0.5 s apart.
-std::unique_ptr<Simulator> coDrive() {
-  SimOptions o;
-  o.frames = 21;
-  o.seed = 4;
-  return std::make_unique<Simulator>(o);
+const tescalib_test::SharedDrive& coDrive() {
+  static const tescalib_test::SharedDrive drive([] {
+    SimOptions o;
+    o.frames = 21;
+    o.seed = 4;
+    return o;
+  }());
+  return drive;
+}
+
+/// addKeyframes from a shared drive's frames.
+void addKeyframes(OnlineCalibrator& cal, const tescalib_test::SharedDrive& drive, int first,
+                  int end) {
+  std::string msg;
+  for (int i = first; i < end; i += 5) {
+    const Frame& f = drive.frame(i);
+    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  }
 }
 
 /// The drive's rig with T_cam_lidar and T_right_left started that far off (random directions).
@@ -336,8 +350,8 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
   // The stereo start is 0.02 deg / 2 mm off (a slightly wrong camera_info); with 0.2 deg / 1 cm
   // the LiDAR-stereo solve on the misrectified clouds is flagged unobservable, and nothing is
   // published before the first co-calibration.
-  const auto drive = coDrive();
-  const Simulator& sim = *drive;
+  const tescalib_test::SharedDrive& drive = coDrive();
+  const Simulator& sim = drive.sim();
   const StereoRig rig = perturbedRig(sim, 8, 1.0, 0.05, 0.02, 0.002);
   OnlineSettings settings;
   settings.estimate_stereo = true;
@@ -348,7 +362,7 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
   EXPECT_EQ(settings.minKeyframes(), 3);
   OnlineCalibrator cal(rig, settings);
   std::string msg;
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 15));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, drive, 0, 15));
   ASSERT_TRUE(cal.solve(&msg)) << msg;
   auto e = cal.estimate();
   ASSERT_TRUE(e.has_value());
@@ -361,7 +375,7 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
             << " deg / " << el0.tail<3>().norm() * 100 << " cm\n";
   EXPECT_LT(el0.head<3>().norm() * kDegPerRad, 0.5);
   EXPECT_LT(el0.tail<3>().norm(), 0.05);
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 15, 25));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, drive, 15, 25));
   ASSERT_TRUE(cal.solve(&msg)) << msg;
   e = cal.estimate();
   EXPECT_GE(e->co_rounds, 1);
@@ -370,7 +384,7 @@ TEST(OnlineCalibratorGenerated, CoCalibrationPublishesLidarFirst) {
   // Given min_keyframes_co keyframes at once, a fresh calibrator still solves LiDAR-stereo first:
   // co-calibration waits for a published LiDAR estimate (or a full window).
   OnlineCalibrator fresh(rig, settings);
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(fresh, sim, 0, 25));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(fresh, drive, 0, 25));
   ASSERT_EQ(fresh.windowFill(), 5u);
   ASSERT_TRUE(fresh.solve(&msg)) << msg;
   EXPECT_EQ(fresh.estimate()->co_rounds, 0);
@@ -381,15 +395,15 @@ TEST(OnlineCalibratorGenerated, JointCoCalibrationStartsFromTheLidarFirstEstimat
   // OnlineSettings::joint: co-calibration by the one-problem solve. Its keyframes fit every mesh
   // face's normal (jointCalibrate refuses a window of sampled meshes: converged false, nothing
   // published), and it starts from the LiDAR-first estimate; an update starts from its own.
-  const auto drive = coDrive();
-  const Simulator& sim = *drive;
+  const tescalib_test::SharedDrive& drive = coDrive();
+  const Simulator& sim = drive.sim();
   const StereoRig rig = perturbedRig(sim, 8, 1.0, 0.05, 0.02, 0.002);
   OnlineSettings settings;
   settings.estimate_stereo = settings.joint = true;
   settings.window_size = 6;
   OnlineCalibrator cal(rig, settings);
   std::string msg;
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, drive, 0, 25));
   ASSERT_TRUE(cal.solve(&msg)) << msg;
   ASSERT_TRUE(cal.estimate().has_value());
   EXPECT_FALSE(cal.estimate()->stereo_estimated) << "LiDAR first";
@@ -416,15 +430,15 @@ TEST(OnlineCalibratorGenerated, ARecordingShorterThanTheWindowIsCoCalibratedAtIt
   // are never trusted, and 5 keyframes never fill a window of 10: the node would wait for more,
   // an offline tool at the end of its input co-calibrates what it has (tescalib_calibrate on the
   // 8 keyframes of KITTI 2011_09_30 ended without any co-calibration).
-  const auto drive = coDrive();
-  const Simulator& sim = *drive;
+  const tescalib_test::SharedDrive& drive = coDrive();
+  const Simulator& sim = drive.sim();
   const StereoRig rig = perturbedRig(sim, 7, 1.0, 0.05, 0.2, 0.01);
   OnlineSettings settings;
   settings.estimate_stereo = true;
   settings.window_size = 10;
   OnlineCalibrator cal(rig, settings);
   std::string msg;
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, drive, 0, 25));
   ASSERT_EQ(cal.windowFill(), 5u);
   EXPECT_TRUE(cal.coCalibrationPending());  // enough keyframes, none co-calibrated yet
   EXPECT_FALSE(cal.solve(&msg));
@@ -442,7 +456,7 @@ TEST(OnlineCalibratorGenerated, ARecordingShorterThanTheWindowIsCoCalibratedAtIt
   // LiDAR-stereo only: never pending.
   settings.estimate_stereo = false;
   OnlineCalibrator lidar_only(rig, settings);
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(lidar_only, sim, 0, 25));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(lidar_only, drive, 0, 25));
   lidar_only.solve(&msg);
   EXPECT_FALSE(lidar_only.coCalibrationPending());
 }
@@ -454,8 +468,8 @@ TEST(OnlineCalibratorGenerated, TheFirstCoEstimateReplacesTheLidarFirstOne) {
   // (tescalib_calibrate --mode co would never publish one on generated urban drives). The first co
   // estimate has its own bound, max_variance_growth_first_co (10): published under it, refused
   // with a bound below its growth.
-  const auto drive = coDrive();
-  const Simulator& sim = *drive;
+  const tescalib_test::SharedDrive& drive = coDrive();
+  const Simulator& sim = drive.sim();
   const StereoRig rig = perturbedRig(sim, 8, 1.0, 0.05);
   OnlineSettings settings;
   settings.estimate_stereo = true;
@@ -466,11 +480,11 @@ TEST(OnlineCalibratorGenerated, TheFirstCoEstimateReplacesTheLidarFirstOne) {
   // The LiDAR-first estimate, then the co-calibrated solve; returns both.
   auto run = [&](const OnlineSettings& s, std::string* msg, bool* co_published) {
     OnlineCalibrator cal(rig, s);
-    EXPECT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 15));
+    EXPECT_NO_FATAL_FAILURE(addKeyframes(cal, drive, 0, 15));
     EXPECT_TRUE(cal.solve(msg)) << *msg;
     const OnlineEstimate lidar_first = *cal.estimate();
     EXPECT_FALSE(lidar_first.stereo_estimated);
-    EXPECT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 15, 25));
+    EXPECT_NO_FATAL_FAILURE(addKeyframes(cal, drive, 15, 25));
     *co_published = cal.solve(msg);
     return std::make_pair(lidar_first, *cal.lastSolve());
   };
@@ -519,21 +533,21 @@ TEST(OnlineCalibratorGenerated, ATimeJumpBackSeenDuringASolveDiscardsItsResult) 
   // A looping bag: the node's callback sees the clock jump back (noteStamp) while a solve of the
   // old loop's window runs; its result must not be published after the jump, stamped in the
   // future. Stamps that go forward leave the solve alone.
-  const auto drive = coDrive();
-  const Simulator& sim = *drive;
+  const tescalib_test::SharedDrive& drive = coDrive();
+  const Simulator& sim = drive.sim();
   OnlineSettings settings = coCalibrating();
   settings.window_size = 5;
   const StereoRig rig = perturbedRig(sim, 3, 1.0, 0.1);
   std::string msg;
   OnlineCalibrator back(rig, settings);
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(back, sim, 0, 25));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(back, drive, 0, 25));
   const double last = back.windowStamps().back();
   EXPECT_FALSE(solveWhile(
       back, [&] { back.noteStamp(last - 5.0); }, &msg));
   EXPECT_NE(msg.find("cleared during the solve"), std::string::npos) << msg;
   EXPECT_FALSE(back.lastSolve().has_value());
   OnlineCalibrator forward(rig, settings);
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(forward, sim, 0, 25));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(forward, drive, 0, 25));
   EXPECT_TRUE(solveWhile(
       forward, [&] { forward.noteStamp(last + 1.0); }, &msg))
       << msg;
@@ -544,10 +558,10 @@ TEST(OnlineCalibratorGenerated, AKeyframeBuiltAcrossAResetIsDropped) {
   // ~reset while a keyframe is being built (SGBM and the mesh take 0.1-0.7 s): it was made with
   // the extrinsics of the cleared estimate and must not start the fresh window. The reset comes 20
   // ms into the build; a try where the thread had not yet started is repeated.
-  const auto drive = coDrive();
-  const Simulator& sim = *drive;
+  const tescalib_test::SharedDrive& drive = coDrive();
+  const Simulator& sim = drive.sim();
   OnlineCalibrator cal(perturbedRig(sim, 3, 1.0, 0.1), coCalibrating());
-  const Frame f = sim.renderFrame(0);
+  const Frame f = drive.frame(0);
   std::string msg;
   FrameResult r = FrameResult::kKeyframe;
   for (int attempt = 0; attempt < 5 && r == FrameResult::kKeyframe; ++attempt) {
@@ -568,13 +582,13 @@ TEST(OnlineCalibratorGenerated, AKeyframeBuiltAcrossAResetIsDropped) {
 TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
   // ~reset while a solve runs: the solve's result belongs to the window that was cleared and
   // must not come back as the published estimate (nor as the warm start of the next window).
-  const auto drive = coDrive();
-  const Simulator& sim = *drive;
+  const tescalib_test::SharedDrive& drive = coDrive();
+  const Simulator& sim = drive.sim();
   const StereoRig rig = perturbedRig(sim, 3, 1.0, 0.1);
   OnlineSettings settings = coCalibrating();
   settings.window_size = 5;
   OnlineCalibrator cal(rig, settings);
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, drive, 0, 25));
   ASSERT_TRUE(cal.readyToSolve());
   std::string msg;
   EXPECT_FALSE(solveWhile(
@@ -583,7 +597,7 @@ TEST(OnlineCalibratorGenerated, AResetDuringASolveDiscardsItsResult) {
   EXPECT_FALSE(cal.estimate().has_value());
   EXPECT_FALSE(cal.lastSolve().has_value());
   // The calibrator goes on: the same keyframes again give an estimate.
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, drive, 0, 25));
   OnlineEstimate published;
   ASSERT_TRUE(cal.solve(&msg, &published)) << msg;
   ASSERT_TRUE(cal.estimate().has_value());
@@ -611,8 +625,8 @@ TEST(OnlineCalibratorGenerated, CancelStopsARunningCoCalibration) {
   // next round or re-association, unpublished, and later solves return at once. "cancelled"
   // (not "cancelled after the solve had ended") says the solvers saw the flag: without it wired
   // into the co-calibration's settings this fails.
-  const auto drive = coDrive();
-  const Simulator& sim = *drive;
+  const tescalib_test::SharedDrive& drive = coDrive();
+  const Simulator& sim = drive.sim();
   const StereoRig rig = perturbedRig(sim, 5, 2.0, 0.2, 0.5, 0.05);
   OnlineSettings settings;
   settings.estimate_stereo = true;
@@ -620,7 +634,7 @@ TEST(OnlineCalibratorGenerated, CancelStopsARunningCoCalibration) {
   settings.window_size = 5;
   settings.min_keyframes_co = 5;
   OnlineCalibrator cal(rig, settings);
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, drive, 0, 25));
   std::string msg;
   const auto t0 = std::chrono::steady_clock::now();
   const bool updated = solveAndCancelIt(&cal, &msg);
@@ -636,15 +650,15 @@ TEST(OnlineCalibratorGenerated, CancelStopsARunningCoCalibration) {
 
 TEST(OnlineCalibratorGenerated, CancelStopsARunningLidarStereoSolve) {
   // The same for a LiDAR-stereo solve (its wide-basin search runs several starts).
-  const auto drive = coDrive();
-  const Simulator& sim = *drive;
+  const tescalib_test::SharedDrive& drive = coDrive();
+  const Simulator& sim = drive.sim();
   const StereoRig rig = perturbedRig(sim, 6, 3.0, 0.3, 0.0, 0.0);
   OnlineSettings settings;
   settings.estimate_stereo = false;  // a full window would co-calibrate otherwise
   settings.window_size = 5;
   settings.search_min_keyframes = 5;
   OnlineCalibrator cal(rig, settings);
-  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, sim, 0, 25));
+  ASSERT_NO_FATAL_FAILURE(addKeyframes(cal, drive, 0, 25));
   std::string msg;
   EXPECT_FALSE(solveAndCancelIt(&cal, &msg));
   EXPECT_EQ(msg, "cancelled");
