@@ -20,10 +20,11 @@ namespace {
 struct FineInformation {
   explicit FineInformation(int parameters)
       : H(Eigen::MatrixXd::Zero(parameters, parameters)),
-        jtd(Eigen::MatrixXd::Zero(parameters, 2)) {}
+        jtd(Eigen::MatrixXd::Zero(parameters, 3)) {}
   Eigen::MatrixXd H;                    ///< sum w J^T J
   std::vector<Eigen::VectorXd> scores;  ///< per cluster sum w r J
-  /// sum w J dr/db for the window-common biases: disparity offset (px), LiDAR range offset (m).
+  /// sum w J dr/db for the window-common biases: disparity offset (px), LiDAR range offset (m),
+  /// disparity scale (relative: an error of f B).
   Eigen::MatrixXd jtd;
   double dtd = 0;                     ///< sum w D^2, D = dr / d(disparity offset)
   std::vector<double> offset_scores;  ///< per cluster sum w r D (with `scores`: the offset's share)
@@ -84,6 +85,8 @@ void accumulateFineInformation(const LidarStereoEstimate& est, const LidarStereo
     info->dtd += w * D * D;
     info->offset_scores[a0.cluster] += w * r * D;
     info->jtd.col(1) += w * J * (f.m.dot(f.q) / a0.p_l.norm() * a0.inv_sigma);
+    // d (1 + k): ps / (1 + k), dr/dk = m.ps.
+    info->jtd.col(2) += w * J * (f.m.dot(f.ps) * a0.inv_sigma);
     res->keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
         w * J.head<6>() * J.head<6>().transpose();
     info->scores[a0.cluster] += w * r * J;
@@ -131,7 +134,8 @@ bool covariancesFromInformation(const FineInformation& info, const LidarStereoSe
   if (with_scale) {  // the common biases move the scale too
     res->stereo_scale_variance = robust(6, 6);
     res->stereo_scale_variance += std::pow(disparityBiasSigma(*res, s) * bias_moves(6, 0), 2) +
-                                  std::pow(s.model_sigma_range_m * bias_moves(6, 1), 2);
+                                  std::pow(s.model_sigma_range_m * bias_moves(6, 1), 2) +
+                                  std::pow(s.model_sigma_disparity_scale * bias_moves(6, 2), 2);
   }
   res->covariance_statistical = res->covariance;
   // Model error that more data does not average away (calibrated on generated drives, see
@@ -166,9 +170,10 @@ bool estimateLidarStereoCovariance(const LidarStereoEstimate& est, const LidarSt
 }
 
 Matrix6d withLidarStereoBiases(const LidarStereoResult& r, const LidarStereoSettings& s,
-                               const Eigen::Matrix<double, 6, 2>& h) {
-  return withCommonBiases(r.covariance_statistical, h,
-                          {disparityBiasSigma(r, s), s.model_sigma_range_m});
+                               const Eigen::Matrix<double, 6, 3>& h) {
+  return withCommonBiases(
+      r.covariance_statistical, h,
+      {disparityBiasSigma(r, s), s.model_sigma_range_m, s.model_sigma_disparity_scale});
 }
 
 Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {

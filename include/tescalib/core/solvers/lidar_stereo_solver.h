@@ -111,6 +111,8 @@ struct LidarStereoSettings {
   double disparity_offset_significance = 3.0;
   double max_disparity_offset_sigma_px = 0.25;
   double model_sigma_range_m = 0.004;
+  /// 1-sigma of a window-common relative disparity scale (an error of f B; see bias_sensitivity).
+  double model_sigma_disparity_scale = 0.0;
   std::array<double, 3> model_sigma_rot_deg = {0.0112, 0.0077, 0.0112};
   std::array<double, 3> model_sigma_trans_m = {0.0021, 0.00105, 0.00455};
   double max_correction_rot_deg = 25.0;  ///< a larger correction from the start is divergence
@@ -190,9 +192,11 @@ struct LidarStereoResult {
   Matrix6d covariance_statistical = Matrix6d::Identity();
   /// How window-common measurement biases move the estimate ([phi; tau] per unit bias, the
   /// nuisance parameters marginalised): column 0 per px of disparity offset of every stereo
-  /// point, column 1 per m of range offset of every LiDAR point. The published covariance adds
-  /// h h^T sigma_b^2 for each (LidarStereoSettings::model_sigma_disparity_px, _range_m).
-  Eigen::Matrix<double, 6, 2> bias_sensitivity = Eigen::Matrix<double, 6, 2>::Zero();
+  /// point, column 1 per m of range offset of every LiDAR point, column 2 per unit of relative
+  /// disparity scale (every disparity d read as d (1 + k): an error of the pair's f B). The
+  /// published covariance adds h h^T sigma_b^2 for each
+  /// (LidarStereoSettings::model_sigma_disparity_px, _range_m, _disparity_scale).
+  Eigen::Matrix<double, 6, 3> bias_sensitivity = Eigen::Matrix<double, 6, 3>::Zero();
   /// The same with the stereo scale and yaw held at their estimates (equal to
   /// `bias_sensitivity` when neither is estimated). The nuisances absorb a perfectly uniform
   /// offset, which a matcher's bias is not (generated clouds: -0.03 px on camera-facing surfaces
@@ -200,7 +204,7 @@ struct LidarStereoResult {
   /// nuisances are estimated: on a 5-keyframe generated urban window whose forward offset the
   /// clouds' scale and yaw leave loose, the marginalised sensitivity would call tz trusted at
   /// 3-7 cm error (sigma 0.5-0.9 cm).
-  Eigen::Matrix<double, 6, 2> bias_sensitivity_held = Eigen::Matrix<double, 6, 2>::Zero();
+  Eigen::Matrix<double, 6, 3> bias_sensitivity_held = Eigen::Matrix<double, 6, 3>::Zero();
   /// Per axis: constrained within max_sigma_* (false: do not trust this axis of the estimate),
   /// judged with the common biases through `bias_sensitivity_held`.
   bool observable[6] = {false, false, false, false, false, false};
