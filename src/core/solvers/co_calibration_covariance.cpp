@@ -61,7 +61,7 @@ Matrix6d lidarSensitivityToStereo(const std::vector<Keyframe*>& window, const St
   settings.search_step_deg = 0;
   // Fine stage only: it stops at fine_settle_* (1e-3 deg / 0.3 mm; the converge_* tolerances are
   // the coarse stage's). A fine settle 0.3x as tight changes the columns by a few percent (the
-  // translation response's nonlinearity dominates, doc/method.md); 0.1x leaves a column
+  // translation response's nonlinearity dominates); 0.1x leaves a column
   // unsettled (zeroed).
   settings.initial_stereo_yaw_rad = lidar.stereo_yaw_rad;
   settings.initial_stereo_scale = lidar.stereo_scale;
@@ -143,7 +143,7 @@ void coCalibrationCovariances(const std::vector<Keyframe*>& window, const Stereo
   // The pair's covariance takes the LiDAR's given the pair: the propagated one already holds the
   // pair's own uncertainty, which S would count a second time. Without the fixed point's gain on
   // this side: with (I - S J)^-1 the pair's tz sigma doubled (0.42 -> 0.88 mm) and the fitting
-  // windows' stereo z^2 in tz fell to 0.26 (doc/method.md).
+  // windows' stereo z^2 in tz fell to 0.26.
   // Only with a LiDAR covariance that was computed (a placeholder would swamp the pair's and call
   // a good left-right solve unconstrained, blaming it for the LiDAR's failure).
   if (res->lidar.covariance_known)

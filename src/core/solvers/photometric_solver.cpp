@@ -37,8 +37,8 @@ CameraIntrinsics scaled(const CameraIntrinsics& c, int level, int w, int h) {
   CameraIntrinsics o = c;
   o.fx = c.fx * s, o.fy = c.fy * s;
   // The area-average convention (pixel centres at +0.5): cv::pyrDown's is level-L pixel i on
-  // level-0 pixel 2^L i, 0.25-0.375 level px off. Both images shift alike, so it cancels to first
-  // order (doc/method.md compares the two).
+  // level-0 pixel 2^L i, 0.25-0.375 level px off. Both images shift alike, so either cancels to
+  // first order.
   o.cx = (c.cx + 0.5) * s - 0.5, o.cy = (c.cy + 0.5) * s - 0.5;
   o.width = w, o.height = h;
   return o;
