@@ -112,7 +112,7 @@ def trust_line(msg, published):
             ' '.join(weak), 'its' if len(weak) == 1 else 'their', '' if len(weak) == 1 else 's')
     if not published:
         return 'trusted: no - every axis is within its limit, but the solve was not published'
-    return 'trusted: yes, every axis'
+    return 'trusted: yes, every axis within its trust limit (1 sigma)'
 
 
 def print_estimate(title, msg, ref, published=True):
