@@ -45,6 +45,25 @@ void differences(const std::vector<double>& s0, const std::vector<double>& plus,
   out->sees[k] = g_sig || significant(qs);
 }
 
+/// Samples the criterion at -4..4 times `direction` around *T, refines the best sample with a
+/// parabola and moves *T there; returns the move in multiples of `direction`.
+double lineSearch(ValidationSet& set, Criterion c, const Eigen::Isometry3d& T_right_left,
+                  const Vector6d& direction, Eigen::Isometry3d* T) {
+  std::array<double, 9> s;
+  int best = 4;
+  for (int j = 0; j < 9; ++j) {
+    s[j] = betterScore(set, c, perturb(*T, (j - 4) * direction), T_right_left);
+    if (s[j] > s[best]) best = j;
+  }
+  double offset = best - 4;
+  if (best > 0 && best < 8) {
+    const double den = s[best - 1] - 2 * s[best] + s[best + 1];
+    if (den < 0) offset += 0.5 * (s[best - 1] - s[best + 1]) / den;
+  }
+  *T = perturb(*T, offset * direction);
+  return offset;
+}
+
 }  // namespace
 
 ScoreSummary summarize(const std::vector<double>& values) {
@@ -105,19 +124,17 @@ Eigen::Isometry3d criterionOptimum(ValidationSet& set, Criterion c,
   Eigen::Isometry3d T = T_start;
   Vector6d step = 4.0 * validationStep(set.settings());
   for (int round = 0; round < rounds; ++round, step *= 0.5) {
-    for (int k = 0; k < 6; ++k) {
-      std::array<double, 9> s;
-      int best = 4;
-      for (int j = 0; j < 9; ++j) {
-        s[j] = betterScore(set, c, perturb(T, unit(k, (j - 4) * step(k))), T_right_left);
-        if (s[j] > s[best]) best = j;
+    for (int sweep = 0; sweep < 3; ++sweep) {
+      Vector6d moved = Vector6d::Zero();  // in steps
+      for (int k = 0; k < 6; ++k) {
+        const double s = lineSearch(set, c, T_right_left, unit(k, step(k)), &T);
+        moved(k) = s;
       }
-      double offset = best - 4;
-      if (best > 0 && best < 8) {
-        const double den = s[best - 1] - 2 * s[best] + s[best + 1];
-        if (den < 0) offset += 0.5 * (s[best - 1] - s[best + 1]) / den;
-      }
-      T = perturb(T, unit(k, offset * step(k)));
+      // Powell's extra direction: the sweep's net move, along which a valley of two correlated
+      // axes (a pitch and a vertical shift) runs.
+      if (moved.norm() > 0.5)
+        lineSearch(set, c, T_right_left, moved.cwiseProduct(step) / moved.norm(), &T);
+      if (moved.cwiseAbs().maxCoeff() < 0.5) break;
     }
   }
   return T;

@@ -62,9 +62,10 @@ Vector6d validationStep(const ValidationSettings& s);
 Validation validateCalibration(ValidationSet& set, const Eigen::Isometry3d& T_cam_lidar,
                                const Eigen::Isometry3d& T_right_left, bool sensitivities = true);
 
-/// The criterion's optimum near `T_start`: coordinate search over the six axes (each axis
-/// sampled at -4..4 steps around the current pose, the best sample refined by a parabola, the
-/// step halved after each round), `rounds` rounds from the settings' step.
+/// The criterion's optimum near `T_start`: a direction-set search (Powell): line searches along
+/// the six axes (each sampled at -4..4 steps around the current pose, the best sample refined by
+/// a parabola) and along each sweep's net move, up to 3 sweeps per round, the step halved after
+/// each round; `rounds` rounds from 4 times the settings' step (0.4 deg / 4 cm).
 Eigen::Isometry3d criterionOptimum(ValidationSet& set, Criterion c,
                                    const Eigen::Isometry3d& T_start,
                                    const Eigen::Isometry3d& T_right_left, int rounds = 3);
