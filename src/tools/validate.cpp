@@ -223,8 +223,11 @@ int run(const Args& args) {
     s.validation = validateCalibration(set, s.T_cam_lidar, s.T_right_left, !s.perturbed);
     if (!args.optimum || s.perturbed) continue;
     s.has_optima = true;
-    for (Criterion c : kAllCriteria)
-      s.optima[static_cast<int>(c)] = criterionOptimum(set, c, s.T_cam_lidar, s.T_right_left, 5);
+    for (Criterion c : kAllCriteria) {
+      const int i = static_cast<int>(c);
+      s.optima[i] = criterionOptimum(set, c, s.T_cam_lidar, s.T_right_left, 5);
+      s.optimum_scores[i] = set.score(s.optima[i], s.T_right_left, {c})[i];
+    }
   }
   std::fputs(validate::scoreTable(all, settings).c_str(), stdout);
   if (args.json.empty()) return 0;

@@ -61,6 +61,18 @@ std::string axisErrors(const Eigen::Isometry3d& T, const Eigen::Isometry3d& refe
   return s;
 }
 
+/// Where the criterion's optimum lies and how much better it scores than the calibration.
+std::string optimumLine(const Scored& s, int i) {
+  const Criterion c = kAllCriteria[i];
+  ScoreSummary d = pairedDifference(s.optimum_scores[i], s.validation.frames[i]);
+  if (!higherIsBetter(c)) d.mean = -d.mean;
+  return "    its optimum: " + poseDifference(s.optima[i], s.T_cam_lidar) + " away, error [" +
+         axisErrors(s.optima[i], s.T_cam_lidar) + " ] deg, cm; " +
+         format("on these frames, where it was fitted, it scores better by %.4f", d.mean) +
+         format(" +- %.4f", d.standard_error) +
+         (significant(d) ? " (significant)\n" : " (not significant)\n");
+}
+
 nlohmann::json vec6(const Vector6d& v) {
   return nlohmann::json::array({v(0), v(1), v(2), v(3), v(4), v(5)});
 }
@@ -109,7 +121,9 @@ nlohmann::json calibrationJson(const std::vector<Scored>& all, size_t row) {
     if (s.has_optima)
       j["optimum"][n] = {
           {"T_cam_lidar", poseJson(s.optima[static_cast<int>(c)])},
-          {"difference", differenceJson(s.optima[static_cast<int>(c)], s.T_cam_lidar)}};
+          {"difference", differenceJson(s.optima[static_cast<int>(c)], s.T_cam_lidar)},
+          {"score", summarize(s.optimum_scores[static_cast<int>(c)]).mean},
+          {"frame_scores", s.optimum_scores[static_cast<int>(c)]}};
   }
   return j;
 }
@@ -151,9 +165,7 @@ std::string scoreTable(const std::vector<Scored>& all, const ValidationSettings&
       const int i = static_cast<int>(c);
       out += "  " + cell(criterionName(c), 22) +
              directionLine(all[r].validation.criteria[i], settings) + "\n";
-      if (all[r].has_optima)
-        out += "    its optimum: " + poseDifference(all[r].optima[i], all[r].T_cam_lidar) +
-               " away, error [" + axisErrors(all[r].optima[i], all[r].T_cam_lidar) + " ] deg, cm\n";
+      if (all[r].has_optima) out += optimumLine(all[r], i);
     }
   }
   out +=

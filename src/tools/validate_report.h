@@ -23,6 +23,7 @@ struct Scored {
   bool perturbed = false;  ///< a --perturbed row: scored without sensitivities
   bool has_optima = false;
   std::array<Eigen::Isometry3d, kCriteria> optima;  ///< each criterion's optimum near it
+  FrameScores optimum_scores;  ///< [c]: criterion c's per-frame scores at its optimum
 };
 
 /// The index of the best-scoring calibration for the criterion.
