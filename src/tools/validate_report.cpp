@@ -12,7 +12,7 @@ namespace {
 const char* const kAxes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
 
 std::string format(const char* fmt, double a) {
-  char buf[64];
+  char buf[128];
   std::snprintf(buf, sizeof(buf), fmt, a);
   return buf;
 }
