@@ -45,6 +45,8 @@ struct Args {
   std::string frames = "keyframes";
   std::string json;
   bool optimum = false;
+  std::vector<std::string> fit_sequences;      // --fit-sequences; empty: the optima on --sequences
+  std::string fit_frames;                      // --fit-frames; empty: --frames
   double perturbed_deg = 0, perturbed_cm = 0;  // --perturbed; 0: none
   double step_rot_deg = 0.1, step_trans_m = 0.01;
 };
@@ -83,8 +85,14 @@ bool parseArgs(int argc, char** argv, Args* a) {
            "0-9,20 or 0-40:5 (a range with a step)");
   cli::add(&app, "--json", "FILE", cli::to(&a->json, cli::text), "also write the scores as JSON");
   cli::add(&app, "--optimum", "0|1", cli::to(&a->optimum, cli::toSwitch),
-           "also search each criterion's optimum near every calibration (coordinate search, "
-           "slower) and print how far it lies");
+           "also search each criterion's optimum near every calibration (direction-set search, "
+           "slower) and print how far it lies and how much better it scores");
+  cli::add(&app, "--fit-sequences", "DIR[,DIR...]",
+           cli::to(&a->fit_sequences, [](const std::string& v) { return cli::splitList(v); }),
+           "search the optima on these folders' frames (of the same rig) instead, and score "
+           "them on --sequences' frames: held out from the fit (implies --optimum 1)");
+  cli::add(&app, "--fit-frames", "SPEC", cli::to(&a->fit_frames, cli::text),
+           "the frames of --fit-sequences (default: --frames) to search the optima on");
   cli::add(
       &app, "--perturbed", "DEG,CM",
       [a](const std::string& v) {
@@ -107,6 +115,7 @@ bool parseArgs(int argc, char** argv, Args* a) {
     return false;
   }
   if (!cli::parse(&app, argc, argv)) return false;
+  if (!a->fit_sequences.empty() || !a->fit_frames.empty()) a->optimum = true;
   std::string problem;
   if (a->sequences.empty()) problem = "give --sequences DIR[,DIR...]";
   if (a->step_rot_deg <= 0 || a->step_trans_m <= 0) problem = "the steps must be above 0";
@@ -202,6 +211,20 @@ void addPerturbed(const Args& args, std::vector<validate::Scored>* all) {
     }
 }
 
+/// The frames of --fit-sequences / --fit-frames, prepared (nullptr when neither is given).
+/// Throws DataError when their rig is not the recording's.
+std::unique_ptr<ValidationSet> fitSet(const Args& args, const ValidationSettings& settings,
+                                      const StereoRig& rig, std::vector<std::string>* labels) {
+  if (args.fit_sequences.empty() && args.fit_frames.empty()) return nullptr;
+  std::vector<std::string> dirs = args.sequences;
+  dirs.insert(dirs.end(), args.fit_sequences.begin(), args.fit_sequences.end());
+  openSequences(dirs);  // one rig
+  const auto seqs = openSequences(args.fit_sequences.empty() ? args.sequences : args.fit_sequences);
+  const std::vector<Frame> frames =
+      loadFrames(seqs, args.fit_frames.empty() ? args.frames : args.fit_frames, labels);
+  return std::make_unique<ValidationSet>(frames, rig, settings);
+}
+
 int run(const Args& args) {
   const auto seqs = openSequences(args.sequences);
   const StereoRig& rig = seqs.front()->rig();
@@ -218,21 +241,30 @@ int run(const Args& args) {
   settings.step_rot_deg = args.step_rot_deg;
   settings.step_trans_m = args.step_trans_m;
   ValidationSet set(frames, rig, settings);
-  std::printf("%zu frames, %zu calibrations\n\n", frames.size(), all.size());
+  std::printf("%zu frames, %zu calibrations\n", frames.size(), all.size());
+  std::vector<std::string> fit_labels;
+  const std::unique_ptr<ValidationSet> fit_set = fitSet(args, settings, rig, &fit_labels);
+  ValidationSet& fit = fit_set ? *fit_set : set;
+  if (fit_set)
+    std::printf("the optima searched on %zu other frames, scored on these\n", fit_labels.size());
+  std::printf("\n");
   for (validate::Scored& s : all) {
     s.validation = validateCalibration(set, s.T_cam_lidar, s.T_right_left, !s.perturbed);
     if (!args.optimum || s.perturbed) continue;
     s.has_optima = true;
+    s.optima_held_out = fit_set != nullptr;
     for (Criterion c : kAllCriteria) {
       const int i = static_cast<int>(c);
-      s.optima[i] = criterionOptimum(set, c, s.T_cam_lidar, s.T_right_left, 5);
+      s.optima[i] = criterionOptimum(fit, c, s.T_cam_lidar, s.T_right_left, 5);
       s.optimum_scores[i] = set.score(s.optima[i], s.T_right_left, {c})[i];
     }
   }
   std::fputs(validate::scoreTable(all, settings).c_str(), stdout);
   if (args.json.empty()) return 0;
   std::ofstream out(args.json);
-  out << validate::validationJson(all, settings, labels).dump(2) << "\n";
+  nlohmann::json j = validate::validationJson(all, settings, labels);
+  if (fit_set) j["optima_fitted_on"] = fit_labels;
+  out << j.dump(2) << "\n";
   if (!out) {
     std::fprintf(stderr, "tescalib_validate: cannot write %s\n", args.json.c_str());
     return 1;

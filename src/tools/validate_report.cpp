@@ -68,8 +68,9 @@ std::string optimumLine(const Scored& s, int i) {
   if (!higherIsBetter(c)) d.mean = -d.mean;
   return "    its optimum: " + poseDifference(s.optima[i], s.T_cam_lidar) + " away, error [" +
          axisErrors(s.optima[i], s.T_cam_lidar) + " ] deg, cm; " +
-         format("on these frames, where it was fitted, it scores better by %.4f", d.mean) +
-         format(" +- %.4f", d.standard_error) +
+         (s.optima_held_out ? std::string("on these frames, held out from its search, it scores ")
+                            : std::string("on these frames, where it was searched, it scores ")) +
+         format("better by %.4f", d.mean) + format(" +- %.4f", d.standard_error) +
          (significant(d) ? " (significant)\n" : " (not significant)\n");
 }
 

@@ -22,6 +22,7 @@ struct Scored {
   Validation validation;
   bool perturbed = false;  ///< a --perturbed row: scored without sensitivities
   bool has_optima = false;
+  bool optima_held_out = false;  ///< the optima were searched on other frames than scored on
   std::array<Eigen::Isometry3d, kCriteria> optima;  ///< each criterion's optimum near it
   FrameScores optimum_scores;  ///< [c]: criterion c's per-frame scores at its optimum
 };
