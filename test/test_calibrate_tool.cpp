@@ -288,6 +288,19 @@ TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
   EXPECT_NE(r.output.find("  trusted: ", block), std::string::npos) << r.output;
   const std::string yaml = readAll(base + ".yaml");
   EXPECT_NE(yaml.find("converged: true"), std::string::npos);
+  // The quality scores of the estimate and of the 2 deg / 20 cm initial guess (doc/validation.md):
+  // printed and in the YAML, which still reads back; the estimate is significantly better.
+  for (const char* c : {"edge_alignment", "photometric_residual", "disparity_residual"}) {
+    const size_t line = r.output.find(std::string("  ") + c + " ");
+    ASSERT_NE(line, std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("for the initial guess (", line), std::string::npos);
+    EXPECT_EQ(r.output.find("better, significant)", line), r.output.find(")\n", line) - 19)
+        << r.output.substr(line, 120);
+    EXPECT_NE(yaml.find(std::string("  ") + c + ": {estimate: "), std::string::npos) << yaml;
+  }
+  EXPECT_NE(yaml.find("quality:\n  keyframes: 8\n"), std::string::npos) << yaml;
+  EXPECT_LT(poseError(readCalibrationYaml(base + ".yaml").T_cam_lidar, back.T_cam_lidar).norm(),
+            1e-6);
   // Each estimate's NEES against the truth: the last one printed is the written estimate's,
   // e^T P^-1 e with its covariance (over [phi; tau] as the yaml says), and the mean is given.
   const size_t cov_at = yaml.find("covariance_phi_tau: [", yaml.find("T_cam_lidar:"));

@@ -12,6 +12,7 @@
 #include "tescalib/core/io/calibration_io.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/sim/simulator.h"
+#include "tescalib/ros/kitti_bag_writer.h"
 #include "test_util.h"
 
 using namespace tescalib;
@@ -113,6 +114,18 @@ TEST(ValidateTool, RanksTheRecordingsCalibrationAboveAMovedOneInTableAndJson) {
   // One frame pins the disparity residual's optimum near the truth.
   EXPECT_LT(opt["difference"]["rotation_deg"].get<double>(), 0.3) << opt;
   EXPECT_LT(opt["difference"]["translation_m"].get<double>(), 0.05) << opt;
+
+  // The same drive as a kitti2bag-style bag: its keyframes (0, 5, 10) score as the folder's.
+  writeKittiBag(KittiSequence(drive), tmp.str() + "/drive.bag", KittiBagOptions{});
+  const std::string bag_json = tmp.str() + "/bag.json";
+  ASSERT_EQ(runValidate("--bag " + tmp.str() + "/drive.bag --json " + bag_json, &out), 0) << out;
+  std::ifstream bag_in(bag_json);
+  const nlohmann::json b = nlohmann::json::parse(bag_in);
+  EXPECT_EQ(b["frames"], nlohmann::json::array({"bag:0", "bag:5", "bag:10"}));
+  for (const char* c : {"edge_alignment", "photometric_residual", "disparity_residual"})
+    EXPECT_NEAR(b["calibrations"][0]["scores"][c].get<double>(), rec["scores"][c].get<double>(),
+                1e-4)
+        << c;
 }
 
 TEST(ValidateTool, BadArgumentsAndDataAreNamed) {
@@ -123,7 +136,11 @@ TEST(ValidateTool, BadArgumentsAndDataAreNamed) {
   EXPECT_EQ(runValidate("--sequences x --calib nameless", &out), 2);
   EXPECT_NE(out.find("bad value 'nameless' for --calib (NAME=FILE)"), std::string::npos) << out;
   EXPECT_EQ(runValidate("--calib a=b", &out), 2);
-  EXPECT_NE(out.find("give --sequences"), std::string::npos) << out;
+  EXPECT_NE(out.find("give --sequences DIR[,DIR...] or --bag FILE"), std::string::npos) << out;
+  EXPECT_EQ(runValidate("--sequences a --bag b", &out), 2);
+  EXPECT_NE(out.find("(one of the two)"), std::string::npos) << out;
+  EXPECT_EQ(runValidate("--bag " + tmp.str() + "/none.bag", &out), 1);
+  EXPECT_NE(out.find("none.bag"), std::string::npos) << out;
   EXPECT_EQ(runValidate("--sequences " + tmp.str() + "/none", &out), 1);
   EXPECT_NE(out.find("tescalib_validate: "), std::string::npos) << out;
   const std::string drive = tmp.str() + "/drive";

@@ -37,12 +37,15 @@
 
 #include "calibrate_args.h"
 #include "calibrate_print.h"
+#include "calibrate_quality.h"
 #include "cli.h"
 
 using namespace tescalib;
+using calibrate::appendToResultYaml;
 using calibrate::Args;
 using calibrate::ExtrinsicReport;
 using calibrate::pose6;
+using calibrate::printQuality;
 using calibrate::windowSize;
 
 namespace {
@@ -62,6 +65,8 @@ struct Session {
   std::string lidar_frame = "velo_link";  // the data's (a bag's cloud frame); --lidar-frame wins
   bool keep_last_keyframe = false;        // --overlay
   Frame last_keyframe;                    // its left image and scan, kept only for --overlay
+  std::vector<Frame> window_keyframes;    // the last window's keyframes, for the quality scores
+  StereoRig initial_rig;                  // the initial guess, for the quality scores
 
   /// The rig with its initial extrinsics; with --perturb-*, T_cam_lidar is moved away from them
   /// (they stay the reference of the printed errors).
@@ -77,6 +82,7 @@ struct Session {
                   randomPerturbation(args.perturb_rot_deg / kDegPerRad, args.perturb_trans_m, rng));
     }
     T_initial = rig.T_cam_lidar;
+    initial_rig = rig;
     std::printf("tescalib_calibrate: %s, mode %s, window %d, %dx%d, fx %.2f, baseline %.4f m%s\n",
                 source.c_str(), args.mode.c_str(), settings.window_size, rig.left.width,
                 rig.left.height, rig.left.fx, rig.baseline(),
@@ -112,6 +118,9 @@ struct Session {
     if (r != FrameResult::kKeyframe) return;
     ++keyframes;
     if (keep_last_keyframe) last_keyframe = frame;
+    window_keyframes.push_back(frame);
+    if (static_cast<int>(window_keyframes.size()) > settings.window_size)
+      window_keyframes.erase(window_keyframes.begin());
     if (!msg.empty()) std::printf("  %s: %s\n", label.c_str(), msg.c_str());
     if (!calibrator->readyToSolve()) return;
     solveAndPrint("keyframe " + std::to_string(keyframes) + " (" + label + ")", false);
@@ -281,6 +290,7 @@ struct Session {
         if (c->stereo_estimated) printExtrinsic(stereoReport(*c, args, false));
         std::printf("change from the initial guess: %s\n",
                     pose6(poseError(c->T_cam_lidar, T_initial)).c_str());
+        printQuality(window_keyframes, initial_rig, c->T_cam_lidar, c->T_right_left);
         if (!args.overlay.empty())
           writeOverlay(
               args.overlay, c->T_cam_lidar,
@@ -307,11 +317,15 @@ struct Session {
         std::printf("T_right_left against %s: %s\n", reference.c_str(),
                     pose6(poseError(e->T_right_left, T_reference_stereo)).c_str());
     }
+    const std::string quality =
+        printQuality(window_keyframes, initial_rig, e->T_cam_lidar, e->T_right_left);
     // The result files first: an overlay that cannot be written must not cost them.
     if (!args.out.empty()) {
       std::string msg;
-      if (!writeCalibrationFiles(args.out, calibrator->rig(), *e, frames(args), &msg)) {
-        std::cerr << "tescalib_calibrate: " << msg << "\n";
+      if (!writeCalibrationFiles(args.out, calibrator->rig(), *e, frames(args), &msg) ||
+          !appendToResultYaml(args.out, quality)) {
+        std::cerr << "tescalib_calibrate: " << (msg.empty() ? args.out + ": not written" : msg)
+                  << "\n";
         return 1;
       }
       std::printf("%s\n", msg.c_str());

@@ -18,6 +18,7 @@
 #include "tescalib/core/io/calibration_io.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/validation/validation.h"
+#include "validate_bag.h"
 #include "validate_report.h"
 
 namespace {
@@ -25,8 +26,8 @@ namespace {
 using namespace tescalib;
 
 const char* const kUsage =
-    "usage: rosrun tescalib tescalib_validate --sequences DIR[,DIR...] [--calib NAME=FILE ...]\n"
-    "         [--frames SPEC] [--json FILE]";
+    "usage: rosrun tescalib tescalib_validate --sequences DIR[,DIR...] | --bag FILE\n"
+    "         [--calib NAME=FILE ...] [--frames SPEC] [--json FILE]";
 const char* const kDescription =
     "Scores the recording's own calibration and every --calib on the recording's frames with "
     "three criteria independent of the solvers: edge alignment (LiDAR depth discontinuities on "
@@ -41,6 +42,8 @@ const char* const kFooter =
 
 struct Args {
   std::vector<std::string> sequences;
+  std::string bag;
+  BagTopics topics;
   std::vector<std::pair<std::string, std::string>> calibs;  // NAME, FILE
   std::string frames = "keyframes";
   std::string json;
@@ -58,13 +61,38 @@ std::pair<std::string, std::string> nameAndFile(const std::string& v) {
   return {v.substr(0, eq), v.substr(eq + 1)};
 }
 
+/// The recording: folders or a bag with its topics.
+void addInputOptions(CLI::App* app, Args* a) {
+  cli::add(app, "--sequences", "DIR[,DIR...]",
+           cli::to(&a->sequences, [](const std::string& v) { return cli::splitList(v); }),
+           "KITTI folders (odometry or raw layout, or tescalib_simulate output) of one rig");
+  cli::add(app, "--bag", "FILE", cli::to(&a->bag, cli::text),
+           "a rosbag with kitti2bag's topics (or --points, --left, --right): intrinsics from "
+           "camera_info, the recording's T_cam_lidar from /tf_static; --frames numbers count "
+           "its synchronized sets");
+  cli::add(app, "--points", "TOPIC", cli::to(&a->topics.points, cli::text),
+           "--bag: the point cloud topic");
+  cli::add(
+      app, "--left", "IMAGE_TOPIC",
+      [a](const std::string& v) {
+        a->topics.left = v;
+        a->topics.left_info = v.substr(0, v.rfind('/') + 1) + "camera_info";
+      },
+      "--bag: the left image topic; camera_info is the topic's folder + /camera_info");
+  cli::add(
+      app, "--right", "IMAGE_TOPIC",
+      [a](const std::string& v) {
+        a->topics.right = v;
+        a->topics.right_info = v.substr(0, v.rfind('/') + 1) + "camera_info";
+      },
+      "--bag: the right image topic, as --left");
+}
+
 bool parseArgs(int argc, char** argv, Args* a) {
   CLI::App app(kDescription, "tescalib_validate");
   cli::setUp(&app, kUsage, "Options");
   app.footer(kFooter);
-  cli::add(&app, "--sequences", "DIR[,DIR...]",
-           cli::to(&a->sequences, [](const std::string& v) { return cli::splitList(v); }),
-           "KITTI folders (odometry or raw layout, or tescalib_simulate output) of one rig");
+  addInputOptions(&app, a);
   app.add_option_function<std::vector<std::string>>(
          "--calib",
          [a](const std::vector<std::string>& v) {
@@ -117,7 +145,10 @@ bool parseArgs(int argc, char** argv, Args* a) {
   if (!cli::parse(&app, argc, argv)) return false;
   if (!a->fit_sequences.empty() || !a->fit_frames.empty()) a->optimum = true;
   std::string problem;
-  if (a->sequences.empty()) problem = "give --sequences DIR[,DIR...]";
+  if (a->sequences.empty() == a->bag.empty())
+    problem = "give --sequences DIR[,DIR...] or --bag FILE (one of the two)";
+  if (!a->bag.empty() && !a->fit_sequences.empty())
+    problem = "--fit-sequences goes with --sequences (with --bag: --fit-frames)";
   if (a->step_rot_deg <= 0 || a->step_trans_m <= 0) problem = "the steps must be above 0";
   if (!a->json.empty() && !cli::missingFolder(a->json).empty())
     problem = "--json: the folder " + cli::missingFolder(a->json) + " does not exist";
@@ -211,32 +242,64 @@ void addPerturbed(const Args& args, std::vector<validate::Scored>* all) {
     }
 }
 
+/// A recording's frames: its rig (with its own calibration), the frames and their labels.
+struct Recording {
+  StereoRig rig;
+  std::vector<Frame> frames;
+  std::vector<std::string> labels;
+  std::string source;  ///< where the recording's calibration comes from
+};
+
+/// The frames `spec` names of the folders `dirs` or, with --bag, of the bag.
+Recording loadRecording(const Args& args, const std::vector<std::string>& dirs,
+                        const std::string& spec) {
+  Recording r;
+  if (!args.bag.empty()) {
+    const bool named = spec == "keyframes" || spec == "all";
+    validate::BagRecording b = validate::readBagRecording(
+        args.bag, args.topics, spec, named ? std::set<int>() : frameNumbers(spec));
+    r.rig = b.rig;
+    r.frames = std::move(b.frames);
+    r.labels = std::move(b.labels);
+    r.source = args.bag + " camera_info and /tf_static";
+    return r;
+  }
+  const auto seqs = openSequences(dirs);
+  r.rig = seqs.front()->rig();
+  r.frames = loadFrames(seqs, spec, &r.labels);
+  r.source = dirs.front() + " calibration";
+  return r;
+}
+
 /// The frames of --fit-sequences / --fit-frames, prepared (nullptr when neither is given).
 /// Throws DataError when their rig is not the recording's.
 std::unique_ptr<ValidationSet> fitSet(const Args& args, const ValidationSettings& settings,
                                       const StereoRig& rig, std::vector<std::string>* labels) {
   if (args.fit_sequences.empty() && args.fit_frames.empty()) return nullptr;
-  std::vector<std::string> dirs = args.sequences;
-  dirs.insert(dirs.end(), args.fit_sequences.begin(), args.fit_sequences.end());
-  openSequences(dirs);  // one rig
-  const auto seqs = openSequences(args.fit_sequences.empty() ? args.sequences : args.fit_sequences);
-  const std::vector<Frame> frames =
-      loadFrames(seqs, args.fit_frames.empty() ? args.frames : args.fit_frames, labels);
-  return std::make_unique<ValidationSet>(frames, rig, settings);
+  if (!args.fit_sequences.empty()) {
+    std::vector<std::string> dirs = args.sequences;
+    dirs.insert(dirs.end(), args.fit_sequences.begin(), args.fit_sequences.end());
+    openSequences(dirs);  // one rig
+  }
+  const Recording fit =
+      loadRecording(args, args.fit_sequences.empty() ? args.sequences : args.fit_sequences,
+                    args.fit_frames.empty() ? args.frames : args.fit_frames);
+  *labels = fit.labels;
+  return std::make_unique<ValidationSet>(fit.frames, rig, settings);
 }
 
 int run(const Args& args) {
-  const auto seqs = openSequences(args.sequences);
-  const StereoRig& rig = seqs.front()->rig();
+  const Recording recording = loadRecording(args, args.sequences, args.frames);
+  const StereoRig& rig = recording.rig;
+  const std::vector<Frame>& frames = recording.frames;
+  const std::vector<std::string>& labels = recording.labels;
   std::vector<validate::Scored> all(1);
   all[0].name = "recording";
-  all[0].source = args.sequences.front() + " calibration";
+  all[0].source = recording.source;
   all[0].T_cam_lidar = rig.T_cam_lidar;
   all[0].T_right_left = rig.T_right_left;
   for (const auto& [name, path] : args.calibs) all.push_back(readCalibration(name, path, rig));
   addPerturbed(args, &all);
-  std::vector<std::string> labels;
-  const std::vector<Frame> frames = loadFrames(seqs, args.frames, &labels);
   ValidationSettings settings;
   settings.step_rot_deg = args.step_rot_deg;
   settings.step_trans_m = args.step_trans_m;
