@@ -506,6 +506,25 @@ TEST(CalibrateToolReal, CoCalibratesARecordingShorterThanTheWindowAtItsEnd) {
   EXPECT_LT(std::fabs(yaw), 0.02);
 }
 
+// --split K: disjoint parts of one drive calibrated on their own agree within their covariances.
+TEST(CalibrateTool, SplitComparesDisjointWindowsByTheirCovariances) {
+  TempDir tmp;
+  writeDrive(tmp, 51, 5);  // 11 keyframes
+  const ToolRun r = runCalibrate("--sequences " + tmp.str() + "/drive --split 2");
+  std::cout << r.output;
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("=== window 2 of 2: keyframes 6-11 of 11 ==="), std::string::npos);
+  EXPECT_NE(r.output.find("window 1 (keyframes 1-5): converged"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("window 2 (keyframes 6-11): converged"), std::string::npos) << r.output;
+  const size_t pair = r.output.find("windows 1 - 2: [");
+  ASSERT_NE(pair, std::string::npos) << r.output;
+  double chi2 = -1;
+  ASSERT_EQ(std::sscanf(r.output.c_str() + r.output.find("chi2 ", pair), "chi2 %lf", &chi2), 1);
+  EXPECT_GT(chi2, 0.0);
+  EXPECT_LT(chi2, 30.0);  // two estimates of one truth, each within its covariance
+  EXPECT_NE(r.output.find("mean chi2 "), std::string::npos);
+}
+
 TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
   // Usage errors (exit status 2), each named. Numbers are read whole (std::stoi alone took 7.9 as
   // 7), and where the result goes is checked before any work (a folder given as --out must
@@ -518,6 +537,8 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
       {"--out /tmp/", "names a folder"},
       {"--out /nonexistent_folder/result", "the folder \"/nonexistent_folder\" does not exist"},
       {"--search-deg 45", "--search-deg must be between 0 (off) and 20"},
+      {"--split 1", "bad value '1' for --split"},
+      {"--split 2 --overlay x.png", "--split goes with --sequences, without --out and --overlay"},
       {"--min-keyframes 0", "--min-keyframes must be between 1 and the window (10)"},
       {"--min-keyframes -1", "--min-keyframes must be between 1 and the window (10)"},
       {"--min-keyframes 11", "--min-keyframes must be between 1 and the window (10)"},

@@ -38,6 +38,7 @@
 #include "calibrate_args.h"
 #include "calibrate_print.h"
 #include "calibrate_quality.h"
+#include "calibrate_split.h"
 #include "cli.h"
 
 using namespace tescalib;
@@ -355,17 +356,21 @@ void applyInit(const std::string& path, StereoRig* rig) {
   rig->T_right_left = init.T_right_left;
 }
 
-/// KITTI-layout folders: their keyframes, sequence after sequence (1 s apart).
-void runSequences(const Args& args, Session* session) {
+/// KITTI-layout folders: their keyframes, sequence after sequence (1 s apart); with `take`, only
+/// the keyframes it accepts (numbered from 0 over all sequences).
+void runSequences(const Args& args, Session* session,
+                  const std::function<bool(int)>& take = nullptr) {
   const auto seqs = openSequences(args.sequences);
   StereoRig rig = seqs.front()->rig();
   if (!args.init.empty()) applyInit(args.init, &rig);
   session->settings.deskew = args.deskew < 0 ? seqs.front()->sweptScans() : args.deskew > 0;
   session->start(rig, args, std::to_string(seqs.size()) + " sequence(s)");
   double offset = 0;
+  int number = 0;
   for (const auto& seq : seqs) {
     double last = offset;
     for (size_t i : seq->keyframes(session->settings.keyframe_min_dt)) {
+      if (take && !take(number++)) continue;
       const std::string label = seq->dir() + " frame " + std::to_string(seq->frameId(i));
       Frame frame;
       try {
@@ -516,6 +521,48 @@ void runBag(const Args& args, Session* session) {
       n.clouds, n.left, n.right, n.sets, n.unmatched_clouds, args.topics.max_skew);
 }
 
+/// The session's settings from the command line.
+void configure(const Args& args, Session* session) {
+  session->settings.estimate_stereo = args.mode == "co" || args.mode == "joint";
+  session->settings.joint = args.mode == "joint";
+  session->settings.window_size = windowSize(args);
+  if (args.min_keyframes) session->settings.min_keyframes = *args.min_keyframes;
+  session->settings.keyframe.mesh.consistent_sample = args.consistent_sample;
+  session->settings.deskew = args.deskew > 0;
+  if (args.search_deg >= 0) session->settings.co.lidar.search_step_deg = args.search_deg;
+  session->keep_last_keyframe = !args.overlay.empty();
+}
+
+/// --split K: the keyframes in K contiguous parts, each calibrated by a session of its own, then
+/// their estimates against each other. 0 when at least two parts converged.
+int runSplit(const Args& args) {
+  int total = 0;
+  for (const auto& seq : openSequences(args.sequences))
+    total += static_cast<int>(seq->keyframes(OnlineSettings{}.keyframe_min_dt).size());
+  std::vector<calibrate::SplitWindow> windows(args.split);
+  int converged = 0;
+  for (int k = 0; k < args.split; ++k) {
+    const int first = k * total / args.split, end = (k + 1) * total / args.split;
+    std::printf("\n=== window %d of %d: keyframes %d-%d of %d ===\n", k + 1, args.split, first + 1,
+                end, total);
+    Session session;
+    configure(args, &session);
+    runSequences(args, &session, [first, end](int n) { return n >= first && n < end; });
+    session.finish();
+    calibrate::SplitWindow& w = windows[k];
+    w.keyframes = std::to_string(first + 1) + "-" + std::to_string(end);
+    const auto e = session.calibrator->estimate();
+    const auto last = session.calibrator->lastSolve();
+    w.converged = e.has_value();
+    w.solved = e || last;
+    if (w.solved) w.estimate = e ? *e : *last;
+    converged += w.converged;
+    session.report(args, 0);
+  }
+  calibrate::printRepeatability(windows);
+  return converged >= 2 ? 0 : 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -526,16 +573,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   Session session;
-  session.settings.estimate_stereo = args.mode == "co" || args.mode == "joint";
-  session.settings.joint = args.mode == "joint";
-  session.settings.window_size = windowSize(args);
-  if (args.min_keyframes) session.settings.min_keyframes = *args.min_keyframes;
-  session.settings.keyframe.mesh.consistent_sample = args.consistent_sample;
-  session.settings.deskew = args.deskew > 0;
-  if (args.search_deg >= 0) session.settings.co.lidar.search_step_deg = args.search_deg;
-  session.keep_last_keyframe = !args.overlay.empty();
+  configure(args, &session);
   const auto t_start = std::chrono::steady_clock::now();
   try {
+    if (args.split > 0) return runSplit(args);
     if (args.bag.empty())
       runSequences(args, &session);
     else
