@@ -120,7 +120,8 @@ bool parseArgs(int argc, char** argv, Args* a) {
            "search the optima on these folders' frames (of the same rig) instead, and score "
            "them on --sequences' frames: held out from the fit (implies --optimum 1)");
   cli::add(&app, "--fit-frames", "SPEC", cli::to(&a->fit_frames, cli::text),
-           "the frames of --fit-sequences (default: --frames) to search the optima on");
+           "the frames to search the optima on (of --fit-sequences, else of the recording; "
+           "default: --frames)");
   cli::add(
       &app, "--perturbed", "DEG,CM",
       [a](const std::string& v) {
