@@ -30,7 +30,7 @@ env -i HOME="$HOME" PATH="$PATH" WORK="$WORK" ROOT="$ROOT" bash -euo pipefail -c
     [ -f "$WORK/install/share/tescalib/$f" ] || fail "$f not installed"
   done
   python3 -c "import tescalib.msg, tescalib.srv" || fail "python messages"
-  for t in tescalib_simulate tescalib_calibrate tescalib_eval kitti_to_bag tescalib_check_data; do
+  for t in tescalib_simulate tescalib_calibrate tescalib_eval kitti_to_bag tescalib_check_data tescalib_validate; do
     out=$(rosrun tescalib $t --help 2>&1 || true)
     echo "$out" | grep -q "usage" || fail "$t: $out"
   done

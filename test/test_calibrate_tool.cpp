@@ -288,6 +288,19 @@ TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
   EXPECT_NE(r.output.find("  trusted: ", block), std::string::npos) << r.output;
   const std::string yaml = readAll(base + ".yaml");
   EXPECT_NE(yaml.find("converged: true"), std::string::npos);
+  // The quality scores of the estimate and of the 2 deg / 20 cm initial guess (doc/validation.md):
+  // printed and in the YAML, which still reads back; the estimate is significantly better.
+  for (const char* c : {"edge_alignment", "photometric_residual", "disparity_residual"}) {
+    const size_t line = r.output.find(std::string("  ") + c + " ");
+    ASSERT_NE(line, std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("for the initial guess (", line), std::string::npos);
+    EXPECT_EQ(r.output.find("better, significant)", line), r.output.find(")\n", line) - 19)
+        << r.output.substr(line, 120);
+    EXPECT_NE(yaml.find(std::string("  ") + c + ": {estimate: "), std::string::npos) << yaml;
+  }
+  EXPECT_NE(yaml.find("quality:\n  keyframes: 8\n"), std::string::npos) << yaml;
+  EXPECT_LT(poseError(readCalibrationYaml(base + ".yaml").T_cam_lidar, back.T_cam_lidar).norm(),
+            1e-6);
   // Each estimate's NEES against the truth: the last one printed is the written estimate's,
   // e^T P^-1 e with its covariance (over [phi; tau] as the yaml says), and the mean is given.
   const size_t cov_at = yaml.find("covariance_phi_tau: [", yaml.find("T_cam_lidar:"));
@@ -493,6 +506,25 @@ TEST(CalibrateToolReal, CoCalibratesARecordingShorterThanTheWindowAtItsEnd) {
   EXPECT_LT(std::fabs(yaw), 0.02);
 }
 
+// --split K: disjoint parts of one drive calibrated on their own agree within their covariances.
+TEST(CalibrateTool, SplitComparesDisjointWindowsByTheirCovariances) {
+  TempDir tmp;
+  writeDrive(tmp, 51, 5);  // 11 keyframes
+  const ToolRun r = runCalibrate("--sequences " + tmp.str() + "/drive --split 2");
+  std::cout << r.output;
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("=== window 2 of 2: keyframes 6-11 of 11 ==="), std::string::npos);
+  EXPECT_NE(r.output.find("window 1 (keyframes 1-5): converged"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("window 2 (keyframes 6-11): converged"), std::string::npos) << r.output;
+  const size_t pair = r.output.find("windows 1 - 2: [");
+  ASSERT_NE(pair, std::string::npos) << r.output;
+  double chi2 = -1;
+  ASSERT_EQ(std::sscanf(r.output.c_str() + r.output.find("chi2 ", pair), "chi2 %lf", &chi2), 1);
+  EXPECT_GT(chi2, 0.0);
+  EXPECT_LT(chi2, 30.0);  // two estimates of one truth, each within its covariance
+  EXPECT_NE(r.output.find("mean chi2 "), std::string::npos);
+}
+
 TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
   // Usage errors (exit status 2), each named. Numbers are read whole (std::stoi alone took 7.9 as
   // 7), and where the result goes is checked before any work (a folder given as --out must
@@ -505,6 +537,8 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
       {"--out /tmp/", "names a folder"},
       {"--out /nonexistent_folder/result", "the folder \"/nonexistent_folder\" does not exist"},
       {"--search-deg 45", "--search-deg must be between 0 (off) and 20"},
+      {"--split 1", "bad value '1' for --split"},
+      {"--split 2 --overlay x.png", "--split goes with --sequences, without --out and --overlay"},
       {"--min-keyframes 0", "--min-keyframes must be between 1 and the window (10)"},
       {"--min-keyframes -1", "--min-keyframes must be between 1 and the window (10)"},
       {"--min-keyframes 11", "--min-keyframes must be between 1 and the window (10)"},

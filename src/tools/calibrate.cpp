@@ -37,12 +37,16 @@
 
 #include "calibrate_args.h"
 #include "calibrate_print.h"
+#include "calibrate_quality.h"
+#include "calibrate_split.h"
 #include "cli.h"
 
 using namespace tescalib;
+using calibrate::appendToResultYaml;
 using calibrate::Args;
 using calibrate::ExtrinsicReport;
 using calibrate::pose6;
+using calibrate::printQuality;
 using calibrate::windowSize;
 
 namespace {
@@ -62,6 +66,8 @@ struct Session {
   std::string lidar_frame = "velo_link";  // the data's (a bag's cloud frame); --lidar-frame wins
   bool keep_last_keyframe = false;        // --overlay
   Frame last_keyframe;                    // its left image and scan, kept only for --overlay
+  std::vector<Frame> window_keyframes;    // the last window's keyframes, for the quality scores
+  StereoRig initial_rig;                  // the initial guess, for the quality scores
 
   /// The rig with its initial extrinsics; with --perturb-*, T_cam_lidar is moved away from them
   /// (they stay the reference of the printed errors).
@@ -77,6 +83,7 @@ struct Session {
                   randomPerturbation(args.perturb_rot_deg / kDegPerRad, args.perturb_trans_m, rng));
     }
     T_initial = rig.T_cam_lidar;
+    initial_rig = rig;
     std::printf("tescalib_calibrate: %s, mode %s, window %d, %dx%d, fx %.2f, baseline %.4f m%s\n",
                 source.c_str(), args.mode.c_str(), settings.window_size, rig.left.width,
                 rig.left.height, rig.left.fx, rig.baseline(),
@@ -112,6 +119,9 @@ struct Session {
     if (r != FrameResult::kKeyframe) return;
     ++keyframes;
     if (keep_last_keyframe) last_keyframe = frame;
+    window_keyframes.push_back(frame);
+    if (static_cast<int>(window_keyframes.size()) > settings.window_size)
+      window_keyframes.erase(window_keyframes.begin());
     if (!msg.empty()) std::printf("  %s: %s\n", label.c_str(), msg.c_str());
     if (!calibrator->readyToSolve()) return;
     solveAndPrint("keyframe " + std::to_string(keyframes) + " (" + label + ")", false);
@@ -281,6 +291,7 @@ struct Session {
         if (c->stereo_estimated) printExtrinsic(stereoReport(*c, args, false));
         std::printf("change from the initial guess: %s\n",
                     pose6(poseError(c->T_cam_lidar, T_initial)).c_str());
+        printQuality(window_keyframes, initial_rig, c->T_cam_lidar, c->T_right_left);
         if (!args.overlay.empty())
           writeOverlay(
               args.overlay, c->T_cam_lidar,
@@ -307,11 +318,15 @@ struct Session {
         std::printf("T_right_left against %s: %s\n", reference.c_str(),
                     pose6(poseError(e->T_right_left, T_reference_stereo)).c_str());
     }
+    const std::string quality =
+        printQuality(window_keyframes, initial_rig, e->T_cam_lidar, e->T_right_left);
     // The result files first: an overlay that cannot be written must not cost them.
     if (!args.out.empty()) {
       std::string msg;
-      if (!writeCalibrationFiles(args.out, calibrator->rig(), *e, frames(args), &msg)) {
-        std::cerr << "tescalib_calibrate: " << msg << "\n";
+      if (!writeCalibrationFiles(args.out, calibrator->rig(), *e, frames(args), &msg) ||
+          !appendToResultYaml(args.out, quality)) {
+        std::cerr << "tescalib_calibrate: " << (msg.empty() ? args.out + ": not written" : msg)
+                  << "\n";
         return 1;
       }
       std::printf("%s\n", msg.c_str());
@@ -341,17 +356,21 @@ void applyInit(const std::string& path, StereoRig* rig) {
   rig->T_right_left = init.T_right_left;
 }
 
-/// KITTI-layout folders: their keyframes, sequence after sequence (1 s apart).
-void runSequences(const Args& args, Session* session) {
+/// KITTI-layout folders: their keyframes, sequence after sequence (1 s apart); with `take`, only
+/// the keyframes it accepts (numbered from 0 over all sequences).
+void runSequences(const Args& args, Session* session,
+                  const std::function<bool(int)>& take = nullptr) {
   const auto seqs = openSequences(args.sequences);
   StereoRig rig = seqs.front()->rig();
   if (!args.init.empty()) applyInit(args.init, &rig);
   session->settings.deskew = args.deskew < 0 ? seqs.front()->sweptScans() : args.deskew > 0;
   session->start(rig, args, std::to_string(seqs.size()) + " sequence(s)");
   double offset = 0;
+  int number = 0;
   for (const auto& seq : seqs) {
     double last = offset;
     for (size_t i : seq->keyframes(session->settings.keyframe_min_dt)) {
+      if (take && !take(number++)) continue;
       const std::string label = seq->dir() + " frame " + std::to_string(seq->frameId(i));
       Frame frame;
       try {
@@ -502,6 +521,48 @@ void runBag(const Args& args, Session* session) {
       n.clouds, n.left, n.right, n.sets, n.unmatched_clouds, args.topics.max_skew);
 }
 
+/// The session's settings from the command line.
+void configure(const Args& args, Session* session) {
+  session->settings.estimate_stereo = args.mode == "co" || args.mode == "joint";
+  session->settings.joint = args.mode == "joint";
+  session->settings.window_size = windowSize(args);
+  if (args.min_keyframes) session->settings.min_keyframes = *args.min_keyframes;
+  session->settings.keyframe.mesh.consistent_sample = args.consistent_sample;
+  session->settings.deskew = args.deskew > 0;
+  if (args.search_deg >= 0) session->settings.co.lidar.search_step_deg = args.search_deg;
+  session->keep_last_keyframe = !args.overlay.empty();
+}
+
+/// --split K: the keyframes in K contiguous parts, each calibrated by a session of its own, then
+/// their estimates against each other. 0 when at least two parts converged.
+int runSplit(const Args& args) {
+  int total = 0;
+  for (const auto& seq : openSequences(args.sequences))
+    total += static_cast<int>(seq->keyframes(OnlineSettings{}.keyframe_min_dt).size());
+  std::vector<calibrate::SplitWindow> windows(args.split);
+  int converged = 0;
+  for (int k = 0; k < args.split; ++k) {
+    const int first = k * total / args.split, end = (k + 1) * total / args.split;
+    std::printf("\n=== window %d of %d: keyframes %d-%d of %d ===\n", k + 1, args.split, first + 1,
+                end, total);
+    Session session;
+    configure(args, &session);
+    runSequences(args, &session, [first, end](int n) { return n >= first && n < end; });
+    session.finish();
+    calibrate::SplitWindow& w = windows[k];
+    w.keyframes = std::to_string(first + 1) + "-" + std::to_string(end);
+    const auto e = session.calibrator->estimate();
+    const auto last = session.calibrator->lastSolve();
+    w.converged = e.has_value();
+    w.solved = e || last;
+    if (w.solved) w.estimate = e ? *e : *last;
+    converged += w.converged;
+    session.report(args, 0);
+  }
+  calibrate::printRepeatability(windows);
+  return converged >= 2 ? 0 : 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -512,16 +573,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   Session session;
-  session.settings.estimate_stereo = args.mode == "co" || args.mode == "joint";
-  session.settings.joint = args.mode == "joint";
-  session.settings.window_size = windowSize(args);
-  if (args.min_keyframes) session.settings.min_keyframes = *args.min_keyframes;
-  session.settings.keyframe.mesh.consistent_sample = args.consistent_sample;
-  session.settings.deskew = args.deskew > 0;
-  if (args.search_deg >= 0) session.settings.co.lidar.search_step_deg = args.search_deg;
-  session.keep_last_keyframe = !args.overlay.empty();
+  configure(args, &session);
   const auto t_start = std::chrono::steady_clock::now();
   try {
+    if (args.split > 0) return runSplit(args);
     if (args.bag.empty())
       runSequences(args, &session);
     else

@@ -104,6 +104,11 @@ void addCalibrationOptions(CLI::App* app, Args* a) {
   cli::add(app, "--seed", "S", cli::to(&a->seed, cli::toSeed),
            "the perturbation's random direction (default 1)")
       ->group(g);
+  cli::add(app, "--split", "K", cli::to(&a->split, cli::atLeast(2)),
+           "repeatability: calibrate K disjoint parts of the recording's keyframes on their own "
+           "and print every pair's difference against their covariances (chi2, 6 DoF); "
+           "--sequences only, without --out and --overlay")
+      ->group(g);
 }
 
 /// Options of the node's expert parameters (doc/parameters.md), for studies.
@@ -186,6 +191,11 @@ bool checkRun(const Args& a) {
 /// Options that would be silently ignored (bag topics for folders, a frame name without files to
 /// write it into) and where the results go, checked before the work rather than after it.
 bool checkOutputs(const Args& a) {
+  if (a.split > 0 && (!a.bag.empty() || !a.out.empty() || !a.overlay.empty())) {
+    std::cerr << "tescalib_calibrate: --split goes with --sequences, without --out and --overlay "
+                 "(it writes no result)\n";
+    return false;
+  }
   if (!a.sequences.empty() && !a.bag_option.empty()) {
     std::cerr << "tescalib_calibrate: " << a.bag_option
               << " is an option of --bag, not of --sequences\n";

@@ -28,6 +28,7 @@ struct Args {
   std::string overlay;      // PNG: the last keyframe with the scan drawn, initial guess vs result
   double search_deg = -1;   // LidarStereoSettings::search_step_deg; < 0: the default (10)
   std::string bag_option;   // the last option of --bag only given (refused with --sequences)
+  int split = 0;            // --split K: K disjoint windows solved on their own (0: off)
 };
 
 /// Reads and checks the command line into `a`; false after printing why (a usage error). --help

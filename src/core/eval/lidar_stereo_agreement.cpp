@@ -83,6 +83,8 @@ DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoClou
     const Eigen::Vector2d px = projectPinhole(cloud.fx, cloud.fy, cloud.cx, cloud.cy, r);
     if (!cloud.disparityAt(px.x(), px.y(), &d)) continue;
     const double diff = d - cloud.fx * cloud.baseline / r.z();
+    ++out.points_with_disparity;
+    out.mean_truncated_abs_px += std::min(std::fabs(diff), 3.0);
     if (std::fabs(diff) > 3.0) continue;
     all.push_back(diff);
     int b = 0;
@@ -90,6 +92,7 @@ DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoClou
     bins[b].push_back(diff);
   }
   out.points = static_cast<int>(all.size());
+  if (out.points_with_disparity > 0) out.mean_truncated_abs_px /= out.points_with_disparity;
   out.median_px = medianOf(all);
   for (int b = 0; b < DisparityResidual::kBins; ++b) {
     out.bin_points[b] = static_cast<int>(bins[b].size());

@@ -42,6 +42,10 @@ struct DisparityResidual {
   double median_px = 0;                       ///< over all points
   std::array<double, kBins> bin_median_px{};  ///< per depth bin (0 where the bin is empty)
   std::array<int, kBins> bin_points{};
+  /// Over every point 3-40 m with a stereo disparity, the differences beyond 3 px included as
+  /// 3 px: the mean truncated |stereo - LiDAR| (a score of the calibration, lower is better).
+  int points_with_disparity = 0;
+  double mean_truncated_abs_px = 0;
 };
 
 DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoCloud& cloud,

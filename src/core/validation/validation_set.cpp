@@ -1,0 +1,109 @@
+#include "tescalib/core/validation/validation_set.h"
+
+#include <string>
+
+#include "tescalib/core/common/error.h"
+#include "tescalib/core/common/parallel.h"
+#include "tescalib/core/eval/lidar_stereo_agreement.h"
+
+namespace tescalib {
+
+const char* criterionName(Criterion c) {
+  switch (c) {
+    case Criterion::kEdgeAlignment:
+      return "edge_alignment";
+    case Criterion::kPhotometric:
+      return "photometric_residual";
+    case Criterion::kDisparity:
+      return "disparity_residual";
+  }
+  return "";
+}
+
+const char* criterionUnit(Criterion c) {
+  switch (c) {
+    case Criterion::kEdgeAlignment:
+      return "";
+    case Criterion::kPhotometric:
+      return "grey levels";
+    case Criterion::kDisparity:
+      return "px";
+  }
+  return "";
+}
+
+bool higherIsBetter(Criterion c) { return c == Criterion::kEdgeAlignment; }
+
+ValidationSet::ValidationSet(const std::vector<Frame>& frames, const StereoRig& rig,
+                             const ValidationSettings& settings)
+    : rig_(rig), settings_(settings) {
+  if (frames.empty()) throw DataError("validation: no frames to validate on");
+  for (const Frame& f : frames) {
+    const cv::Size size(rig.left.width, rig.left.height);
+    if (f.left.size() != size || f.right.size() != size || f.left.depth() != CV_8U ||
+        f.right.depth() != CV_8U)
+      throw DataError("validation: frame " + std::to_string(f.index) +
+                      ": the images are not two 8-bit images of the rig's size " +
+                      std::to_string(size.width) + "x" + std::to_string(size.height));
+  }
+  frames_.resize(frames.size());
+  parallelFor(static_cast<int>(frames.size()), resolveThreads(settings.threads), [&](int i) {
+    Prepared& p = frames_[i];
+    p.frame = frames[i];
+    p.edges_left = edgeStrengthMap(p.frame.left, settings_.edges);
+    p.edges_right = edgeStrengthMap(p.frame.right, settings_.edges);
+    p.grey_left = photometricImage(p.frame.left, settings_.photometric);
+    p.grey_right = photometricImage(p.frame.right, settings_.photometric);
+    p.discontinuities = depthDiscontinuities(p.frame.scan, settings_.edges);
+  });
+}
+
+void ValidationSet::updateClouds(const Eigen::Isometry3d& T_right_left) {
+  if (clouds_valid_ && T_right_left.isApprox(clouds_T_right_left_, 1e-12)) return;
+  StereoSettings stereo = settings_.stereo;
+  stereo.threads = 1;
+  parallelFor(static_cast<int>(frames_.size()), resolveThreads(settings_.threads), [&](int i) {
+    Prepared& p = frames_[i];
+    p.cloud = computeStereoCloud(p.frame.left, p.frame.right, rig_, T_right_left, stereo);
+  });
+  clouds_valid_ = true;
+  clouds_T_right_left_ = T_right_left;
+}
+
+double ValidationSet::frameScore(const Prepared& p, Criterion c,
+                                 const Eigen::Isometry3d& T_cam_lidar,
+                                 const Eigen::Isometry3d& T_right_left) const {
+  switch (c) {
+    case Criterion::kEdgeAlignment: {
+      int nl = 0, nr = 0;
+      const double l = edgeAlignment(p.discontinuities, p.edges_left, rig_.left, T_cam_lidar, &nl);
+      const double r = edgeAlignment(p.discontinuities, p.edges_right, rig_.right,
+                                     T_right_left * T_cam_lidar, &nr);
+      return nl + nr > 0 ? (l * nl + r * nr) / (nl + nr) : 0.0;
+    }
+    case Criterion::kPhotometric:
+      return photometricConsistency(p.frame.scan, p.grey_left, p.grey_right, rig_, T_cam_lidar,
+                                    T_right_left, settings_.photometric)
+          .residual;
+    case Criterion::kDisparity:
+      return lidarDisparityResidual(p.frame.scan, p.cloud, T_cam_lidar).mean_truncated_abs_px;
+  }
+  return 0;
+}
+
+FrameScores ValidationSet::score(const Eigen::Isometry3d& T_cam_lidar,
+                                 const Eigen::Isometry3d& T_right_left,
+                                 const std::vector<Criterion>& use) {
+  FrameScores out;
+  for (Criterion c : use) {
+    if (c == Criterion::kDisparity) updateClouds(T_right_left);
+    out[static_cast<int>(c)].assign(frames_.size(), 0.0);
+  }
+  parallelFor(static_cast<int>(frames_.size()), resolveThreads(settings_.threads), [&](int i) {
+    for (Criterion c : use)
+      out[static_cast<int>(c)][i] = frameScore(frames_[i], c, T_cam_lidar, T_right_left);
+  });
+  return out;
+}
+
+}  // namespace tescalib
