@@ -36,6 +36,7 @@
 #include "tescalib/ros/params.h"
 
 #include "calibrate_args.h"
+#include "calibrate_monitor.h"
 #include "calibrate_print.h"
 #include "cli.h"
 
@@ -62,6 +63,7 @@ struct Session {
   std::string lidar_frame = "velo_link";  // the data's (a bag's cloud frame); --lidar-frame wins
   bool keep_last_keyframe = false;        // --overlay
   Frame last_keyframe;                    // its left image and scan, kept only for --overlay
+  calibrate::MonitorLog monitor;          // the monitor's changes, --json's estimates
 
   /// The rig with its initial extrinsics; with --perturb-*, T_cam_lidar is moved away from them
   /// (they stay the reference of the printed errors).
@@ -147,6 +149,7 @@ struct Session {
   void solveAndPrint(const std::string& what, bool recording_ended) {
     const bool changed = calibrator->solve(&last_solve, nullptr, recording_ended);
     ++solves;
+    monitor.afterSolve(*calibrator, changed);
     std::printf("  %s: ", what.c_str());
     const auto e = calibrator->estimate();
     if (changed && e) {
@@ -519,6 +522,7 @@ int main(int argc, char** argv) {
   session.settings.keyframe.mesh.consistent_sample = args.consistent_sample;
   session.settings.deskew = args.deskew > 0;
   if (args.search_deg >= 0) session.settings.co.lidar.search_step_deg = args.search_deg;
+  session.settings.monitor.action = args.monitor;
   session.keep_last_keyframe = !args.overlay.empty();
   const auto t_start = std::chrono::steady_clock::now();
   try {
@@ -531,6 +535,12 @@ int main(int argc, char** argv) {
     return 1;
   }
   session.finish();  // a solve never throws (it turns solver errors into a failed solve)
+  session.monitor.printSummary();
+  std::string json_error;
+  if (!args.json.empty() && !session.monitor.writeJson(args.json, &json_error)) {
+    std::cerr << "tescalib_calibrate: " << json_error << "\n";
+    return 1;
+  }
   return session.report(
       args, std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count());
 }

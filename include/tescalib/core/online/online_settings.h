@@ -18,11 +18,9 @@ namespace tescalib {
 struct MonitorSettings {
   /// "recalibrate": on `changed` the window restarts from the keyframes after the change and the
   /// next trusted estimate replaces the old one; "flag": the monitor only reports; "off": no
-  /// monitoring (every trusted estimate is published, as without a monitor).
+  /// monitoring (every trusted estimate is published, as without a monitor). While `changed` /
+  /// `recalibrating` the old extrinsic stays published (and on the node's /tf_static).
   std::string action = "recalibrate";
-  /// While `changed` / `recalibrating`, a node stops broadcasting the old extrinsic on tf
-  /// (false: the old one stays, the safe choice for most consumers).
-  bool withdraw_on_change = false;
   /// The CUSUM's reference value: each fresh window adds chi2 - cusum_k to the evidence (never
   /// below 0). 22.46 is chi2's 99.9 % quantile with 6 DoF.
   double cusum_k = 22.46;
