@@ -30,18 +30,23 @@ Matrix6d windowCovariance() {
   return sigma.cwiseAbs2().asDiagonal();
 }
 
-/// chi2 of a window estimate drawn from the window covariance around the truth moved by
-/// `offset`, against a published estimate drawn likewise around the truth.
-double drawChi2(const Vector6d& offset, std::mt19937_64& rng) {
+/// A window's estimate drawn from the window covariance around the truth moved by `offset`.
+Eigen::Isometry3d drawEstimate(const Vector6d& offset, std::mt19937_64& rng) {
   const Matrix6d P = windowCovariance();
   std::normal_distribution<double> n(0, 1);
-  Vector6d a, b;
-  for (int i = 0; i < 6; ++i) {
-    a(i) = std::sqrt(P(i, i)) * n(rng);
-    b(i) = std::sqrt(P(i, i)) * n(rng);
-  }
-  return nees(offset + a - b, P + P);
+  Vector6d a;
+  for (int i = 0; i < 6; ++i) a(i) = std::sqrt(P(i, i)) * n(rng);
+  return perturb(Eigen::Isometry3d::Identity(), offset + a);
 }
+
+/// With kUnit covariances on both sides: an estimate at `chi2` from the identity reference.
+const Matrix6d kUnit = Matrix6d::Identity() * 1e-4;
+Eigen::Isometry3d atChi2(double chi2) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation().x() = std::sqrt(2e-4 * chi2);
+  return T;
+}
+const Eigen::Isometry3d kI = Eigen::Isometry3d::Identity();
 
 }  // namespace
 
@@ -50,28 +55,29 @@ TEST(CalibrationMonitor, StatesFollowTheEvidence) {
   s.change_span_s = 8;
   ExtrinsicMonitor m(s);
   EXPECT_EQ(m.status().state, MonitorState::kCalibrating);
-  EXPECT_FALSE(m.observe(window(5), 500));  // nothing published: nothing to check
-  m.published(5);
+  EXPECT_FALSE(m.observe(window(5), atChi2(500), kUnit));  // nothing published: nothing to check
+  m.published(5, kI, kUnit);
   EXPECT_EQ(m.status().state, MonitorState::kCalibrated);
-  EXPECT_TRUE(m.observe(window(9.5), 500));  // 9 of 10 keyframes after 5 s: fresh
+  EXPECT_TRUE(m.observe(window(9.5), atChi2(500), kUnit));  // 9 of 10 keyframes after 5 s: fresh
   EXPECT_EQ(m.status().state, MonitorState::kSuspect);
   EXPECT_DOUBLE_EQ(m.status().change_after, 9.5);
   EXPECT_NEAR(m.status().evidence, 500 - 22.46, 1e-9);
   // Far beyond cusum_h, but 5 s of driving since `suspect` are less than the span's 8 s.
-  EXPECT_FALSE(m.observe(window(14.5), 500));
+  EXPECT_FALSE(m.observe(window(14.5), atChi2(500), kUnit));
   EXPECT_EQ(m.status().state, MonitorState::kSuspect);
-  EXPECT_TRUE(m.observe(window(19.5), 500));
+  EXPECT_TRUE(m.observe(window(19.5), atChi2(500), kUnit));
   EXPECT_EQ(m.status().state, MonitorState::kChanged);
   EXPECT_DOUBLE_EQ(m.status().since, 19.5);
   EXPECT_DOUBLE_EQ(m.status().change_after, 9.5);
   EXPECT_EQ(m.status().fresh_windows, 3);
   // `changed` holds: agreeing windows do not clear it (the estimate they agree with is gone).
-  EXPECT_FALSE(m.observe(window(24.5), 0.1));
+  EXPECT_FALSE(m.observe(window(24.5), atChi2(0.1), kUnit));
   EXPECT_EQ(m.status().state, MonitorState::kChanged);
   m.restarted();
   EXPECT_EQ(m.status().state, MonitorState::kRecalibrating);
-  EXPECT_FALSE(m.observe(window(29.5), 900));  // the recalibration's windows are not checked
-  m.published(29.5);
+  EXPECT_FALSE(
+      m.observe(window(29.5), atChi2(900), kUnit));  // the recalibration's windows are not checked
+  m.published(29.5, atChi2(900), kUnit);
   EXPECT_EQ(m.status().state, MonitorState::kCalibrated);
   EXPECT_EQ(m.status().evidence, 0);
   m.reset();
@@ -82,23 +88,23 @@ TEST(CalibrationMonitor, TheCusumAccumulatesOnlyFreshWindowsAndDrainsBack) {
   MonitorSettings s;
   s.cusum_k = 20;
   ExtrinsicMonitor m(s);
-  m.published(5);
-  EXPECT_TRUE(m.observe(window(10), 30));  // +10
+  m.published(5, kI, kUnit);
+  EXPECT_TRUE(m.observe(window(10), atChi2(30), kUnit));  // +10
   EXPECT_EQ(m.status().state, MonitorState::kSuspect);
   EXPECT_NEAR(m.status().evidence, 10, 1e-12);
   // Overlapping windows (3 of 10 keyframes new) are not evidence of their own.
-  EXPECT_FALSE(m.observe(window(11.5), 1000));
+  EXPECT_FALSE(m.observe(window(11.5), atChi2(1000), kUnit));
   EXPECT_NEAR(m.status().evidence, 10, 1e-12);
   EXPECT_EQ(m.status().fresh_windows, 1);
-  EXPECT_FALSE(m.observe(window(15), 25));  // +5
+  EXPECT_FALSE(m.observe(window(15), atChi2(25), kUnit));  // +5
   EXPECT_NEAR(m.status().evidence, 15, 1e-12);
-  EXPECT_TRUE(m.observe(window(20), 4));  // -16: back to 0
+  EXPECT_TRUE(m.observe(window(20), atChi2(4), kUnit));  // -16: back to 0
   EXPECT_EQ(m.status().state, MonitorState::kCalibrated);
   EXPECT_EQ(m.status().evidence, 0);
   EXPECT_EQ(m.status().fresh_windows, 3);
   EXPECT_NEAR(m.status().last_chi2, 4, 1e-12);
-  // Not comparable estimates are ignored.
-  EXPECT_FALSE(m.observe(window(30), std::nan("")));
+  // Estimates without a finite covariance are not compared.
+  EXPECT_FALSE(m.observe(window(30), atChi2(900), kUnit * std::nan("")));
   EXPECT_EQ(m.status().fresh_windows, 3);
 }
 
@@ -107,10 +113,12 @@ TEST(CalibrationMonitor, NoFalseAlarmUnderNoiseWithinTheCovariances) {
   for (uint64_t seed : {1, 2, 3}) {
     std::mt19937_64 rng(seed);
     ExtrinsicMonitor m{MonitorSettings()};
-    m.published(5);
+    m.published(5, drawEstimate(Vector6d::Zero(), rng), windowCovariance());
     int suspect = 0;
     for (double t = 5.5; t < 605; t += 0.5) {
-      m.observe(window(t), drawChi2(Vector6d::Zero(), rng));
+      const Eigen::Isometry3d T = drawEstimate(Vector6d::Zero(), rng);
+      m.observe(window(t), T, windowCovariance());
+      m.published(t, T, windowCovariance());  // every solve's estimate is published
       ASSERT_NE(m.status().state, MonitorState::kChanged) << "seed " << seed << " t " << t;
       suspect += m.status().state == MonitorState::kSuspect;
     }
@@ -125,12 +133,16 @@ TEST(CalibrationMonitor, DetectsAStepWithinTwoFreshWindows) {
   step << 0.3, -0.4, 0.0, 0.018, 0.0, -0.024;
   step.head<3>() /= kDegPerRad;
   ExtrinsicMonitor m{MonitorSettings()};
-  m.published(5);
+  m.published(5, drawEstimate(Vector6d::Zero(), rng), windowCovariance());
   double changed_at = -1, change_after = -1;
   for (double t = 5.5; t < 80 && changed_at < 0; t += 0.5) {
     // The window sees the step with the share of its keyframes after 30 s.
     const double share = std::clamp((t - 30.0) / 5.0, 0.0, 1.0);
-    m.observe(window(t), drawChi2(share * step, rng));
+    // Every solve's estimate is published until the monitor suspects a change: the reference
+    // must not follow them across the step.
+    const Eigen::Isometry3d T = drawEstimate(share * step, rng);
+    m.observe(window(t), T, windowCovariance());
+    if (m.status().state == MonitorState::kCalibrated) m.published(t, T, windowCovariance());
     if (t < 30) ASSERT_EQ(m.status().state, MonitorState::kCalibrated) << t;
     if (m.status().state == MonitorState::kChanged) {
       changed_at = t;

@@ -19,37 +19,48 @@ nlohmann::json entry(double time, const char* extrinsic, bool published, const E
 
 }  // namespace
 
-void MonitorLog::noteState(const char* name, const MonitorStatus& now, MonitorState* before) {
-  if (now.state == *before) return;
+MonitorState MonitorLog::noteState(const char* name, const MonitorStatus& now, MonitorState* before,
+                                   int* changes) {
   char buf[240];
-  if (now.state == MonitorState::kChanged)
+  // With monitor/action recalibrate the solve that declares a change also restarts the window:
+  // `changed` and `recalibrating` come together.
+  const bool declared = now.changes > *changes;
+  *changes = now.changes;
+  if (declared) {
     std::snprintf(buf, sizeof buf,
-                  "%s changed at %.2f s (evidence %.1f over %d fresh windows, last chi2 %.1f; "
-                  "keyframes after %.2f s are after the change)",
-                  name, now.since, now.evidence, now.fresh_windows, now.last_chi2,
-                  now.change_after);
-  else
+                  "%s changed at %.2f s (evidence %.1f, last chi2 %.1f; keyframes after %.2f s "
+                  "are after the change)",
+                  name, now.changed_at, now.evidence, now.last_chi2, now.change_after);
+    std::printf("  monitor: %s\n", buf);
+    changes_.push_back(buf);
+  }
+  if (now.state != *before && !(declared && now.state == MonitorState::kChanged)) {
     std::snprintf(buf, sizeof buf, "%s %s at %.2f s (evidence %.1f, last chi2 %.1f)", name,
                   monitorStateName(now.state), now.since, now.evidence, now.last_chi2);
-  std::printf("  monitor: %s\n", buf);
-  if (now.state == MonitorState::kChanged ||
-      (*before == MonitorState::kRecalibrating && now.state == MonitorState::kCalibrated))
-    changes_.push_back(buf);
+    std::printf("  monitor: %s\n", buf);
+    if (*before == MonitorState::kRecalibrating && now.state == MonitorState::kCalibrated)
+      changes_.push_back(buf);
+  }
   *before = now.state;
+  return declared ? MonitorState::kChanged : now.state;
 }
 
 void MonitorLog::afterSolve(const OnlineCalibrator& calibrator, bool published) {
   const MonitorReport report = calibrator.monitorReport();
-  noteState("lidar_to_left", report.lidar_to_left, &lidar_);
-  if (report.stereo_monitored) noteState("left_to_right", report.left_to_right, &stereo_);
+  const MonitorState lidar =
+      noteState("lidar_to_left", report.lidar_to_left, &lidar_, &lidar_changes_);
+  const MonitorState stereo =
+      report.stereo_monitored
+          ? noteState("left_to_right", report.left_to_right, &stereo_, &stereo_changes_)
+          : report.left_to_right.state;
   const auto solve = calibrator.lastSolve();
   if (!solve || solve->solve_id == last_solve_id_) return;  // the solve failed or was discarded
   last_solve_id_ = solve->solve_id;
-  estimates_.push_back(entry(solve->stamp, "lidar_to_left", published, solve->T_cam_lidar,
-                             solve->cov_lidar, report.lidar_to_left.state));
+  estimates_.push_back(
+      entry(solve->stamp, "lidar_to_left", published, solve->T_cam_lidar, solve->cov_lidar, lidar));
   if (solve->stereo_estimated)
     estimates_.push_back(entry(solve->stamp, "left_to_right", published, solve->T_right_left,
-                               solve->cov_stereo, report.left_to_right.state));
+                               solve->cov_stereo, stereo));
 }
 
 void MonitorLog::printSummary() const {

@@ -24,11 +24,14 @@ class MonitorLog {
   bool writeJson(const std::string& path, std::string* error) const;
 
  private:
-  /// Prints a state change of `name`'s monitor.
-  void noteState(const char* name, const MonitorStatus& now, MonitorState* before);
+  /// Prints a state change of `name`'s monitor (a change declared and the window restarted in
+  /// one solve included); returns the state to record for this solve.
+  MonitorState noteState(const char* name, const MonitorStatus& now, MonitorState* before,
+                         int* changes);
 
   uint64_t last_solve_id_ = 0;
   MonitorState lidar_ = MonitorState::kCalibrating, stereo_ = MonitorState::kCalibrating;
+  int lidar_changes_ = 0, stereo_changes_ = 0;
   std::vector<std::string> changes_;
   nlohmann::json estimates_ = nlohmann::json::array();
 };

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/uncertainty/trust.h"
+
 namespace tescalib {
 
 const char* monitorStateName(MonitorState state) {
@@ -28,15 +31,18 @@ bool ExtrinsicMonitor::setState(MonitorState state, double stamp) {
   return true;
 }
 
-bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, double chi2) {
+bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, const Eigen::Isometry3d& T,
+                               const Matrix6d& cov) {
   const MonitorState s = status_.state;
-  if (stamps.empty() || !std::isfinite(chi2)) return false;
+  if (stamps.empty() || !cov.allFinite()) return false;
   // Only a calibrated or suspect extrinsic is checked; `changed` holds until recalibrated or
   // reset, and the other states have no estimate to check against.
   if (s != MonitorState::kCalibrated && s != MonitorState::kSuspect) return false;
   const long fresh =
       std::count_if(stamps.begin(), stamps.end(), [this](double t) { return t > last_newest_; });
   if (fresh < settings_.fresh_fraction * static_cast<double>(stamps.size())) return false;
+  const double chi2 = nees(poseError(T, reference_), cov + reference_cov_);
+  if (!std::isfinite(chi2)) return false;  // the summed covariance is not positive definite
   const double newest = *std::max_element(stamps.begin(), stamps.end());
   last_newest_ = newest;
   ++status_.fresh_windows;
@@ -48,16 +54,27 @@ bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, double chi2) {
     return setState(MonitorState::kSuspect, newest);
   }
   if (status_.evidence >= settings_.cusum_h &&
-      newest - status_.since >= settings_.change_span_s - 1e-9)
+      newest - status_.since >= settings_.change_span_s - 1e-9) {
+    ++status_.changes;
+    status_.changed_at = newest;
     return setState(MonitorState::kChanged, newest);
+  }
   return false;
 }
 
-void ExtrinsicMonitor::published(double newest) {
-  setState(MonitorState::kCalibrated, newest);
-  status_.evidence = 0;
-  status_.fresh_windows = 0;
-  last_newest_ = std::max(last_newest_, newest);
+void ExtrinsicMonitor::published(double newest, const Eigen::Isometry3d& T, const Matrix6d& cov) {
+  const MonitorState s = status_.state;
+  const bool first = s == MonitorState::kCalibrating || s == MonitorState::kRecalibrating;
+  // Otherwise only the estimate of the fresh window just counted, which agreed with the
+  // reference: one from a window overlapping the next fresh one would hide a change from it.
+  if (!first && !(s == MonitorState::kCalibrated && newest == last_newest_)) return;
+  if (first) {
+    setState(MonitorState::kCalibrated, newest);
+    status_.evidence = 0;
+    last_newest_ = std::max(last_newest_, newest);
+  }
+  reference_ = T;
+  reference_cov_ = cov;
 }
 
 void ExtrinsicMonitor::restarted() {

@@ -219,8 +219,8 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
     return false;
   }
   estimate_ = last_solve_ = e;
-  monitor_.lidar_to_left.published(e.stamp);
-  if (e.stereo_estimated) monitor_.left_to_right.published(e.stamp);
+  monitor_.lidar_to_left.published(e.stamp, e.T_cam_lidar, e.cov_lidar);
+  if (e.stereo_estimated) monitor_.left_to_right.published(e.stamp, e.T_right_left, e.cov_stereo);
   if (result.lidar_sensitivity) co_sensitivity_ = result.lidar_sensitivity;
   // Keep the co-calibration's re-rectified or rescaled clouds. Only with the estimate they were
   // rectified for: an unpublished one's would leave the window on a stereo extrinsic nothing else
@@ -235,8 +235,10 @@ std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input, const 
   if (m.action == "off" || !estimate_) return "";
   std::vector<double> stamps;
   for (const auto& k : input.keyframes) stamps.push_back(k->stamp);
-  monitor_.lidar_to_left.observe(stamps, e.chi2_to_published);
-  monitor_.left_to_right.observe(stamps, chi2StereoToPublished(e, estimate_));
+  if (e.converged && e.cov_lidar_known)
+    monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar);
+  if (e.converged && e.stereo_estimated && e.cov_stereo_known && estimate_->stereo_estimated)
+    monitor_.left_to_right.observe(stamps, e.T_right_left, e.cov_stereo);
   const MonitorStatus* changed = nullptr;
   std::string note;
   for (const auto* s : {&monitor_.lidar_to_left.status(), &monitor_.left_to_right.status()}) {

@@ -82,15 +82,6 @@ double chi2ToPublished(const OnlineEstimate& candidate,
               candidate.cov_lidar + published->cov_lidar);
 }
 
-double chi2StereoToPublished(const OnlineEstimate& candidate,
-                             const std::optional<OnlineEstimate>& published) {
-  if (!candidate.converged || !published || !candidate.stereo_estimated ||
-      !published->stereo_estimated || !candidate.cov_stereo_known || !published->cov_stereo_known)
-    return std::numeric_limits<double>::quiet_NaN();
-  return nees(poseError(candidate.T_right_left, published->T_right_left),
-              candidate.cov_stereo + published->cov_stereo);
-}
-
 std::string publicationRefusal(const OnlineEstimate& candidate,
                                const std::optional<OnlineEstimate>& published,
                                const OnlineSettings& settings, const std::string& solve_message) {

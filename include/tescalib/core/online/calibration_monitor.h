@@ -1,6 +1,9 @@
 // The calibration monitor: after the first trusted estimate, each fresh window's estimate of an
-// extrinsic is compared with the published one (chi2 with both covariances, 6 DoF), and a CUSUM
-// accumulates the excess over MonitorSettings::cusum_k across non-overlapping windows. States per
+// extrinsic is compared with a reference, a published estimate from a window it does not overlap
+// (chi2 with both covariances, 6 DoF), and a CUSUM accumulates the excess over
+// MonitorSettings::cusum_k across these non-overlapping windows. The reference moves on only to
+// the estimate of a fresh window that agreed with it: estimates published in between (each
+// solve's window slides by one keyframe) cannot carry it along a change. States per
 // extrinsic: calibrating -> calibrated -> suspect (evidence above 0) -> changed (evidence above
 // cusum_h, sustained over change_span_s of driving) -> recalibrating (the window restarted from
 // the keyframes after the change) -> calibrated (the next published estimate). ROS-free, not
@@ -10,6 +13,9 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Geometry>
+
+#include "tescalib/core/common/types.h"
 #include "tescalib/core/online/online_settings.h"
 
 namespace tescalib {
@@ -25,7 +31,9 @@ struct MonitorStatus {
   double since = 0;       ///< stamp (s) of the window that brought the state
   double evidence = 0;    ///< the CUSUM (chi2 units); cusum_h declares `changed`
   double last_chi2 = -1;  ///< chi2 of the last fresh window counted (-1: none yet)
-  int fresh_windows = 0;  ///< fresh windows counted since the last published estimate
+  int fresh_windows = 0;  ///< fresh windows counted since the first estimate
+  int changes = 0;        ///< how often the extrinsic was declared changed
+  double changed_at = 0;  ///< stamp of the window that declared the last change
   /// Keyframes newer than this stamp come after the change (the newest keyframe of the first
   /// window that raised the evidence: that window may straddle the change). Valid once
   /// `changed`.
@@ -37,13 +45,14 @@ class ExtrinsicMonitor {
  public:
   explicit ExtrinsicMonitor(const MonitorSettings& settings) : settings_(settings) {}
 
-  /// A solve's estimate from a window with keyframe `stamps` whose chi2 against the published
-  /// estimate is `chi2` (NaN: not comparable, ignored). Counts it when the window is fresh.
-  /// Returns true when the state changed.
-  bool observe(const std::vector<double>& stamps, double chi2);
-  /// An estimate from a window whose newest keyframe is `newest` was published: `calibrated`,
-  /// evidence 0, and later windows are fresh relative to it.
-  void published(double newest);
+  /// A solve's estimate `T` (covariance `cov`) from a window with keyframe `stamps`; counted
+  /// when the window is fresh (its chi2 against the reference). A covariance that is not finite
+  /// is not compared. Returns true when the state changed.
+  bool observe(const std::vector<double>& stamps, const Eigen::Isometry3d& T, const Matrix6d& cov);
+  /// An estimate `T` (`cov`) from a window whose newest keyframe is `newest` was published. The
+  /// first one, and the first after a recalibration, becomes the reference (`calibrated`); later
+  /// ones only when they come from the last fresh window counted, which agreed with it.
+  void published(double newest, const Eigen::Isometry3d& T, const Matrix6d& cov);
   /// The window restarted from the keyframes after the change: `recalibrating`.
   void restarted();
   /// The window was cleared with the estimate kept (time went backwards): the next window is
@@ -63,6 +72,8 @@ class ExtrinsicMonitor {
   MonitorSettings settings_;
   MonitorStatus status_;
   double last_newest_ = -1e300;  ///< newest keyframe of the last window counted
+  Eigen::Isometry3d reference_ = Eigen::Isometry3d::Identity();
+  Matrix6d reference_cov_ = Matrix6d::Zero();
 };
 
 /// Both extrinsics' monitors.

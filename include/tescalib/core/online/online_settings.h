@@ -31,7 +31,7 @@ struct MonitorSettings {
   double change_span_s = 3.0;
   /// A solve's window counts as fresh evidence when at least this fraction of its keyframes is
   /// newer than every keyframe of the last window counted (non-overlapping windows).
-  double fresh_fraction = 0.8;
+  double fresh_fraction = 0.6;
 };
 
 struct OnlineSettings {

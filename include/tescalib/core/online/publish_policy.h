@@ -21,10 +21,6 @@ namespace tescalib {
 double chi2ToPublished(const OnlineEstimate& candidate,
                        const std::optional<OnlineEstimate>& published);
 
-/// The same for T_right_left with cov_stereo; NaN unless both estimated it with a covariance.
-double chi2StereoToPublished(const OnlineEstimate& candidate,
-                             const std::optional<OnlineEstimate>& published);
-
 /// Why `candidate` is held back instead of replacing `published` (nothing published yet
 /// included); empty when it is published. `solve_message` is the solver's (why it did not
 /// converge). A held-back converged estimate's reason ends with its chi2_to_published and, beyond
