@@ -1,6 +1,7 @@
 // The calibration monitor on synthetic estimate sequences (no images): its state machine, the
 // CUSUM, no false alarm under noise within the covariances, and a step detected.
 #include <cmath>
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -8,6 +9,7 @@
 
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/online/calibration_monitor.h"
+#include "tescalib/core/online/keyframe_window.h"
 #include "tescalib/core/uncertainty/trust.h"
 
 using namespace tescalib;
@@ -153,4 +155,19 @@ TEST(CalibrationMonitor, DetectsAStepWithinTwoFreshWindows) {
   EXPECT_LE(changed_at, 40);
   EXPECT_GE(change_after, 30);  // the restart keeps no keyframe from before the step
   EXPECT_LT(change_after, changed_at);
+}
+
+TEST(CalibrationMonitor, ARestartedWindowKeepsOnlyTheKeyframesAfterTheChange) {
+  for (const char* selection : {"fifo", "information"}) {
+    KeyframeWindow w(10, selection);
+    for (int i = 0; i < 12; ++i) {
+      auto k = std::make_shared<Keyframe>();
+      k->stamp = 0.5 * i;
+      w.add(k);
+    }
+    ASSERT_EQ(w.size(), 10u);
+    EXPECT_EQ(w.dropUpTo(3.5), 4u) << selection;  // 4.0 4.5 5.0 5.5
+    EXPECT_EQ(w.stamps(), (std::vector<double>{4.0, 4.5, 5.0, 5.5})) << selection;
+    EXPECT_EQ(w.dropUpTo(-1), 4u);
+  }
 }
