@@ -279,6 +279,30 @@ TEST(Params, NotANumberAndOtherSilentValuesAreNamed) {
     EXPECT_NE(error.find(named), std::string::npos) << named << " in: " << error;
 }
 
+TEST(Params, MonitorParametersReachTheCoreAndBadOnesAreNamed) {
+  ros::NodeHandle good("~monitor_good");
+  good.setParam("monitor/action", std::string("flag"));
+  good.setParam("monitor/cusum_h", 90.0);
+  good.setParam("monitor/change_span_s", 5.0);
+  tescalib::NodeParams p;
+  std::string error;
+  ASSERT_TRUE(tescalib::loadNodeParams(good, &p, &error)) << error;
+  EXPECT_EQ(p.online.monitor.action, "flag");
+  EXPECT_DOUBLE_EQ(p.online.monitor.cusum_h, 90.0);
+  EXPECT_DOUBLE_EQ(p.online.monitor.change_span_s, 5.0);
+  EXPECT_DOUBLE_EQ(p.online.monitor.cusum_k, tescalib::MonitorSettings().cusum_k);
+  ros::NodeHandle bad("~monitor_bad");
+  bad.setParam("monitor/action", std::string("alarm"));
+  bad.setParam("monitor/cusum_k", std::nan(""));
+  bad.setParam("monitor/fresh_fraction", 1.5);
+  tescalib::NodeParams q;
+  EXPECT_FALSE(tescalib::loadNodeParams(bad, &q, &error));
+  for (const char* named :
+       {"monitor/action must be recalibrate, flag or off (got 'alarm')",
+        "monitor/cusum_k must be > 0", "monitor/fresh_fraction must be in (0, 1]"})
+    EXPECT_NE(error.find(named), std::string::npos) << named << " in: " << error;
+}
+
 TEST(Params, ValuesOfTheWrongTypeAreNamed) {
   // roscpp alone keeps the default for "true" given to a bool and rounds 10.7 to 11.
   ros::NodeHandle pnh("~types");

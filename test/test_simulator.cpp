@@ -697,3 +697,55 @@ TEST(Simulator, SweptScanIsReportedInTheFrameOfEachBeamsFiring) {
   EXPECT_LT(front_max, 0.01);
   EXPECT_LT(fixed_max, 0.01);
 }
+
+TEST(Simulator, AnExtrinsicStepMovesTheLidarOrTheRightCameraFromItsTime) {
+  TempDir plain, lidar, stereo;
+  SimOptions o = options(Scenario::kUrban, 2, 11);
+  o.width = 400;
+  o.height = 150;
+  simulateSequence(o, plain.str());
+  o.step.at_s = 0.1;  // frame 1
+  o.step.rot_deg = 0.5;
+  o.step.trans_m = 0.03;
+  simulateSequence(o, lidar.str());
+  o.step.stereo = true;
+  simulateSequence(o, stereo.str());
+  const auto p = readTree(plain.str()), l = readTree(lidar.str()), s = readTree(stereo.str());
+  EXPECT_EQ(p.count("calib_after_step.txt"), 0u);
+  for (const auto* stepped : {&l, &s}) {
+    ASSERT_EQ(stepped->size(), p.size() + 1);
+    for (const char* same : {"calib.txt", "times.txt", "poses.txt", "image_2/000000.png",
+                             "image_3/000000.png", "velodyne/000000.bin", "image_2/000001.png"})
+      EXPECT_EQ(stepped->at(same), p.at(same)) << same;  // before the step, and the left camera
+  }
+  // A LiDAR step moves the LiDAR (the cameras stay), a stereo step the right camera.
+  EXPECT_NE(l.at("velodyne/000001.bin"), p.at("velodyne/000001.bin"));
+  EXPECT_EQ(l.at("image_3/000001.png"), p.at("image_3/000001.png"));
+  EXPECT_EQ(s.at("velodyne/000001.bin"), p.at("velodyne/000001.bin"));
+  EXPECT_NE(s.at("image_3/000001.png"), p.at("image_3/000001.png"));
+  // calib_after_step.txt: the truth moved by exactly the step.
+  const StereoRig before = rigFromOdometryCalib(readKittiOdometryCalib(plain.str() + "/calib.txt"));
+  const StereoRig after_l =
+      rigFromOdometryCalib(readKittiOdometryCalib(lidar.str() + "/calib_after_step.txt"));
+  const StereoRig after_s =
+      rigFromOdometryCalib(readKittiOdometryCalib(stereo.str() + "/calib_after_step.txt"));
+  const Vector6d dl = poseError(after_l.T_cam_lidar, before.T_cam_lidar);
+  EXPECT_NEAR(dl.head<3>().norm() * kDegPerRad, 0.5, 1e-6);
+  EXPECT_NEAR(dl.tail<3>().norm(), 0.03, 1e-6);
+  EXPECT_LT(poseError(after_l.T_right_left, before.T_right_left).norm(), 1e-9);
+  const Vector6d ds = poseError(after_s.T_right_left, before.T_right_left);
+  EXPECT_NEAR(ds.head<3>().norm() * kDegPerRad, 0.5, 1e-6);
+  EXPECT_NEAR(ds.tail<3>().norm(), 0.03, 1e-6);
+  EXPECT_LT(poseError(after_s.T_cam_lidar, before.T_cam_lidar).norm(), 1e-6);
+  const auto info = readInfo(lidar.str() + "/sim_info.txt");
+  EXPECT_EQ(info.at("extrinsic_step_at_s"), "0.1");
+  EXPECT_EQ(info.at("extrinsic_step"), "lidar");
+  // The stepped LiDAR sits where the new truth puts it from the camera, which did not move.
+  o.step.stereo = false;
+  const Simulator stepped(o);
+  o.step.at_s = -1;
+  const Simulator unstepped(o);
+  const Eigen::Isometry3d cam = unstepped.worldFromLidar(1) * before.T_cam_lidar.inverse();
+  EXPECT_LT(poseError(stepped.worldFromLidar(1), cam * after_l.T_cam_lidar).norm(), 1e-6);
+  EXPECT_LT(poseError(stepped.worldFromLidar(0), unstepped.worldFromLidar(0)).norm(), 1e-12);
+}

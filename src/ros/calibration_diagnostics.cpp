@@ -3,6 +3,8 @@
 #include <cmath>
 #include <string>
 
+#include <tescalib/CalibrationStatus.h>
+
 #include "tescalib/core/uncertainty/trust.h"
 #include "tescalib/ros/calibration_nodelet.h"
 
@@ -103,6 +105,53 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   stat.add("converged", e ? e->converged : false);
 }
 
+namespace {
+
+/// The monitor's worst state over both extrinsics, as /diagnostics' level and message; OK with
+/// an empty message when neither is suspect, changed or recalibrating.
+std::pair<unsigned char, std::string> monitorSummary(const MonitorReport& r) {
+  using Status = diagnostic_updater::DiagnosticStatusWrapper;
+  std::pair<unsigned char, std::string> worst{Status::OK, ""};
+  const std::pair<const char*, const MonitorStatus*> both[2] = {
+      {"lidar_to_left", &r.lidar_to_left}, {"left_to_right", &r.left_to_right}};
+  for (const auto& [name, s] : both) {
+    if (s == &r.left_to_right && !r.stereo_monitored) continue;
+    const unsigned char level =
+        s->state == MonitorState::kChanged ? Status::ERROR
+        : s->state == MonitorState::kSuspect || s->state == MonitorState::kRecalibrating
+            ? Status::WARN
+            : Status::OK;
+    if (level <= worst.first) continue;
+    char buf[200];
+    std::snprintf(buf, sizeof buf, "monitor: %s %s since %.2f s (evidence %.1f chi2)", name,
+                  monitorStateName(s->state), s->since, s->evidence);
+    worst = {level, buf};
+  }
+  return worst;
+}
+
+}  // namespace
+
+void CalibrationNodelet::publishStatus() {
+  if (!calibrator()) return;
+  const MonitorReport r = calibrator()->monitorReport();
+  CalibrationStatus m;
+  const auto last = calibrator()->lastSolve();
+  if (last) m.header.stamp = rosStamp(last->stamp);
+  m.action = params_.online.monitor.action;
+  m.lidar_to_left = monitorStateName(r.lidar_to_left.state);
+  m.lidar_to_left_since = r.lidar_to_left.since;
+  m.lidar_to_left_evidence = r.lidar_to_left.evidence;
+  m.lidar_to_left_last_chi2 = r.lidar_to_left.last_chi2;
+  if (r.stereo_monitored) {
+    m.left_to_right = monitorStateName(r.left_to_right.state);
+    m.left_to_right_since = r.left_to_right.since;
+    m.left_to_right_evidence = r.left_to_right.evidence;
+    m.left_to_right_last_chi2 = r.left_to_right.last_chi2;
+  }
+  status_pub_.publish(m);
+}
+
 void CalibrationNodelet::summarize(diagnostic_updater::DiagnosticStatusWrapper& stat,
                                    const std::optional<OnlineEstimate>& e,
                                    const std::string& problem, double since_last_set,
@@ -120,6 +169,8 @@ void CalibrationNodelet::summarize(diagnostic_updater::DiagnosticStatusWrapper& 
                   e ? "last estimate kept" : "no converged estimate yet");
   else if (!e)
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::WARN, "no converged estimate yet");
+  else if (const auto m = monitorSummary(calibrator()->monitorReport()); !m.second.empty())
+    stat.summary(m.first, m.second);
   else if (kept_back_chi2 > params_.online.changed_chi2)
     // A converged solve kept back that the published estimate's covariance cannot explain.
     stat.summaryf(diagnostic_updater::DiagnosticStatusWrapper::WARN,

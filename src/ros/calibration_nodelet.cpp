@@ -139,6 +139,7 @@ void CalibrationNodelet::advertise(ros::NodeHandle& nh, ros::NodeHandle& pnh) {
       pnh.advertise<geometry_msgs::PoseWithCovarianceStamped>("left_to_right_pose", 1, true);
   keyframe_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("keyframe/stereo_cloud", 1, true);
   keyframe_mesh_pub_ = pnh.advertise<visualization_msgs::Marker>("keyframe/lidar_mesh", 1, true);
+  status_pub_ = pnh.advertise<CalibrationStatus>("status", 1, true);
   reset_srv_ = pnh.advertiseService("reset", &CalibrationNodelet::onReset, this);
   save_srv_ = pnh.advertiseService("save", &CalibrationNodelet::onSave, this);
 }
@@ -410,6 +411,7 @@ void CalibrationNodelet::solveLoop() {
       std_msgs::Header h;
       h.stamp = rosStamp(c->stamp);
       publishEstimateMsgs(*c, h, candidate_lidar_pub_, candidate_stereo_pub_);
+      publishStatus();
     }
     if (updated) {
       std::lock_guard<std::mutex> publishing(publish_mutex_);

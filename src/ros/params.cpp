@@ -150,6 +150,16 @@ void readSyncWindowAndDeskew(Visit& get, NodeParams* p) {
 }
 
 /// co_calibration/*, stereo/* and images/*.
+/// monitor/*: the calibration monitor (MonitorSettings).
+template <typename Visit>
+void readMonitor(Visit& get, NodeParams* p) {
+  get("monitor/action", &p->online.monitor.action);
+  get("monitor/cusum_k", &p->online.monitor.cusum_k);
+  get("monitor/cusum_h", &p->online.monitor.cusum_h);
+  get("monitor/change_span_s", &p->online.monitor.change_span_s);
+  get("monitor/fresh_fraction", &p->online.monitor.fresh_fraction);
+}
+
 template <typename Visit>
 void readCoCalibrationAndStereo(Visit& get, NodeParams* p) {
   get("co_calibration/estimate_stereo", &p->online.estimate_stereo);
@@ -233,6 +243,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
                     std::vector<std::string>* unknown) {
   Reader get{pnh, {}, {}};
   readSyncWindowAndDeskew(get, p);
+  readMonitor(get, p);
   readCoCalibrationAndStereo(get, p);
   readSolversAndStart(get, p);
   if (unknown) *unknown = unknownNames(pnh, get.names, p->image_transport);
@@ -390,9 +401,22 @@ void checkStartAndFrames(const NodeParams& p, std::ostringstream& e) {
 
 }  // namespace
 
+/// monitor/*.
+void checkMonitor(const MonitorSettings& m, std::ostringstream& e) {
+  if (m.action != "recalibrate" && m.action != "flag" && m.action != "off")
+    e << "monitor/action must be recalibrate, flag or off (got '" << m.action << "'); ";
+  if (!positive(m.cusum_k)) e << "monitor/cusum_k must be > 0 (got " << m.cusum_k << "); ";
+  if (!positive(m.cusum_h)) e << "monitor/cusum_h must be > 0 (got " << m.cusum_h << "); ";
+  if (!nonNegative(m.change_span_s))
+    e << "monitor/change_span_s must be >= 0 s (got " << m.change_span_s << "); ";
+  if (!(m.fresh_fraction > 0 && m.fresh_fraction <= 1))
+    e << "monitor/fresh_fraction must be in (0, 1] (got " << m.fresh_fraction << "); ";
+}
+
 bool validateNodeParams(const NodeParams& p, std::string* error) {
   std::ostringstream e;
   checkWindowAndImages(p.online, e);
+  checkMonitor(p.online.monitor, e);
   checkSyncAndDeskew(p, e);
   checkStereo(p.online, e);
   checkSolvers(p.online, e);
@@ -404,6 +428,7 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
 std::map<std::string, std::string> nodeParamValues(NodeParams p) {
   Collector get;
   readSyncWindowAndDeskew(get, &p);
+  readMonitor(get, &p);
   readCoCalibrationAndStereo(get, &p);
   readSolversAndStart(get, &p);
   return get.values;

@@ -36,6 +36,7 @@
 #include "tescalib/ros/params.h"
 
 #include "calibrate_args.h"
+#include "calibrate_monitor.h"
 #include "calibrate_print.h"
 #include "calibrate_quality.h"
 #include "calibrate_split.h"
@@ -68,6 +69,7 @@ struct Session {
   Frame last_keyframe;                    // its left image and scan, kept only for --overlay
   std::vector<Frame> window_keyframes;    // the last window's keyframes, for the quality scores
   StereoRig initial_rig;                  // the initial guess, for the quality scores
+  calibrate::MonitorLog monitor;          // the monitor's changes, --json's estimates
 
   /// The rig with its initial extrinsics; with --perturb-*, T_cam_lidar is moved away from them
   /// (they stay the reference of the printed errors).
@@ -157,6 +159,7 @@ struct Session {
   void solveAndPrint(const std::string& what, bool recording_ended) {
     const bool changed = calibrator->solve(&last_solve, nullptr, recording_ended);
     ++solves;
+    monitor.afterSolve(*calibrator, changed);
     std::printf("  %s: ", what.c_str());
     const auto e = calibrator->estimate();
     if (changed && e) {
@@ -530,6 +533,7 @@ void configure(const Args& args, Session* session) {
   session->settings.keyframe.mesh.consistent_sample = args.consistent_sample;
   session->settings.deskew = args.deskew > 0;
   if (args.search_deg >= 0) session->settings.co.lidar.search_step_deg = args.search_deg;
+  session->settings.monitor.action = args.monitor;
   session->keep_last_keyframe = !args.overlay.empty();
 }
 
@@ -586,6 +590,12 @@ int main(int argc, char** argv) {
     return 1;
   }
   session.finish();  // a solve never throws (it turns solver errors into a failed solve)
+  session.monitor.printSummary();
+  std::string json_error;
+  if (!args.json.empty() && !session.monitor.writeJson(args.json, &json_error)) {
+    std::cerr << "tescalib_calibrate: " << json_error << "\n";
+    return 1;
+  }
   return session.report(
       args, std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count());
 }

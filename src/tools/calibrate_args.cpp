@@ -143,6 +143,20 @@ void addOutputOptions(CLI::App* app, Args* a) {
            "(top) and with the estimate (bottom; without one, the last solve's, labelled NOT "
            "TRUSTED), to look at the alignment without ROS")
       ->group(g);
+  cli::add(app, "--json", "FILE", cli::to(&a->json, cli::text),
+           "every estimate the node would publish or hold back: {\"estimates\": [{\"time\", "
+           "\"extrinsic\", \"published\", \"T\" [16], \"covariance\" [36], \"monitor\"}]}")
+      ->group(g);
+  cli::add(
+      app, "--monitor", "ACTION",
+      [a](const std::string& v) {
+        if (v != "recalibrate" && v != "flag" && v != "off")
+          throw CLI::ValidationError("--monitor must be recalibrate, flag or off, not '" + v + "'");
+        a->monitor = v;
+      },
+      "the calibration monitor's action on a changed extrinsic (monitor/action): recalibrate "
+      "(default), flag (only report) or off")
+      ->group(g);
 }
 
 /// The input, the mode and the window: the node's own parameter checks (validateNodeParams) on

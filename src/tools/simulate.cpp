@@ -3,8 +3,10 @@
 #include <chrono>
 #include <cstdint>
 #include <iostream>
+#include <sstream>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "cli.h"
 #include "tescalib/core/common/error.h"
@@ -34,6 +36,32 @@ uint64_t toNonNegativeLong(const std::string& v) {
   const long long x = std::stoll(v, &used);
   if (used != v.size() || x < 0) throw std::invalid_argument(v);
   return static_cast<uint64_t>(x);
+}
+
+/// --extrinsic-step AT_S,ROT_DEG,TRANS_M[,lidar|stereo].
+void setStep(const std::string& v, tescalib::ExtrinsicStep* step) {
+  std::vector<std::string> parts;
+  std::stringstream in(v);
+  for (std::string p; std::getline(in, p, ',');) parts.push_back(p);
+  const auto bad = [&v]() {
+    return CLI::ValidationError(
+        "--extrinsic-step wants AT_S,ROT_DEG,TRANS_M[,lidar|stereo] "
+        "(AT_S >= 0 s, 0-90 deg, 0-1 m), not '" +
+        v + "'");
+  };
+  if (parts.size() < 3 || parts.size() > 4) throw bad();
+  try {
+    step->at_s = tescalib::cli::toDouble(parts[0]);
+    step->rot_deg = tescalib::cli::toDouble(parts[1]);
+    step->trans_m = tescalib::cli::toDouble(parts[2]);
+  } catch (const std::exception&) {
+    throw bad();
+  }
+  if (parts.size() == 4 && parts[3] != "lidar" && parts[3] != "stereo") throw bad();
+  step->stereo = parts.size() == 4 && parts[3] == "stereo";
+  if (!(step->at_s >= 0) || !(step->rot_deg >= 0 && step->rot_deg <= 90) ||
+      !(step->trans_m >= 0 && step->trans_m <= 1))
+    throw bad();
 }
 
 /// --size WxH: the image size.
@@ -114,6 +142,13 @@ void addSensorOptions(CLI::App* app, Args* a) {
       "1: sweep each scan over its 0.1 s revolution (clockwise, forward at the frame's stamp) as "
       "a raw driver delivers it: motion-skewed scans to de-skew (default 0: every beam from the "
       "pose at the stamp)")
+      ->group(g);
+  add(
+      app, "--extrinsic-step", "AT_S,ROT_DEG,TRANS_M[,lidar|stereo]",
+      [a](const std::string& v) { setStep(v, &a->options.step); },
+      "the true T_cam_lidar (lidar, the default) or T_right_left (stereo) changes at AT_S s of "
+      "the drive by exactly ROT_DEG and TRANS_M in a random direction (from the seed); "
+      "calib.txt holds the truth before it, calib_after_step.txt the truth after it")
       ->group(g);
   add(app, "--threads", "T", to(&a->options.threads, tescalib::cli::toInt),
       "worker threads (default: all cores); the output does not depend on it")

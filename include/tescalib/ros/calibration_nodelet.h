@@ -32,6 +32,7 @@
 #include <tf2_ros/transform_listener.h>
 
 #include <std_srvs/Trigger.h>
+#include <tescalib/CalibrationStatus.h>
 #include <tescalib/Save.h>
 
 #include "tescalib/core/online/online_calibrator.h"
@@ -123,7 +124,9 @@ class CalibrationNodelet : public nodelet::Nodelet {
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onSave(Save::Request& req, Save::Response& res);
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& stat);
-  /// /diagnostics' level and message: started or not, data coming, estimate, kept-back solve.
+  /// /diagnostics' level and message: started or not, data coming, estimate, the monitor's
+  /// state (ERROR while an extrinsic is changed, WARN while suspect or recalibrating), kept-back
+  /// solve.
   void summarize(diagnostic_updater::DiagnosticStatusWrapper& stat,
                  const std::optional<OnlineEstimate>& e, const std::string& problem,
                  double since_last_set, double kept_back_chi2) const;
@@ -159,6 +162,9 @@ class CalibrationNodelet : public nodelet::Nodelet {
   /// the calibration anyway, published only while someone subscribes.
   ros::Publisher keyframe_cloud_pub_, keyframe_mesh_pub_;
   void publishKeyframe(const Keyframe& kf);
+  /// ~status: the calibration monitor's state per extrinsic after every solve (latched).
+  ros::Publisher status_pub_;
+  void publishStatus();
   ros::ServiceServer reset_srv_, save_srv_;
   ros::WallTimer watchdog_timer_;
   std::unique_ptr<tf2_ros::StaticTransformBroadcaster> tf_pub_;  ///< solve thread only

@@ -37,6 +37,18 @@ void KeyframeWindow::clear() {
   information_.clear();
 }
 
+size_t KeyframeWindow::dropUpTo(double stamp) {
+  for (auto it = keyframes_.begin(); it != keyframes_.end();) {
+    if ((*it)->stamp <= stamp) {
+      information_.erase((*it)->stamp);
+      it = keyframes_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  return keyframes_.size();
+}
+
 void KeyframeWindow::storeInformation(const std::vector<std::shared_ptr<Keyframe>>& solved,
                                       const std::vector<Matrix6d>& information) {
   if (information.size() != solved.size()) return;

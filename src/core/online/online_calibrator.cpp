@@ -8,7 +8,10 @@
 namespace tescalib {
 
 OnlineCalibrator::OnlineCalibrator(const StereoRig& rig, const OnlineSettings& settings)
-    : rig_(rig), settings_(settings), window_(settings.window_size, settings.keyframe_selection) {}
+    : rig_(rig),
+      settings_(settings),
+      window_(settings.window_size, settings.keyframe_selection),
+      monitor_(settings.monitor) {}
 
 FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, std::string* msg,
                                        std::shared_ptr<const Keyframe>* built) {
@@ -109,6 +112,8 @@ void OnlineCalibrator::clearWindow() {
   last_keyframe_stamp_ = -1e300;
   new_keyframes_ = 0;
   ++generation_;
+  monitor_.lidar_to_left.forgetStamps();
+  monitor_.left_to_right.forgetStamps();
 }
 
 std::vector<double> OnlineCalibrator::windowStamps() const {
@@ -203,7 +208,10 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
   OnlineEstimate& e = result.estimate;
   e.solve_id = ++solves_kept_;
   e.chi2_to_published = chi2ToPublished(e, estimate_);
-  const std::string refusal = publicationRefusal(e, estimate_, settings_, *msg);
+  std::string refusal = publicationRefusal(e, estimate_, settings_, *msg);
+  const std::string monitor_note = monitorSolve(input, e);
+  if (!monitor_note.empty())
+    refusal = refusal.empty() ? monitor_note : refusal + "; " + monitor_note;
   if (!refusal.empty()) {
     *msg = refusal;
     last_solve_ = e;
@@ -211,6 +219,8 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
     return false;
   }
   estimate_ = last_solve_ = e;
+  monitor_.lidar_to_left.published(e.stamp, e.T_cam_lidar, e.cov_lidar);
+  if (e.stereo_estimated) monitor_.left_to_right.published(e.stamp, e.T_right_left, e.cov_stereo);
   if (result.lidar_sensitivity) co_sensitivity_ = result.lidar_sensitivity;
   // Keep the co-calibration's re-rectified or rescaled clouds. Only with the estimate they were
   // rectified for: an unpublished one's would leave the window on a stereo extrinsic nothing else
@@ -218,6 +228,51 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
   if (result.clouds_recomputed) window_.adoptRecomputedClouds(input.keyframes);
   if (published) *published = e;
   return true;
+}
+
+std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input, const OnlineEstimate& e) {
+  const MonitorSettings& m = settings_.monitor;
+  if (m.action == "off" || !estimate_) return "";
+  std::vector<double> stamps;
+  for (const auto& k : input.keyframes) stamps.push_back(k->stamp);
+  if (e.converged && e.cov_lidar_known)
+    monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar);
+  if (e.converged && e.stereo_estimated && e.cov_stereo_known && estimate_->stereo_estimated)
+    monitor_.left_to_right.observe(stamps, e.T_right_left, e.cov_stereo);
+  const MonitorStatus* changed = nullptr;
+  std::string note;
+  for (const auto* s : {&monitor_.lidar_to_left.status(), &monitor_.left_to_right.status()}) {
+    const char* name = s == &monitor_.lidar_to_left.status() ? "lidar_to_left" : "left_to_right";
+    if (s->state == MonitorState::kChanged && !changed) changed = s;
+    if (s->state != MonitorState::kSuspect && s->state != MonitorState::kChanged) continue;
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "%smonitor: %s %s since %.2f s (evidence %.1f, chi2 %.1f)",
+                  note.empty() ? "" : "; ", name, monitorStateName(s->state), s->since, s->evidence,
+                  s->last_chi2);
+    note += buf;
+  }
+  // With "flag" the monitor only reports: publication goes on as without it.
+  if (m.action != "recalibrate") return "";
+  if (changed) {
+    const size_t left = window_.dropUpTo(changed->change_after);
+    monitor_.lidar_to_left.restarted();
+    monitor_.left_to_right.restarted();
+    char buf[160];
+    std::snprintf(buf, sizeof buf,
+                  ": window restarted from the %zu keyframes after %.2f s, recalibrating", left,
+                  changed->change_after);
+    note += buf;
+  }
+  return note;
+}
+
+MonitorReport OnlineCalibrator::monitorReport() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  MonitorReport r;
+  r.lidar_to_left = monitor_.lidar_to_left.status();
+  r.left_to_right = monitor_.left_to_right.status();
+  r.stereo_monitored = settings_.estimate_stereo;
+  return r;
 }
 
 void OnlineCalibrator::setPreviousScan(std::shared_ptr<const LidarScan> scan, double stamp) {
@@ -236,6 +291,8 @@ void OnlineCalibrator::reset() {
   clearWindow();
   estimate_.reset();
   co_sensitivity_.reset();
+  monitor_.lidar_to_left.reset();
+  monitor_.left_to_right.reset();
   rows_checked_ = false;  // a recalibration checks the rows again
   last_stamp_ = -1e300;
 }

@@ -6,11 +6,13 @@
 #include <fstream>
 #include <iomanip>
 #include <mutex>
+#include <random>
 #include <sstream>
 
 #include <opencv2/imgcodecs.hpp>
 
 #include "tescalib/core/common/error.h"
+#include "tescalib/core/common/geometry.h"
 #include "tescalib/core/common/parallel.h"
 #include "tescalib/core/sim/scene_culling.h"
 #include "tescalib/core/sim/simulator_camera.h"
@@ -74,6 +76,9 @@ void validate(const SimOptions& o) {
   if (o.calib.Tr.col(3).norm() > 5.0) fail("calibration Tr puts the LiDAR more than 5 m from cam0");
   const double baseline = (K2.inverse() * (o.calib.P[3].col(3) - o.calib.P[2].col(3))).norm();
   if (baseline < 0.01) fail("calibration P2/P3 give a baseline below 1 cm");
+  const ExtrinsicStep& st = o.step;
+  if (st.active() && !(st.rot_deg >= 0 && st.rot_deg <= 90 && st.trans_m >= 0 && st.trans_m <= 1))
+    fail("the extrinsic step's rotation must be 0-90 deg and its translation 0-1 m");
 }
 
 }  // namespace
@@ -137,11 +142,42 @@ KittiOdometryCalib defaultSimCalib() {
   return c;
 }
 
+namespace {
+
+/// The calibration after `step` of `calib` (whose rig is `rig`), and that rig.
+KittiOdometryCalib stepCalib(const KittiOdometryCalib& calib, const StereoRig& rig,
+                             const ExtrinsicStep& step, uint64_t seed, StereoRig* after) {
+  std::mt19937_64 rng(sim::subSeed(seed, 0x5e9));
+  const Vector6d delta = randomPerturbation(step.rot_deg / kDegPerRad, step.trans_m, rng);
+  KittiOdometryCalib c = calib;
+  *after = rig;
+  const Eigen::Matrix3d K2_inv = calib.P[2].leftCols<3>().inverse();
+  if (step.stereo) {
+    after->T_right_left = perturb(rig.T_right_left, delta);
+    c.R_right_left = after->T_right_left.linear();
+    c.P[3].col(3) =
+        calib.P[3].leftCols<3>() * (after->T_right_left.translation() + K2_inv * calib.P[2].col(3));
+  } else {
+    after->T_cam_lidar = perturb(rig.T_cam_lidar, delta);
+    Eigen::Isometry3d T_cam0_cam2 = Eigen::Isometry3d::Identity();
+    T_cam0_cam2.translation() = -K2_inv * calib.P[2].col(3);
+    c.Tr = (T_cam0_cam2 * after->T_cam_lidar).matrix().topRows<3>();
+  }
+  return c;
+}
+
+}  // namespace
+
 struct Simulator::Impl {
   std::unique_ptr<sim::VehicleTrajectory> trajectory;
   Eigen::Isometry3d T_cam0_lidar;  ///< from Tr
   Eigen::Isometry3d T_cam2_lidar;  ///< ground truth as the reader recovers it
   Eigen::Isometry3d T_cam3_lidar;
+  /// After SimOptions::step (the same as before without one).
+  Eigen::Isometry3d T_cam2_lidar_after, T_cam3_lidar_after;
+  StereoRig rig_after;
+  KittiOdometryCalib calib_after;
+  bool after(double t, const ExtrinsicStep& step) const { return step.active() && t >= step.at_s; }
   sim::LidarModel lidar = sim::LidarModel::hdl64e();
   sim::LidarNoise lidar_noise;
 };
@@ -159,6 +195,13 @@ Simulator::Simulator(const SimOptions& options)
   T_cam0_cam2.translation() =
       -options_.calib.P[2].leftCols<3>().inverse() * options_.calib.P[2].col(3);
   impl_->T_cam0_lidar = T_cam0_cam2 * impl_->T_cam2_lidar;
+  impl_->rig_after = rig_;
+  impl_->calib_after = options_.calib;
+  if (options_.step.active())
+    impl_->calib_after =
+        stepCalib(options_.calib, rig_, options_.step, options_.seed, &impl_->rig_after);
+  impl_->T_cam2_lidar_after = impl_->rig_after.T_cam_lidar;
+  impl_->T_cam3_lidar_after = impl_->rig_after.T_right_left * impl_->rig_after.T_cam_lidar;
   const double route = kMaxSpeed / kFrameRate * (options_.frames - 1);
   world_ = std::make_unique<sim::SceneWorld>(
       sim::buildScene(options_.scenario, options_.seed, -kRouteBehind, route + kRouteAhead));
@@ -179,8 +222,15 @@ Eigen::Isometry3d Simulator::worldFromVehicleAt(double t) const {
 }
 
 Eigen::Isometry3d Simulator::worldFromLidarAt(double t) const {
+  // After a LiDAR step the cameras stay on the vehicle where they were and the LiDAR moves.
+  if (impl_->after(t, options_.step) && !options_.step.stereo)
+    return worldFromVehicleAt(t) * options_.T_vehicle_lidar * impl_->T_cam2_lidar.inverse() *
+           impl_->T_cam2_lidar_after;
   return worldFromVehicleAt(t) * options_.T_vehicle_lidar;
 }
+
+const StereoRig& Simulator::rigAfterStep() const { return impl_->rig_after; }
+const KittiOdometryCalib& Simulator::calibAfterStep() const { return impl_->calib_after; }
 
 void useRandomRig(uint64_t seed, SimOptions* options) {
   const sim::SimRig rig = sim::randomSimRig(seed);
@@ -192,9 +242,13 @@ void useRandomRig(uint64_t seed, SimOptions* options) {
 }
 
 Eigen::Isometry3d Simulator::cam0Pose(int i) const {
+  // Where the LiDAR sits without a step: the cameras stay there relative to it through a step.
+  const auto unstepped = [this](int k) {
+    return worldFromVehicleAt(stamp(k)) * options_.T_vehicle_lidar;
+  };
   const Eigen::Isometry3d lidar_cam0 = impl_->T_cam0_lidar.inverse();
-  const Eigen::Isometry3d w0 = worldFromLidar(0) * lidar_cam0;
-  return w0.inverse() * (worldFromLidar(i) * lidar_cam0);
+  const Eigen::Isometry3d w0 = unstepped(0) * lidar_cam0;
+  return w0.inverse() * (unstepped(i) * lidar_cam0);
 }
 
 LidarScan Simulator::renderScan(int i, int threads) const {
@@ -223,10 +277,13 @@ Frame Simulator::renderFrame(int i, int threads) const {
   f.index = i;
   f.stamp = stamp(i);
   settings.noise_seed = sim::subSeed(options_.seed, 4 * uint64_t(i) + 1);
-  f.left = sim::renderCamera(*world_, shadows, rig_.left, T_wl * impl_->T_cam2_lidar.inverse(),
+  const bool after = impl_->after(f.stamp, options_.step);
+  const Eigen::Isometry3d& T_cam2_lidar = after ? impl_->T_cam2_lidar_after : impl_->T_cam2_lidar;
+  const Eigen::Isometry3d& T_cam3_lidar = after ? impl_->T_cam3_lidar_after : impl_->T_cam3_lidar;
+  f.left = sim::renderCamera(*world_, shadows, rig_.left, T_wl * T_cam2_lidar.inverse(),
                              {float(options_.left_gain), float(options_.left_offset)}, settings);
   settings.noise_seed = sim::subSeed(options_.seed, 4 * uint64_t(i) + 2);
-  f.right = sim::renderCamera(*world_, shadows, rig_.right, T_wl * impl_->T_cam3_lidar.inverse(),
+  f.right = sim::renderCamera(*world_, shadows, rig_.right, T_wl * T_cam3_lidar.inverse(),
                               {float(options_.right_gain), float(options_.right_offset)}, settings);
   f.scan = renderScan(i, t);
   return f;
@@ -265,6 +322,23 @@ void writeTimesAndPoses(const Simulator& sim, const std::string& dir) {
     times << buf << "\n";
     writeRow(poses, sim.cam0Pose(i));
   }
+}
+
+/// sim_info.txt's lines on SimOptions::step (none without one).
+std::string stepInfo(const Simulator& sim) {
+  const ExtrinsicStep& step = sim.options().step;
+  if (!step.active()) return "";
+  std::ostringstream o;
+  o << std::setprecision(10)
+    << "# the true extrinsic steps at extrinsic_step_at_s (s of the drive) by exactly these\n"
+    << "# rotation and translation; calib_after_step.txt holds the truth after it\n"
+    << "extrinsic_step_at_s: " << step.at_s << "\n"
+    << "extrinsic_step_rot_deg: " << step.rot_deg << "\n"
+    << "extrinsic_step_trans_m: " << step.trans_m << "\n"
+    << "extrinsic_step: " << (step.stereo ? "stereo" : "lidar") << "\n"
+    << "T_cam_lidar_after_step: " << yamlList(sim.rigAfterStep().T_cam_lidar) << "\n"
+    << "T_right_left_after_step: " << yamlList(sim.rigAfterStep().T_right_left) << "\n";
+  return o.str();
 }
 
 /// sim_info.txt: the sequence's parameters and ground truth (YAML).
@@ -313,7 +387,8 @@ void writeSimInfo(const Simulator& sim, const sim::LidarModel& lidar, const std:
        << "# ground truth as KittiSequence reads it from calib.txt (3x4, row major)\n"
        << "T_cam_lidar: " << yamlList(sim.rig().T_cam_lidar) << "\n"
        << "T_right_left: " << yamlList(sim.rig().T_right_left) << "\n"
-       << "sun_direction_world: [" << sun.x() << ", " << sun.y() << ", " << sun.z() << "]\n"
+       << stepInfo(sim) << "sun_direction_world: [" << sun.x() << ", " << sun.y() << ", " << sun.z()
+       << "]\n"
        << "poses: cam0 pose of each frame in the cam0 frame of frame 0 (KITTI convention)\n"
        << "lidar_motion: "
        << (o.lidar_sweep
@@ -351,6 +426,12 @@ void writeFrames(const Simulator& sim, const std::string& dir) {
 void Simulator::writeSequence(const std::string& dir) const {
   prepareFolder(dir);
   writeKittiOdometryCalib((fs::path(dir) / "calib.txt").string(), options_.calib);
+  const fs::path after = fs::path(dir) / "calib_after_step.txt";
+  std::error_code ec;
+  if (options_.step.active())
+    writeKittiOdometryCalib(after.string(), impl_->calib_after);
+  else
+    fs::remove(after, ec);  // an earlier output's
   writeTimesAndPoses(*this, dir);
   writeSimInfo(*this, impl_->lidar, dir);
   writeFrames(*this, dir);

@@ -33,6 +33,9 @@ class KeyframeWindow {
   void add(std::shared_ptr<Keyframe> keyframe);
   /// Removes every keyframe and what was measured of them.
   void clear();
+  /// Removes the keyframes stamped at or before `stamp` (a window restarted after a change of
+  /// the extrinsic); returns how many are left.
+  size_t dropUpTo(double stamp);
 
   /// A solve's per-keyframe LiDAR-stereo information (one per keyframe of `solved`, else
   /// ignored), kept for the keyframes still in the window (it slides during a solve).

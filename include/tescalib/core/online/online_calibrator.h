@@ -18,6 +18,7 @@
 
 #include "tescalib/core/common/types.h"
 #include "tescalib/core/lidar/scan_motion.h"
+#include "tescalib/core/online/calibration_monitor.h"
 #include "tescalib/core/online/keyframe_intake.h"
 #include "tescalib/core/online/keyframe_window.h"
 #include "tescalib/core/online/online_estimate.h"
@@ -96,6 +97,8 @@ class OnlineCalibrator {
   Eigen::Isometry3d currentTrightLeft() const;
   /// Stamps of the keyframes in the window, oldest first.
   std::vector<double> windowStamps() const;
+  /// The calibration monitor's state per extrinsic (calibration_monitor.h).
+  MonitorReport monitorReport() const;
 
  private:
   /// A frame selected as a keyframe: what it is built with, and what undoes the selection.
@@ -125,6 +128,10 @@ class OnlineCalibrator {
   /// window holds too few keyframes.
   bool startSolve(bool recording_ended, WindowSolveInput* input, uint64_t* generation,
                   std::string* msg);
+  /// Feeds a solve's estimate to the monitor; returns why the monitor holds it back (empty: it
+  /// does not), and restarts the window on `changed` with MonitorSettings::action recalibrate.
+  std::string monitorSolve(const WindowSolveInput& input,
+                           const OnlineEstimate& e);  ///< REQUIRES(mutex_)
   /// Records a solve's result and publishes it when the publish policy lets it.
   bool concludeSolve(const WindowSolveInput& input, uint64_t generation, WindowSolveResult result,
                      std::string* msg, OnlineEstimate* published);
@@ -152,6 +159,7 @@ class OnlineCalibrator {
   /// GUARDED_BY(mutex_): the published full co-calibration's LiDAR sensitivity to the pair, for
   /// the warm updates after it (CoCalibrationSettings::reuse_lidar_sensitivity).
   std::optional<Matrix6d> co_sensitivity_;
+  CalibrationMonitor monitor_;  ///< GUARDED_BY(mutex_)
 };
 
 }  // namespace tescalib

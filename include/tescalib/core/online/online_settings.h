@@ -13,6 +13,27 @@
 
 namespace tescalib {
 
+/// The calibration monitor (calibration_monitor.h): a CUSUM over the chi2 of fresh windows'
+/// estimates against the published one, per extrinsic.
+struct MonitorSettings {
+  /// "recalibrate": on `changed` the window restarts from the keyframes after the change and the
+  /// next trusted estimate replaces the old one; "flag": the monitor only reports; "off": no
+  /// monitoring (every trusted estimate is published, as without a monitor). While `changed` /
+  /// `recalibrating` the old extrinsic stays published (and on the node's /tf_static).
+  std::string action = "recalibrate";
+  /// The CUSUM's reference value: each fresh window adds chi2 - cusum_k to the evidence (never
+  /// below 0). 22.46 is chi2's 99.9 % quantile with 6 DoF.
+  double cusum_k = 22.46;
+  /// Evidence at which the extrinsic counts as changed (with change_span_s of driving).
+  double cusum_h = 60.0;
+  /// s of driving from the first window that raised the evidence (`suspect`) to the one that
+  /// declares `changed`: a single window, however far off, is never enough.
+  double change_span_s = 3.0;
+  /// A solve's window counts as fresh evidence when at least this fraction of its keyframes is
+  /// newer than every keyframe of the last window counted (non-overlapping windows).
+  double fresh_fraction = 0.6;
+};
+
 struct OnlineSettings {
   double keyframe_min_dt = 0.5;  ///< s between keyframes
   int window_size = 10;          ///< keyframes in the sliding window (paper's co-calibration: 10)
@@ -120,6 +141,7 @@ struct OnlineSettings {
   /// one kind (co-calibration matches clouds again with it).
   KeyframeSettings keyframe;
   CoCalibrationSettings co;
+  MonitorSettings monitor;
 };
 
 }  // namespace tescalib

@@ -7,6 +7,7 @@
 //   DIR/velodyne/     NNNNNN.bin, float32 x y z intensity, KITTI ring order
 //   DIR/poses.txt     cam0 pose of each frame in the first cam0 frame (KITTI convention, 3x4)
 //   DIR/sim_info.txt  the generator's parameters (scenario, seed, noise, exposures, ...)
+//   DIR/calib_after_step.txt  with SimOptions::step: the ground truth after the step
 // The same options give the same bytes (no time-based randomness, no thread-order dependence).
 #pragma once
 
@@ -47,6 +48,19 @@ struct SimNoise {
 /// cam2 6 cm left of cam0, 0.54 m baseline, Tr of the 2011_09_30 recordings.
 KittiOdometryCalib defaultSimCalib();
 
+/// A change of one true extrinsic during the drive (a bumped LiDAR mount or camera): from
+/// `at_s` on, T_cam_lidar (or T_right_left with `stereo`) is the one before moved by exactly
+/// `rot_deg` about and `trans_m` along random directions drawn from the sequence's seed. The
+/// cameras stay where they are on the vehicle; with a LiDAR step the LiDAR moves, with a stereo
+/// step the right camera.
+struct ExtrinsicStep {
+  double at_s = -1;  ///< s of the drive; < 0: no step
+  double rot_deg = 0;
+  double trans_m = 0;
+  bool stereo = false;  ///< false: T_cam_lidar steps; true: T_right_left
+  bool active() const { return at_s >= 0; }
+};
+
 /// Everything that defines a generated sequence.
 struct SimOptions {
   Scenario scenario = Scenario::kUrban;          ///< what the world looks like
@@ -71,6 +85,8 @@ struct SimOptions {
   Eigen::Isometry3d T_vehicle_lidar = Eigen::Isometry3d::Identity();
   /// How the rig was chosen, for sim_info.txt ("default", "random", "calib FILE").
   std::string rig_source = "default";
+  /// A change of the true extrinsic during the drive (written as calib_after_step.txt).
+  ExtrinsicStep step;
 };
 
 /// Options whose rig (calib, image size, LiDAR mounting) is drawn from `seed`
@@ -88,8 +104,12 @@ class Simulator {
   Simulator& operator=(const Simulator&) = delete;
 
   const SimOptions& options() const { return options_; }
-  /// The rig as KittiSequence will read it back (image size filled in).
+  /// The rig as KittiSequence will read it back (image size filled in): with a step, the truth
+  /// before it.
   const StereoRig& rig() const { return rig_; }
+  /// The truth after SimOptions::step (rig() without one), and its calib.txt.
+  const StereoRig& rigAfterStep() const;
+  const KittiOdometryCalib& calibAfterStep() const;
   /// Time stamp of frame i (s): 0.1 * i.
   double stamp(int i) const { return 0.1 * i; }
   /// Pose of the vehicle frame in the world at time t (s).

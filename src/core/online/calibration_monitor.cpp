@@ -1,0 +1,85 @@
+#include "tescalib/core/online/calibration_monitor.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/uncertainty/trust.h"
+
+namespace tescalib {
+
+const char* monitorStateName(MonitorState state) {
+  switch (state) {
+    case MonitorState::kCalibrating:
+      return "calibrating";
+    case MonitorState::kCalibrated:
+      return "calibrated";
+    case MonitorState::kSuspect:
+      return "suspect";
+    case MonitorState::kChanged:
+      return "changed";
+    case MonitorState::kRecalibrating:
+      return "recalibrating";
+  }
+  return "unknown";
+}
+
+bool ExtrinsicMonitor::setState(MonitorState state, double stamp) {
+  if (status_.state == state) return false;
+  status_.state = state;
+  status_.since = stamp;
+  return true;
+}
+
+bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, const Eigen::Isometry3d& T,
+                               const Matrix6d& cov) {
+  const MonitorState s = status_.state;
+  if (stamps.empty() || !cov.allFinite()) return false;
+  // Only a calibrated or suspect extrinsic is checked; `changed` holds until recalibrated or
+  // reset, and the other states have no estimate to check against.
+  if (s != MonitorState::kCalibrated && s != MonitorState::kSuspect) return false;
+  const long fresh =
+      std::count_if(stamps.begin(), stamps.end(), [this](double t) { return t > last_newest_; });
+  if (fresh < settings_.fresh_fraction * static_cast<double>(stamps.size())) return false;
+  const double chi2 = nees(poseError(T, reference_), cov + reference_cov_);
+  if (!std::isfinite(chi2)) return false;  // the summed covariance is not positive definite
+  const double newest = *std::max_element(stamps.begin(), stamps.end());
+  last_newest_ = newest;
+  ++status_.fresh_windows;
+  status_.last_chi2 = chi2;
+  status_.evidence = std::max(0.0, status_.evidence + chi2 - settings_.cusum_k);
+  if (status_.evidence <= 0) return setState(MonitorState::kCalibrated, newest);
+  if (s == MonitorState::kCalibrated) {
+    status_.change_after = newest;
+    return setState(MonitorState::kSuspect, newest);
+  }
+  if (status_.evidence >= settings_.cusum_h &&
+      newest - status_.since >= settings_.change_span_s - 1e-9) {
+    ++status_.changes;
+    status_.changed_at = newest;
+    return setState(MonitorState::kChanged, newest);
+  }
+  return false;
+}
+
+void ExtrinsicMonitor::published(double newest, const Eigen::Isometry3d& T, const Matrix6d& cov) {
+  const MonitorState s = status_.state;
+  const bool first = s == MonitorState::kCalibrating || s == MonitorState::kRecalibrating;
+  // Otherwise only the estimate of the fresh window just counted, which agreed with the
+  // reference: one from a window overlapping the next fresh one would hide a change from it.
+  if (!first && !(s == MonitorState::kCalibrated && newest == last_newest_)) return;
+  if (first) {
+    setState(MonitorState::kCalibrated, newest);
+    status_.evidence = 0;
+    last_newest_ = std::max(last_newest_, newest);
+  }
+  reference_ = T;
+  reference_cov_ = cov;
+}
+
+void ExtrinsicMonitor::restarted() {
+  if (status_.state != MonitorState::kChanged) return;
+  status_.state = MonitorState::kRecalibrating;  // since: kept from `changed`
+}
+
+}  // namespace tescalib

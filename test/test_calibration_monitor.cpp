@@ -1,0 +1,173 @@
+// The calibration monitor on synthetic estimate sequences (no images): its state machine, the
+// CUSUM, no false alarm under noise within the covariances, and a step detected.
+#include <cmath>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "tescalib/core/common/geometry.h"
+#include "tescalib/core/online/calibration_monitor.h"
+#include "tescalib/core/online/keyframe_window.h"
+#include "tescalib/core/uncertainty/trust.h"
+
+using namespace tescalib;
+
+namespace {
+
+/// Keyframe stamps of a 10-keyframe window (0.5 s apart) whose newest keyframe is `newest`.
+std::vector<double> window(double newest) {
+  std::vector<double> s;
+  for (int i = 9; i >= 0; --i) s.push_back(newest - 0.5 * i);
+  return s;
+}
+
+/// A window estimate's covariance like a generated urban drive's (0.02 deg, 5 mm per axis).
+Matrix6d windowCovariance() {
+  Vector6d sigma;
+  sigma << 0.02, 0.02, 0.02, 0, 0, 0;
+  sigma.head<3>() /= kDegPerRad;
+  sigma.tail<3>().setConstant(0.005);
+  return sigma.cwiseAbs2().asDiagonal();
+}
+
+/// A window's estimate drawn from the window covariance around the truth moved by `offset`.
+Eigen::Isometry3d drawEstimate(const Vector6d& offset, std::mt19937_64& rng) {
+  const Matrix6d P = windowCovariance();
+  std::normal_distribution<double> n(0, 1);
+  Vector6d a;
+  for (int i = 0; i < 6; ++i) a(i) = std::sqrt(P(i, i)) * n(rng);
+  return perturb(Eigen::Isometry3d::Identity(), offset + a);
+}
+
+/// With kUnit covariances on both sides: an estimate at `chi2` from the identity reference.
+const Matrix6d kUnit = Matrix6d::Identity() * 1e-4;
+Eigen::Isometry3d atChi2(double chi2) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation().x() = std::sqrt(2e-4 * chi2);
+  return T;
+}
+const Eigen::Isometry3d kI = Eigen::Isometry3d::Identity();
+
+}  // namespace
+
+TEST(CalibrationMonitor, StatesFollowTheEvidence) {
+  MonitorSettings s;  // k 22.46, h 60, fresh 0.8
+  s.change_span_s = 8;
+  ExtrinsicMonitor m(s);
+  EXPECT_EQ(m.status().state, MonitorState::kCalibrating);
+  EXPECT_FALSE(m.observe(window(5), atChi2(500), kUnit));  // nothing published: nothing to check
+  m.published(5, kI, kUnit);
+  EXPECT_EQ(m.status().state, MonitorState::kCalibrated);
+  EXPECT_TRUE(m.observe(window(9.5), atChi2(500), kUnit));  // 9 of 10 keyframes after 5 s: fresh
+  EXPECT_EQ(m.status().state, MonitorState::kSuspect);
+  EXPECT_DOUBLE_EQ(m.status().change_after, 9.5);
+  EXPECT_NEAR(m.status().evidence, 500 - 22.46, 1e-9);
+  // Far beyond cusum_h, but 5 s of driving since `suspect` are less than the span's 8 s.
+  EXPECT_FALSE(m.observe(window(14.5), atChi2(500), kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kSuspect);
+  EXPECT_TRUE(m.observe(window(19.5), atChi2(500), kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kChanged);
+  EXPECT_DOUBLE_EQ(m.status().since, 19.5);
+  EXPECT_DOUBLE_EQ(m.status().change_after, 9.5);
+  EXPECT_EQ(m.status().fresh_windows, 3);
+  // `changed` holds: agreeing windows do not clear it (the estimate they agree with is gone).
+  EXPECT_FALSE(m.observe(window(24.5), atChi2(0.1), kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kChanged);
+  m.restarted();
+  EXPECT_EQ(m.status().state, MonitorState::kRecalibrating);
+  EXPECT_FALSE(
+      m.observe(window(29.5), atChi2(900), kUnit));  // the recalibration's windows are not checked
+  m.published(29.5, atChi2(900), kUnit);
+  EXPECT_EQ(m.status().state, MonitorState::kCalibrated);
+  EXPECT_EQ(m.status().evidence, 0);
+  m.reset();
+  EXPECT_EQ(m.status().state, MonitorState::kCalibrating);
+}
+
+TEST(CalibrationMonitor, TheCusumAccumulatesOnlyFreshWindowsAndDrainsBack) {
+  MonitorSettings s;
+  s.cusum_k = 20;
+  ExtrinsicMonitor m(s);
+  m.published(5, kI, kUnit);
+  EXPECT_TRUE(m.observe(window(10), atChi2(30), kUnit));  // +10
+  EXPECT_EQ(m.status().state, MonitorState::kSuspect);
+  EXPECT_NEAR(m.status().evidence, 10, 1e-12);
+  // Overlapping windows (3 of 10 keyframes new) are not evidence of their own.
+  EXPECT_FALSE(m.observe(window(11.5), atChi2(1000), kUnit));
+  EXPECT_NEAR(m.status().evidence, 10, 1e-12);
+  EXPECT_EQ(m.status().fresh_windows, 1);
+  EXPECT_FALSE(m.observe(window(15), atChi2(25), kUnit));  // +5
+  EXPECT_NEAR(m.status().evidence, 15, 1e-12);
+  EXPECT_TRUE(m.observe(window(20), atChi2(4), kUnit));  // -16: back to 0
+  EXPECT_EQ(m.status().state, MonitorState::kCalibrated);
+  EXPECT_EQ(m.status().evidence, 0);
+  EXPECT_EQ(m.status().fresh_windows, 3);
+  EXPECT_NEAR(m.status().last_chi2, 4, 1e-12);
+  // Estimates without a finite covariance are not compared.
+  EXPECT_FALSE(m.observe(window(30), atChi2(900), kUnit * std::nan("")));
+  EXPECT_EQ(m.status().fresh_windows, 3);
+}
+
+TEST(CalibrationMonitor, NoFalseAlarmUnderNoiseWithinTheCovariances) {
+  // 10 minutes of driving with a solve after every keyframe (0.5 s), three times over.
+  for (uint64_t seed : {1, 2, 3}) {
+    std::mt19937_64 rng(seed);
+    ExtrinsicMonitor m{MonitorSettings()};
+    m.published(5, drawEstimate(Vector6d::Zero(), rng), windowCovariance());
+    int suspect = 0;
+    for (double t = 5.5; t < 605; t += 0.5) {
+      const Eigen::Isometry3d T = drawEstimate(Vector6d::Zero(), rng);
+      m.observe(window(t), T, windowCovariance());
+      m.published(t, T, windowCovariance());  // every solve's estimate is published
+      ASSERT_NE(m.status().state, MonitorState::kChanged) << "seed " << seed << " t " << t;
+      suspect += m.status().state == MonitorState::kSuspect;
+    }
+    EXPECT_GT(m.status().fresh_windows, 100);
+    EXPECT_LT(suspect, 60) << "seed " << seed;  // under 5 % of the 1200 solves
+  }
+}
+
+TEST(CalibrationMonitor, DetectsAStepWithinTwoFreshWindows) {
+  std::mt19937_64 rng(7);
+  Vector6d step;  // 0.5 deg, 3 cm
+  step << 0.3, -0.4, 0.0, 0.018, 0.0, -0.024;
+  step.head<3>() /= kDegPerRad;
+  ExtrinsicMonitor m{MonitorSettings()};
+  m.published(5, drawEstimate(Vector6d::Zero(), rng), windowCovariance());
+  double changed_at = -1, change_after = -1;
+  for (double t = 5.5; t < 80 && changed_at < 0; t += 0.5) {
+    // The window sees the step with the share of its keyframes after 30 s.
+    const double share = std::clamp((t - 30.0) / 5.0, 0.0, 1.0);
+    // Every solve's estimate is published until the monitor suspects a change: the reference
+    // must not follow them across the step.
+    const Eigen::Isometry3d T = drawEstimate(share * step, rng);
+    m.observe(window(t), T, windowCovariance());
+    if (m.status().state == MonitorState::kCalibrated) m.published(t, T, windowCovariance());
+    if (t < 30) ASSERT_EQ(m.status().state, MonitorState::kCalibrated) << t;
+    if (m.status().state == MonitorState::kChanged) {
+      changed_at = t;
+      change_after = m.status().change_after;
+    }
+  }
+  EXPECT_GT(changed_at, 30);
+  EXPECT_LE(changed_at, 40);
+  EXPECT_GE(change_after, 30);  // the restart keeps no keyframe from before the step
+  EXPECT_LT(change_after, changed_at);
+}
+
+TEST(CalibrationMonitor, ARestartedWindowKeepsOnlyTheKeyframesAfterTheChange) {
+  for (const char* selection : {"fifo", "information"}) {
+    KeyframeWindow w(10, selection);
+    for (int i = 0; i < 12; ++i) {
+      auto k = std::make_shared<Keyframe>();
+      k->stamp = 0.5 * i;
+      w.add(k);
+    }
+    ASSERT_EQ(w.size(), 10u);
+    EXPECT_EQ(w.dropUpTo(3.5), 4u) << selection;  // 4.0 4.5 5.0 5.5
+    EXPECT_EQ(w.stamps(), (std::vector<double>{4.0, 4.5, 5.0, 5.5})) << selection;
+    EXPECT_EQ(w.dropUpTo(-1), 4u);
+  }
+}
