@@ -145,7 +145,9 @@ TEST(CalibrationMonitor, DetectsAStepWithinTwoFreshWindows) {
     const Eigen::Isometry3d T = drawEstimate(share * step, rng);
     m.observe(window(t), T, windowCovariance());
     if (m.status().state == MonitorState::kCalibrated) m.published(t, T, windowCovariance());
-    if (t < 30) ASSERT_EQ(m.status().state, MonitorState::kCalibrated) << t;
+    if (t < 30) {
+      ASSERT_EQ(m.status().state, MonitorState::kCalibrated) << t;
+    }
     if (m.status().state == MonitorState::kChanged) {
       changed_at = t;
       change_after = m.status().change_after;

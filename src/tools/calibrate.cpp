@@ -540,9 +540,10 @@ void configure(const Args& args, Session* session) {
 /// --split K: the keyframes in K contiguous parts, each calibrated by a session of its own, then
 /// their estimates against each other. 0 when at least two parts converged.
 int runSplit(const Args& args) {
+  const OnlineSettings defaults;
   int total = 0;
   for (const auto& seq : openSequences(args.sequences))
-    total += static_cast<int>(seq->keyframes(OnlineSettings{}.keyframe_min_dt).size());
+    total += static_cast<int>(seq->keyframes(defaults.keyframe_min_dt).size());
   std::vector<calibrate::SplitWindow> windows(args.split);
   int converged = 0;
   for (int k = 0; k < args.split; ++k) {
