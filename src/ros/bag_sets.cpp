@@ -5,9 +5,11 @@
 
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <tf2/exceptions.h>
 #include <tf2_msgs/TFMessage.h>
 
 #include "tescalib/core/common/error.h"
+#include "tescalib/ros/conversions.h"
 
 namespace tescalib {
 
@@ -98,6 +100,19 @@ void readBagStaticTf(const std::string& path, tf2::BufferCore* buffer) {
   for (const rosbag::MessageInstance& m : rosbag::View(bag, rosbag::TopicQuery("/tf_static")))
     if (const auto tf = m.instantiate<tf2_msgs::TFMessage>())
       for (const auto& t : tf->transforms) buffer->setTransform(t, "bag", true);
+}
+
+Eigen::Isometry3d bagLidarExtrinsic(const std::string& path, const tf2::BufferCore& tf,
+                                    const BagSet& set, const std::string& hint) {
+  const std::string cam = set.left_info->header.frame_id.empty() ? set.left->header.frame_id
+                                                                 : set.left_info->header.frame_id;
+  try {
+    return ros_conv::fromTransformMsg(
+        tf.lookupTransform(cam, set.cloud->header.frame_id, ros::Time(0)).transform);
+  } catch (const tf2::TransformException& e) {
+    throw DataError(path + ": no LiDAR extrinsic on /tf_static (" + cam + " <- " +
+                    set.cloud->header.frame_id + ": " + e.what() + ")" + hint);
+  }
 }
 
 }  // namespace tescalib

@@ -454,7 +454,7 @@ struct BagRun {
     if (!args.init.empty())
       applyInit(args.init, &rig);
     else
-      rig.T_cam_lidar = initialExtrinsic(set);
+      rig.T_cam_lidar = bagLidarExtrinsic(args.bag, tf, set, "; give --init FILE");
     session->start(rig, args, "bag " + args.bag);
     intake = std::make_unique<FrameIntake>(session->settings, NodeParams().max_stereo_skew);
     intake->start(*set.left_info, *set.right_info);
@@ -470,19 +470,6 @@ struct BagRun {
           "note: the clouds have no per-point time field: de-skewed by azimuth, which is right "
           "only for a LiDAR phase-locked to the cameras that faces its +x at every image stamp "
           "(KITTI's); --deskew 0 otherwise\n");
-  }
-
-  /// T_cam_lidar from /tf_static: the left camera_info's frame (or the image's) <- the cloud's.
-  Eigen::Isometry3d initialExtrinsic(const BagSet& set) const {
-    const std::string cam = set.left_info->header.frame_id.empty() ? set.left->header.frame_id
-                                                                   : set.left_info->header.frame_id;
-    try {
-      return ros_conv::fromTransformMsg(
-          tf.lookupTransform(cam, set.cloud->header.frame_id, ros::Time(0)).transform);
-    } catch (const tf2::TransformException& e) {
-      throw DataError(args.bag + ": no initial extrinsic on /tf_static (" + cam + " <- " +
-                      set.cloud->header.frame_id + ": " + e.what() + "); give --init FILE");
-    }
   }
 
   /// The intake's observations, each said once: a camera_info that changed, the ring count,

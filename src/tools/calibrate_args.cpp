@@ -14,7 +14,10 @@
 
 namespace tescalib::calibrate {
 
-int windowSize(const Args& a) { return a.window > 0 ? a.window : OnlineSettings{}.window_size; }
+int windowSize(const Args& a) {
+  const OnlineSettings defaults;
+  return a.window > 0 ? a.window : defaults.window_size;
+}
 
 namespace {
 
@@ -175,7 +178,8 @@ bool checkRun(const Args& a) {
     return false;
   }
   const int window = windowSize(a);
-  const int min_co = OnlineSettings{}.min_keyframes_co;
+  const OnlineSettings defaults;
+  const int min_co = defaults.min_keyframes_co;
   if (a.mode != "lidar_stereo" && window < min_co) {
     std::cerr << "tescalib_calibrate: --mode " << a.mode << " needs --window " << min_co
               << " or more (co-calibration waits for " << min_co << " keyframes)\n";

@@ -12,23 +12,6 @@
 #include "tescalib/ros/params.h"
 
 namespace tescalib::validate {
-namespace {
-
-/// T_cam_lidar from /tf_static: the left camera_info's frame (or the image's) <- the cloud's.
-Eigen::Isometry3d bagExtrinsic(const std::string& path, const tf2::BufferCore& tf,
-                               const BagSet& set) {
-  const std::string cam = set.left_info->header.frame_id.empty() ? set.left->header.frame_id
-                                                                 : set.left_info->header.frame_id;
-  try {
-    return ros_conv::fromTransformMsg(
-        tf.lookupTransform(cam, set.cloud->header.frame_id, ros::Time(0)).transform);
-  } catch (const tf2::TransformException& e) {
-    throw DataError(path + ": no LiDAR extrinsic on /tf_static (" + cam + " <- " +
-                    set.cloud->header.frame_id + ": " + e.what() + ")");
-  }
-}
-
-}  // namespace
 
 BagRecording readBagRecording(const std::string& path, const BagTopics& topics,
                               const std::string& spec, const std::set<int>& numbers) {
@@ -44,7 +27,7 @@ BagRecording readBagRecording(const std::string& path, const BagTopics& topics,
       std::string error;
       if (!ros_conv::stereoFromCameraInfo(*set.left_info, *set.right_info, true, &out.rig, &error))
         throw DataError(path + ": " + error);
-      out.rig.T_cam_lidar = bagExtrinsic(path, tf, set);
+      out.rig.T_cam_lidar = bagLidarExtrinsic(path, tf, set);
       intake = std::make_unique<FrameIntake>(online, NodeParams().max_stereo_skew);
       intake->start(*set.left_info, *set.right_info);
     }

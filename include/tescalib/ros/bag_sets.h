@@ -10,6 +10,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2/buffer_core.h>
+#include <Eigen/Geometry>
 
 namespace tescalib {
 
@@ -45,5 +46,11 @@ BagCounts readBagSets(const std::string& path, const BagTopics& topics,
 /// Every transform on /tf_static, for looking up the initial extrinsic. Throws DataError when
 /// the bag cannot be opened.
 void readBagStaticTf(const std::string& path, tf2::BufferCore* buffer);
+
+/// T_cam_lidar from a bag's /tf_static (readBagStaticTf): the left camera_info's frame (or the
+/// left image's) <- the cloud's. Throws DataError "`path`: no LiDAR extrinsic on /tf_static (camera
+/// <- cloud: why)`hint`" when tf has no such transform.
+Eigen::Isometry3d bagLidarExtrinsic(const std::string& path, const tf2::BufferCore& tf,
+                                    const BagSet& set, const std::string& hint = "");
 
 }  // namespace tescalib
