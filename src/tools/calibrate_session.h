@@ -229,26 +229,32 @@ struct Session {
   /// T_cam_lidar of an estimate or of the last solve (`published` false), for the printout.
   ExtrinsicReport lidarReport(const OnlineEstimate& e, const Args& args, bool published) const {
     const CalibrationFrames f = frames(args);
-    ExtrinsicReport r{"LiDAR -> left camera", f.lidar, f.left, e.T_cam_lidar, e.cov_lidar};
-    r.covariance_known = e.cov_lidar_known;
-    r.observable = e.observable_lidar;
-    r.published = published;
-    r.limit_rot_deg = settings.co.lidar.max_sigma_rot_deg;
-    r.limit_trans_m = settings.co.lidar.max_sigma_trans_m;
-    r.weakest = e.weakest_lidar;
-    return r;
+    return extrinsicReport({"LiDAR -> left camera", f.lidar, f.left, e.T_cam_lidar, e.cov_lidar},
+                           e.cov_lidar_known, e.observable_lidar, published, settings.co.lidar,
+                           e.weakest_lidar);
   }
 
   /// T_right_left, as lidarReport.
   ExtrinsicReport stereoReport(const OnlineEstimate& e, const Args& args, bool published) const {
     const CalibrationFrames f = frames(args);
-    ExtrinsicReport r{"left -> right camera", f.left, f.right, e.T_right_left, e.cov_stereo};
-    r.covariance_known = e.cov_stereo_known;
-    r.observable = e.observable_stereo;
+    return extrinsicReport({"left -> right camera", f.left, f.right, e.T_right_left, e.cov_stereo},
+                           e.cov_stereo_known, e.observable_stereo, published, settings.co.stereo,
+                           e.weakest_stereo);
+  }
+
+  /// `r` (title, frames, transform, covariance) with one extrinsic's trust fields and the limits
+  /// of the solver settings `solver` (max_sigma_rot_deg, max_sigma_trans_m).
+  template <typename SolverSettings>
+  static ExtrinsicReport extrinsicReport(ExtrinsicReport r, bool covariance_known,
+                                         const bool* observable, bool published,
+                                         const SolverSettings& solver,
+                                         const WeakDirection& weakest) {
+    r.covariance_known = covariance_known;
+    r.observable = observable;
     r.published = published;
-    r.limit_rot_deg = settings.co.stereo.max_sigma_rot_deg;
-    r.limit_trans_m = settings.co.stereo.max_sigma_trans_m;
-    r.weakest = e.weakest_stereo;
+    r.limit_rot_deg = solver.max_sigma_rot_deg;
+    r.limit_trans_m = solver.max_sigma_trans_m;
+    r.weakest = weakest;
     return r;
   }
 
