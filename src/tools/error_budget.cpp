@@ -34,7 +34,9 @@ const char* const kDescription =
     "fine stage's residuals pull T_cam_lidar: all of them, the stereo clouds' disparity error "
     "alone and the LiDAR mesh's error alone (one Gauss-Newton step, camera axes), then both parts "
     "by surface (road: normal within 37 deg of vertical; facing: within 14 deg of the optical "
-    "axis; lateral: within 45 deg of camera x; other) and depth.";
+    "axis; lateral: within 45 deg of camera x; other) and depth; then how a disparity offset "
+    "of all stereo points and of the road's alone moves it, and the disparity error fitted "
+    "against the disparity's gradient.";
 
 struct Args {
   SimOptions sim;
@@ -80,6 +82,8 @@ bool parse(int argc, char** argv, Args* a) {
   add(&app, "--refine-smoothed-rounds", "N",
       to(&a->ks.stereo.refinement.smoothed_gradient_rounds, cli::atLeast(0)),
       "of those rounds, the first N take the smoothed gradient (default 1)");
+  add(&app, "--refine-window", "R", to(&a->ks.stereo.refinement.window_radius, cli::atLeast(1)),
+      "the refinement's window radius, px (default 4: 9x9 windows)");
   add(&app, "--keep-rings", "N", to(&a->keep_rings, cli::atLeast(1)),
       "keep every Nth laser ring (a sparser LiDAR: N = 4 leaves 16 rings)");
   return cli::parse(&app, argc, argv);
@@ -111,7 +115,25 @@ struct Budget {
   Part all, stereo, mesh;
   std::vector<Part> by_class = std::vector<Part>(kClasses * 3);
   int skipped_edges = 0;
+  /// sum w J dr/db for a disparity offset of every stereo point and of the road's alone
+  Vector6d g_offset = Vector6d::Zero(), g_road_offset = Vector6d::Zero();
+  /// Normal equations of the disparity error fitted as a + b_u dd/du + b_v dd/dv
+  Eigen::Matrix3d slant_A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d slant_y = Eigen::Vector3d::Zero();
 };
+
+/// Adds the disparity error `error` at rectified pixel `px` to the fit of the error against the
+/// disparity's own gradient (central differences over 4 px; steps across depth edges left out).
+void addSlantSample(const StereoCloud& st, const Eigen::Vector2d& px, double error, Budget* b) {
+  double l, r, up, down;
+  if (!st.disparityAt(px.x() - 2, px.y(), &l) || !st.disparityAt(px.x() + 2, px.y(), &r) ||
+      !st.disparityAt(px.x(), px.y() - 2, &up) || !st.disparityAt(px.x(), px.y() + 2, &down))
+    return;
+  const Eigen::Vector3d x(1.0, (r - l) / 4, (down - up) / 4);
+  if (std::fabs(x[1]) >= 1 || std::fabs(x[2]) >= 1 || std::fabs(error) >= 1) return;
+  b->slant_A += x * x.transpose();
+  b->slant_y += x * error;
+}
 
 /// The true point on the ray of camera-frame point `c` (the left camera's depth render `depth`,
 /// intrinsics `K`): inverse depth is affine on a plane, so it is interpolated; false across a depth
@@ -154,6 +176,7 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
       continue;
     }
     const double d_true = fb / (st.R_rect_left * pt).z();
+    addSlantSample(st, px, d - d_true, b);
     const Eigen::Vector3d ps = st.pointAt(px.x(), px.y(), d);
     const Eigen::Vector3d m = T.linear() * f.normal.cast<double>();
     // The fine stage's noise model, gate and Huber weight (LidarStereoSettings defaults).
@@ -174,6 +197,9 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
                     : std::fabs(m.z()) > 0.97 ? kFacing
                     : std::fabs(m.x()) > 0.7  ? kLateral
                                               : kOther;
+    const double dr_dd = m.dot(ps) / d * inv_sigma;  // per px of disparity
+    b->g_offset += w * J * dr_dd;
+    if (cls == kRoad) b->g_road_offset += w * J * dr_dd;
     const int band = pt.z() < kDepthEdges[1] ? 0 : pt.z() < kDepthEdges[2] ? 1 : 2;
     Part& p = b->by_class[cls * 3 + band];
     p.g += w * J * r_stereo, p.disparity_error += d - d_true, ++p.n;
@@ -204,6 +230,18 @@ void printBudget(const Budget& b) {
         dx[5] * 1e3, dx[4] * 1e3, dx[0] * kDegPerRad, p.mesh_error / p.n * 1e3, dm[5] * 1e3,
         dm[4] * 1e3, dm[0] * kDegPerRad);
   }
+}
+
+/// What a disparity offset does (of every stereo point, of the road's alone) and the fit of the
+/// disparity error against the disparity's gradient (a matcher's bias on slanted surfaces).
+void printSensitivities(const Budget& b) {
+  const Matrix6d H_inv = b.H.inverse();
+  std::printf("the estimate's move per px of disparity offset (camera axes x y z):\n");
+  printPull("all", H_inv, b.g_offset);
+  printPull("road", H_inv, b.g_road_offset);
+  const Eigen::Vector3d k = b.slant_A.ldlt().solve(b.slant_y);
+  std::printf("disparity error = %+.4f px %+.4f px * dd/du %+.4f px * dd/dv (%.0f stereo points)\n",
+              k[0], k[1], k[2], b.slant_A(0, 0));
 }
 
 }  // namespace
@@ -258,5 +296,6 @@ int main(int argc, char** argv) {
     return 1;
   }
   printBudget(budget);
+  printSensitivities(budget);
   return 0;
 }
