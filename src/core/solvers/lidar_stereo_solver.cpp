@@ -211,11 +211,12 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.message = "Ceres could not solve an update (NaN residuals, or an infeasible bound)";
     return res;
   }
-  bool all_observable = estimateLidarStereoCovariance(est, s, window.size(), &res);
+  const bool covariance_holds = estimateLidarStereoCovariance(est, s, window.size(), &res);
+  // A drift the covariance does not show is named as such; one it shows adds to its message.
   const bool drifting = !est.settled && flagDrift(est.fine_drift, s, &res);
-  if (drifting)
-    all_observable = std::all_of(res.observable, res.observable + 6, [](bool b) { return b; });
-  judgeConvergence(T_init, s, all_observable, est.settled, drifting, &res);
+  const bool all_observable =
+      std::all_of(res.observable, res.observable + 6, [](bool b) { return b; });
+  judgeConvergence(T_init, s, all_observable, est.settled, drifting && covariance_holds, &res);
   if (res.converged && s.check_window_halves) checkWindowHalves(window, s, &res);
   // Cancelled at any point (a stage, or the halves): not converged, whatever it reached (the
   // header's promise; a cancel during the halves would otherwise leave a "tested" check).
