@@ -100,6 +100,7 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   stat.add("last solve", solve_msg);
   stat.add("solving", solving_.load());
   addTimings(stat);
+  addQuality(stat);
   stat.add("last problem", problem);
   stat.add("unknown parameters", unknown_params_);
   stat.add("converged", e ? e->converged : false);
@@ -179,6 +180,19 @@ void CalibrationNodelet::summarize(diagnostic_updater::DiagnosticStatusWrapper& 
                   kept_back_chi2);
   else
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::OK, "calibrated");
+}
+
+void CalibrationNodelet::addQuality(diagnostic_updater::DiagnosticStatusWrapper& stat) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  // One row per criterion: "edge_alignment 0.2310 (initial 0.2070: better, significant)".
+  for (Criterion c : kAllCriteria)
+    stat.add(std::string("quality ") + criterionName(c),
+             published_quality_        ? published_quality_->describe(c)
+             : params_.quality_enabled ? "no estimate yet"
+                                       : "off (quality/enabled)");
+  stat.add("quality keyframes", published_quality_ ? published_quality_->keyframes : 0);
+  stat.add("quality scoring mean seconds", quality_time_.mean());
+  stat.add("quality scoring max seconds", quality_time_.max);
 }
 
 void CalibrationNodelet::addTimings(diagnostic_updater::DiagnosticStatusWrapper& stat) {

@@ -414,6 +414,8 @@ void CalibrationNodelet::solveLoop() {
       publishStatus();
     }
     if (updated) {
+      // Before the lock: a ~reset meanwhile waits for no scoring.
+      const std::optional<WindowQualityScores> quality = scoreQuality(*e);
       std::lock_guard<std::mutex> publishing(publish_mutex_);
       const auto current = calibrator()->estimate();
       if (!current || current->solve_id != e->solve_id) {
@@ -423,7 +425,11 @@ void CalibrationNodelet::solveLoop() {
             e->keyframes_used);
         continue;
       }
-      publish(*e, rosStamp(e->stamp));
+      publish(*e, rosStamp(e->stamp), quality ? &*quality : nullptr);
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        published_quality_ = quality;
+      }
       std::string kind = e->stereo_estimated ? "LiDAR-stereo, T_right_left kept"
                                              : "LiDAR-stereo, T_right_left not estimated";
       if (e->co_rounds > 0 && params_.online.joint)
@@ -433,16 +439,35 @@ void CalibrationNodelet::solveLoop() {
       NODELET_INFO(
           "tescalib: new estimate from %d keyframes in %.2f s (keyframe to estimate %.2f s; %s)",
           e->keyframes_used, last_solve_seconds_.load(), latency, kind.c_str());
+      if (quality)
+        NODELET_INFO("tescalib: quality on %d keyframes (%.3f s): %s", quality->keyframes,
+                     quality->seconds, quality->summary().c_str());
     } else {
       NODELET_WARN_THROTTLE(5.0, "tescalib: %s", msg.c_str());
     }
   }
 }
 
-void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp) {
+std::optional<WindowQualityScores> CalibrationNodelet::scoreQuality(const OnlineEstimate& e) {
+  if (!params_.quality_enabled) return std::nullopt;
+  if (!quality_) {
+    ValidationSettings settings;
+    settings.stereo = keyframeSettings(params_.online).stereo;  // the keyframes' clouds
+    quality_ = std::make_unique<WindowQuality>(calibrator()->rig(), settings);
+  }
+  const auto keyframes = calibrator()->windowKeyframes(e.stamp);
+  if (keyframes.empty()) return std::nullopt;  // a reset cleared the window meanwhile
+  const WindowQualityScores q = quality_->score(keyframes, e.T_cam_lidar, e.T_right_left);
+  std::lock_guard<std::mutex> lock(mutex_);
+  quality_time_.add(q.seconds);
+  return q;
+}
+
+void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp,
+                                 const WindowQualityScores* quality) {
   std_msgs::Header h;
   h.stamp = stamp;
-  publishEstimateMsgs(e, h, lidar_pub_, stereo_pub_);
+  publishEstimateMsgs(e, h, lidar_pub_, stereo_pub_, quality);
   h.frame_id = params_.left_frame;
   lidar_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_cam_lidar, e.cov_lidar, e.cov_lidar_known));
   h.frame_id = params_.right_frame;
@@ -453,11 +478,14 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
 
 void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
                                              const ros::Publisher& lidar,
-                                             const ros::Publisher& stereo) {
-  lidar.publish(ros_conv::toEstimateMsg(h, params_.left_frame, lidar_frame_, e.T_cam_lidar,
-                                        e.cov_lidar, e.observable_lidar, e.converged,
-                                        e.keyframes_used, e.cost_lidar, e.iterations_lidar,
-                                        e.message, true, e.weakest_lidar, e.cov_lidar_known));
+                                             const ros::Publisher& stereo,
+                                             const WindowQualityScores* quality) {
+  ExtrinsicEstimate m = ros_conv::toEstimateMsg(
+      h, params_.left_frame, lidar_frame_, e.T_cam_lidar, e.cov_lidar, e.observable_lidar,
+      e.converged, e.keyframes_used, e.cost_lidar, e.iterations_lidar, e.message, true,
+      e.weakest_lidar, e.cov_lidar_known);
+  if (quality) ros_conv::setQuality(*quality, &m);
+  lidar.publish(m);
   stereo.publish(ros_conv::toEstimateMsg(
       h, params_.right_frame, params_.left_frame, e.T_right_left, e.cov_stereo, e.observable_stereo,
       e.converged, e.keyframes_used, e.cost_stereo, e.iterations_stereo, e.message,

@@ -1,0 +1,78 @@
+// The quality scores of an online estimate (validation_set.h's criteria, which the solvers do not
+// optimise) on the keyframes of the calibrator's window, against the initial extrinsics on the
+// same keyframes: what the node publishes with each estimate. Each keyframe is prepared once (edge
+// maps, blurred grey images, depth discontinuities) and its initial scores computed once, kept
+// while it is passed in; the disparity criterion reads the keyframe's own stereo cloud (the one
+// the solvers use), triangulated again from its matches for another left->right extrinsic.
+#pragma once
+
+#include <array>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/validation/validation.h"
+
+namespace tescalib {
+
+struct WindowQualityScores {
+  int keyframes = 0;
+  FrameScores estimate, initial;  ///< per criterion, per keyframe (oldest first)
+  double seconds = 0;             ///< wall time of the scoring, preparation included
+  int prepared = 0;               ///< keyframes prepared by this call (not kept from before)
+
+  /// The mean over the keyframes of a criterion's scores (0 without keyframes).
+  static double mean(const FrameScores& s, Criterion c) { return summarize(s[int(c)]).mean; }
+  /// The estimate's advantage over the initial extrinsics, paired keyframe by keyframe and
+  /// oriented so that positive is better (higherIsBetter).
+  ScoreSummary advantage(Criterion c) const;
+  /// "0.2310 (initial 0.2070: better, significant)": the means and the paired difference's
+  /// verdict.
+  std::string describe(Criterion c) const;
+  /// Every criterion's describe(), "edge_alignment 0.2310 (initial ...), photometric_residual ...".
+  std::string summary() const;
+};
+
+/// Not thread-safe: one caller (the node's solve thread) scores one window at a time.
+class WindowQuality {
+ public:
+  /// `initial`: the intrinsics and the initial extrinsics the estimates are compared with.
+  /// `settings.stereo`: the keyframes' stereo settings, for their clouds triangulated with
+  /// another left->right extrinsic.
+  explicit WindowQuality(const StereoRig& initial, const ValidationSettings& settings = {});
+
+  /// Scores (T_cam_lidar, T_right_left) and the initial extrinsics on `keyframes` (each with its
+  /// grey images, scan and stereo cloud). Keyframes not passed any more are forgotten.
+  WindowQualityScores score(const std::vector<std::shared_ptr<const Keyframe>>& keyframes,
+                            const Eigen::Isometry3d& T_cam_lidar,
+                            const Eigen::Isometry3d& T_right_left);
+
+  /// Keyframes prepared and kept.
+  size_t kept() const { return prepared_.size(); }
+
+ private:
+  struct Kept {
+    std::shared_ptr<const PreparedFrame> prepared;
+    /// The initial extrinsics' scores, of the keyframe object `scored` (a keyframe whose cloud
+    /// the window replaced is scored again).
+    std::array<double, kCriteria> initial{};
+    std::weak_ptr<const Keyframe> scored;
+  };
+  /// The keyframe's stereo cloud for `T_right_left`: its own, or its matches triangulated again.
+  std::shared_ptr<const StereoCloud> cloudFor(const std::shared_ptr<const Keyframe>& kf,
+                                              const Eigen::Isometry3d& T_right_left) const;
+  /// Scores one keyframe (preparing it and scoring the initial extrinsics when `k` lacks them).
+  void scoreKeyframe(const std::shared_ptr<const Keyframe>& kf,
+                     const Eigen::Isometry3d& T_cam_lidar, const Eigen::Isometry3d& T_right_left,
+                     Kept* k, std::array<double, kCriteria>* estimate) const;
+
+  StereoRig initial_;
+  ValidationSettings settings_;
+  std::map<double, Kept> prepared_;  ///< by keyframe stamp
+};
+
+}  // namespace tescalib
