@@ -289,6 +289,17 @@ TEST_F(ValidationGenerated, WindowQualityScoresTheTruthAboveAPerturbedInitialGue
   EXPECT_EQ(again.initial, s.initial);
   quality.score({keyframes.begin() + 3, keyframes.end()}, truth.T_cam_lidar, truth.T_right_left);
   EXPECT_EQ(quality.kept(), 3u);
+  // Prepared ahead (the node's keyframe thread), the keyframes are scored alike without being
+  // prepared again; one prepared after the estimate's keyframes is kept for the next estimate.
+  WindowQuality ahead(initial);
+  for (const auto& kf : keyframes) ahead.prepare(kf);
+  const std::vector<std::shared_ptr<const Keyframe>> first5(keyframes.begin(), keyframes.end() - 1);
+  const WindowQualityScores five = ahead.score(first5, truth.T_cam_lidar, truth.T_right_left);
+  EXPECT_EQ(five.prepared, 0);
+  EXPECT_EQ(five.estimate[0], std::vector<double>(s.estimate[0].begin(), s.estimate[0].end() - 1));
+  EXPECT_EQ(five.initial[2], std::vector<double>(s.initial[2].begin(), s.initial[2].end() - 1));
+  EXPECT_EQ(ahead.kept(), 6u);
+  EXPECT_EQ(ahead.score(keyframes, truth.T_cam_lidar, truth.T_right_left).prepared, 0);
 }
 
 // An estimate of the pair (co-calibration) against an initial pair 0.1 deg off in yaw: the

@@ -193,6 +193,7 @@ void CalibrationNodelet::addQuality(diagnostic_updater::DiagnosticStatusWrapper&
   stat.add("quality keyframes", published_quality_ ? published_quality_->keyframes : 0);
   stat.add("quality scoring mean seconds", quality_time_.mean());
   stat.add("quality scoring max seconds", quality_time_.max);
+  stat.add("quality keyframe preparation mean seconds", quality_prepare_time_.mean());
 }
 
 void CalibrationNodelet::addTimings(diagnostic_updater::DiagnosticStatusWrapper& stat) {

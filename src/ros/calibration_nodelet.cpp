@@ -189,6 +189,12 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
   lidar_frame_ = init.lidar_frame;
   const StereoRig& rig = init.rig;
   calibrator_owner_ = std::make_unique<OnlineCalibrator>(rig, params_.online);
+  if (params_.quality_enabled) {
+    ValidationSettings settings;
+    settings.stereo = keyframeSettings(params_.online).stereo;  // the keyframes' clouds
+    quality_ = std::make_unique<WindowQuality>(rig, settings);
+  }
+  // Published last: the worker threads use the calibrator and quality_ once they see it.
   calibrator_.store(calibrator_owner_.get(), std::memory_order_release);
   // tf was needed for the initial guess only: stop listening (a listener's buffer warns of
   // TF_REPEATED_DATA at every loop of a bag, and it reads every /tf message for nothing).
@@ -348,6 +354,14 @@ void CalibrationNodelet::preprocessLoop() {
         solve_requested_ = true;
       }
       cv_.notify_all();
+      // While the solve runs: what the quality scores need of the keyframe, so that the
+      // published estimate waits only for its own scores.
+      if (kf && quality_) {
+        const ros::WallTime q0 = ros::WallTime::now();
+        quality_->prepare(kf);
+        std::lock_guard<std::mutex> lock(mutex_);
+        quality_prepare_time_.add((ros::WallTime::now() - q0).toSec());
+      }
     } else if (r == FrameResult::kReset) {
       NODELET_WARN("tescalib: %s", msg.c_str());
       noteProblem(msg);
@@ -449,12 +463,7 @@ void CalibrationNodelet::solveLoop() {
 }
 
 std::optional<WindowQualityScores> CalibrationNodelet::scoreQuality(const OnlineEstimate& e) {
-  if (!params_.quality_enabled) return std::nullopt;
-  if (!quality_) {
-    ValidationSettings settings;
-    settings.stereo = keyframeSettings(params_.online).stereo;  // the keyframes' clouds
-    quality_ = std::make_unique<WindowQuality>(calibrator()->rig(), settings);
-  }
+  if (!quality_) return std::nullopt;  // quality/enabled false
   const auto keyframes = calibrator()->windowKeyframes(e.stamp);
   if (keyframes.empty()) return std::nullopt;  // a reset cleared the window meanwhile
   const WindowQualityScores q = quality_->score(keyframes, e.T_cam_lidar, e.T_right_left);

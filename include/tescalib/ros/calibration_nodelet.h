@@ -116,7 +116,7 @@ class CalibrationNodelet : public nodelet::Nodelet {
   void publish(const OnlineEstimate& e, const ros::Time& stamp,
                const WindowQualityScores* quality = nullptr);
   /// The estimate's and the initial guess's quality scores on the window's keyframes
-  /// (quality/enabled; none when off). Solve thread only.
+  /// (quality/enabled; none when off).
   std::optional<WindowQualityScores> scoreQuality(const OnlineEstimate& e);
   /// The estimate on /tf_static (latched, valid at every time), as robot_state_publisher sends
   /// fixed joints: lookups at now() or at any sensor stamp find it, and it stays after the data
@@ -167,7 +167,9 @@ class CalibrationNodelet : public nodelet::Nodelet {
   void publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
                            const ros::Publisher& lidar, const ros::Publisher& stereo,
                            const WindowQualityScores* quality = nullptr);
-  std::unique_ptr<WindowQuality> quality_;  ///< solve thread only, made at the first estimate
+  /// Made with the calibrator (quality/enabled): keyframes prepared by the preprocessing thread,
+  /// estimates scored by the solve thread.
+  std::unique_ptr<WindowQuality> quality_;
   /// The published estimate's quality scores, for /diagnostics. GUARDED_BY(mutex_).
   std::optional<WindowQualityScores> published_quality_;
   /// Each new keyframe's stereo cloud (left camera frame) and LiDAR mesh, for rviz: computed for
@@ -221,7 +223,7 @@ class CalibrationNodelet : public nodelet::Nodelet {
   // synchronized set to the end of the first solve that includes it; it is only recorded for
   // keyframes that find the window ready (>= window/min_keyframes), so waiting for the window to
   // fill is not counted (that is what `first_estimate_*` reports).
-  Durations build_time_, solve_time_, update_latency_, quality_time_;
+  Durations build_time_, solve_time_, update_latency_, quality_time_, quality_prepare_time_;
   std::vector<ros::WallTime> unsolved_arrivals_;
   ros::WallTime first_set_wall_;  ///< GUARDED_BY(mutex_)
   ros::WallTime last_set_wall_;   ///< GUARDED_BY(mutex_), when the last synchronized set came

@@ -52,24 +52,36 @@ std::shared_ptr<const StereoCloud> WindowQuality::cloudFor(
       retriangulateStereoCloud(kf->stereo_matched, initial_, T_right_left, settings_.stereo));
 }
 
-void WindowQuality::scoreKeyframe(const std::shared_ptr<const Keyframe>& kf,
-                                  const Eigen::Isometry3d& T_cam_lidar,
-                                  const Eigen::Isometry3d& T_right_left, Kept* k,
-                                  std::array<double, kCriteria>* estimate) const {
+void WindowQuality::complete(const std::shared_ptr<const Keyframe>& kf, Kept* k) const {
   if (!k->prepared)
     k->prepared = std::make_shared<const PreparedFrame>(
         prepareFrame(kf->left_gray, kf->right_gray, kf->scan, settings_));
-  const std::shared_ptr<const StereoCloud> cloud = cloudFor(kf, T_right_left);
-  for (Criterion c : kAllCriteria)
-    (*estimate)[static_cast<int>(c)] = preparedFrameScore(
-        *k->prepared, kf->scan, *cloud, c, initial_, T_cam_lidar, T_right_left, settings_);
   if (k->scored.lock() == kf) return;
-  const std::shared_ptr<const StereoCloud> initial_cloud = cloudFor(kf, initial_.T_right_left);
+  const std::shared_ptr<const StereoCloud> cloud = cloudFor(kf, initial_.T_right_left);
   for (Criterion c : kAllCriteria)
     k->initial[static_cast<int>(c)] =
-        preparedFrameScore(*k->prepared, kf->scan, *initial_cloud, c, initial_,
-                           initial_.T_cam_lidar, initial_.T_right_left, settings_);
+        preparedFrameScore(*k->prepared, kf->scan, *cloud, c, initial_, initial_.T_cam_lidar,
+                           initial_.T_right_left, settings_);
   k->scored = kf;
+}
+
+void WindowQuality::prepare(const std::shared_ptr<const Keyframe>& keyframe) {
+  Kept k;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const auto it = prepared_.find(keyframe->stamp);
+    if (it != prepared_.end()) k = it->second;
+  }
+  if (k.prepared && k.scored.lock() == keyframe) return;
+  complete(keyframe, &k);
+  k.fresh = true;
+  std::lock_guard<std::mutex> lock(mutex_);
+  prepared_[keyframe->stamp] = k;
+}
+
+size_t WindowQuality::kept() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return prepared_.size();
 }
 
 WindowQualityScores WindowQuality::score(
@@ -79,25 +91,41 @@ WindowQualityScores WindowQuality::score(
   WindowQualityScores out;
   const int n = static_cast<int>(keyframes.size());
   out.keyframes = n;
-  std::set<double> stamps;
-  for (const auto& kf : keyframes) stamps.insert(kf->stamp);
-  for (auto it = prepared_.begin(); it != prepared_.end();)
-    it = stamps.count(it->first) ? std::next(it) : prepared_.erase(it);
-  // One keyframe per core, each writing only its own entries.
-  std::vector<Kept*> kept(n);
-  for (int i = 0; i < n; ++i) {
-    kept[i] = &prepared_[keyframes[i]->stamp];
-    out.prepared += !kept[i]->prepared;
+  std::vector<Kept> use(n);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::set<double> stamps;
+    for (const auto& kf : keyframes) stamps.insert(kf->stamp);
+    for (auto it = prepared_.begin(); it != prepared_.end();) {
+      const bool keep = stamps.count(it->first) || it->second.fresh;
+      it->second.fresh = false;
+      it = keep ? std::next(it) : prepared_.erase(it);
+    }
+    for (int i = 0; i < n; ++i) {
+      const auto it = prepared_.find(keyframes[i]->stamp);
+      if (it != prepared_.end()) use[i] = it->second;
+      out.prepared += !use[i].prepared;
+    }
   }
+  // One keyframe per core, each writing only its own entries.
   std::vector<std::array<double, kCriteria>> estimate(n);
   parallelFor(n, resolveThreads(settings_.threads), [&](int i) {
-    scoreKeyframe(keyframes[i], T_cam_lidar, T_right_left, kept[i], &estimate[i]);
+    const std::shared_ptr<const Keyframe>& kf = keyframes[i];
+    complete(kf, &use[i]);
+    const std::shared_ptr<const StereoCloud> cloud = cloudFor(kf, T_right_left);
+    for (Criterion c : kAllCriteria)
+      estimate[i][static_cast<int>(c)] = preparedFrameScore(
+          *use[i].prepared, kf->scan, *cloud, c, initial_, T_cam_lidar, T_right_left, settings_);
   });
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (int i = 0; i < n; ++i) prepared_[keyframes[i]->stamp] = use[i];
+  }
   for (Criterion c : kAllCriteria) {
     const int k = static_cast<int>(c);
     for (int i = 0; i < n; ++i) {
       out.estimate[k].push_back(estimate[i][k]);
-      out.initial[k].push_back(kept[i]->initial[k]);
+      out.initial[k].push_back(use[i].initial[k]);
     }
   }
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -1,14 +1,16 @@
 // The quality scores of an online estimate (validation_set.h's criteria, which the solvers do not
 // optimise) on the keyframes of the calibrator's window, against the initial extrinsics on the
 // same keyframes: what the node publishes with each estimate. Each keyframe is prepared once (edge
-// maps, blurred grey images, depth discontinuities) and its initial scores computed once, kept
-// while it is passed in; the disparity criterion reads the keyframe's own stereo cloud (the one
-// the solvers use), triangulated again from its matches for another left->right extrinsic.
+// maps, blurred grey images, depth discontinuities) and its initial scores computed once (in
+// advance by prepare(), or by the first score()), kept while it is passed in; the disparity
+// criterion reads the keyframe's own stereo cloud (the one the solvers use), triangulated again
+// from its matches for another left->right extrinsic.
 #pragma once
 
 #include <array>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -23,7 +25,7 @@ struct WindowQualityScores {
   int keyframes = 0;
   FrameScores estimate, initial;  ///< per criterion, per keyframe (oldest first)
   double seconds = 0;             ///< wall time of the scoring, preparation included
-  int prepared = 0;               ///< keyframes prepared by this call (not kept from before)
+  int prepared = 0;               ///< keyframes this call prepared (not prepared before)
 
   /// The mean over the keyframes of a criterion's scores (0 without keyframes).
   static double mean(const FrameScores& s, Criterion c) { return summarize(s[int(c)]).mean; }
@@ -37,7 +39,8 @@ struct WindowQualityScores {
   std::string summary() const;
 };
 
-/// Not thread-safe: one caller (the node's solve thread) scores one window at a time.
+/// score() runs in one thread at a time (the node's solve thread); prepare() may run in another
+/// (the node's keyframe thread) at the same time.
 class WindowQuality {
  public:
   /// `initial`: the intrinsics and the initial extrinsics the estimates are compared with.
@@ -45,14 +48,20 @@ class WindowQuality {
   /// another left->right extrinsic.
   explicit WindowQuality(const StereoRig& initial, const ValidationSettings& settings = {});
 
+  /// Prepares a keyframe and scores the initial extrinsics on it ahead of score() (which does
+  /// so itself for a keyframe not prepared): the work that does not depend on the estimate, done
+  /// where a keyframe is built rather than where the estimate waits for its scores.
+  void prepare(const std::shared_ptr<const Keyframe>& keyframe);
+
   /// Scores (T_cam_lidar, T_right_left) and the initial extrinsics on `keyframes` (each with its
-  /// grey images, scan and stereo cloud). Keyframes not passed any more are forgotten.
+  /// grey images, scan and stereo cloud). Keyframes not passed are forgotten, unless prepared
+  /// since the last call (a keyframe newer than the estimate's).
   WindowQualityScores score(const std::vector<std::shared_ptr<const Keyframe>>& keyframes,
                             const Eigen::Isometry3d& T_cam_lidar,
                             const Eigen::Isometry3d& T_right_left);
 
   /// Keyframes prepared and kept.
-  size_t kept() const { return prepared_.size(); }
+  size_t kept() const;
 
  private:
   struct Kept {
@@ -61,18 +70,18 @@ class WindowQuality {
     /// the window replaced is scored again).
     std::array<double, kCriteria> initial{};
     std::weak_ptr<const Keyframe> scored;
+    bool fresh = false;  ///< prepared by prepare() since the last score()
   };
   /// The keyframe's stereo cloud for `T_right_left`: its own, or its matches triangulated again.
   std::shared_ptr<const StereoCloud> cloudFor(const std::shared_ptr<const Keyframe>& kf,
                                               const Eigen::Isometry3d& T_right_left) const;
-  /// Scores one keyframe (preparing it and scoring the initial extrinsics when `k` lacks them).
-  void scoreKeyframe(const std::shared_ptr<const Keyframe>& kf,
-                     const Eigen::Isometry3d& T_cam_lidar, const Eigen::Isometry3d& T_right_left,
-                     Kept* k, std::array<double, kCriteria>* estimate) const;
+  /// Prepares the keyframe and scores the initial extrinsics on it, where `k` lacks them.
+  void complete(const std::shared_ptr<const Keyframe>& kf, Kept* k) const;
 
   StereoRig initial_;
   ValidationSettings settings_;
-  std::map<double, Kept> prepared_;  ///< by keyframe stamp
+  mutable std::mutex mutex_;
+  std::map<double, Kept> prepared_;  ///< GUARDED_BY(mutex_), by keyframe stamp
 };
 
 }  // namespace tescalib
