@@ -17,6 +17,7 @@
 #include "cli.h"
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
+#include "tescalib/core/common/pinhole.h"
 #include "tescalib/core/sim/scene_builder.h"
 #include "tescalib/core/sim/simulator.h"
 #include "tescalib/core/sim/simulator_camera.h"
@@ -33,12 +34,15 @@ const char* const kDescription =
     "fine stage's residuals pull T_cam_lidar: all of them, the stereo clouds' disparity error "
     "alone and the LiDAR mesh's error alone (one Gauss-Newton step, camera axes), then both parts "
     "by surface (road: normal within 37 deg of vertical; facing: within 14 deg of the optical "
-    "axis; lateral: within 45 deg of camera x; other) and depth.";
+    "axis; lateral: within 45 deg of camera x; other) and depth; then how a disparity offset "
+    "of all stereo points and of the road's alone moves it, and the disparity error fitted "
+    "against the disparity's gradient.";
 
 struct Args {
   SimOptions sim;
   int keyframes = 20;
   int keep_rings = 1;
+  bool random_rig = false;
   KeyframeSettings ks;
 };
 
@@ -70,11 +74,16 @@ bool parse(int argc, char** argv, Args* a) {
         if (!parseNoiseLevel(v, &a->sim.noise)) throw std::invalid_argument(v);
       },
       "default, none or high (default: default)");
+  app.add_flag("--random-rig", a->random_rig,
+               "the rig drawn from the seed (tescalib_simulate --rig random) instead of the "
+               "default one");
   add(&app, "--refine-iterations", "N", to(&a->ks.stereo.refinement.iterations, cli::atLeast(0)),
       "rounds of the stereo clouds' disparity refinement (default 2)");
   add(&app, "--refine-smoothed-rounds", "N",
       to(&a->ks.stereo.refinement.smoothed_gradient_rounds, cli::atLeast(0)),
       "of those rounds, the first N take the smoothed gradient (default 1)");
+  add(&app, "--refine-window", "R", to(&a->ks.stereo.refinement.window_radius, cli::atLeast(1)),
+      "the refinement's window radius, px (default 4: 9x9 windows)");
   add(&app, "--keep-rings", "N", to(&a->keep_rings, cli::atLeast(1)),
       "keep every Nth laser ring (a sparser LiDAR: N = 4 leaves 16 rings)");
   return cli::parse(&app, argc, argv);
@@ -106,36 +115,69 @@ struct Budget {
   Part all, stereo, mesh;
   std::vector<Part> by_class = std::vector<Part>(kClasses * 3);
   int skipped_edges = 0;
+  /// sum w J dr/db for a disparity offset of every stereo point and of the road's alone
+  Vector6d g_offset = Vector6d::Zero(), g_road_offset = Vector6d::Zero();
+  /// Normal equations of the disparity error fitted as a + b_u dd/du + b_v dd/dv
+  Eigen::Matrix3d slant_A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d slant_y = Eigen::Vector3d::Zero();
 };
 
+/// Adds the disparity error `error` at rectified pixel `px` to the fit of the error against the
+/// disparity's own gradient (central differences over 4 px; steps across depth edges left out).
+void addSlantSample(const StereoCloud& st, const Eigen::Vector2d& px, double error, Budget* b) {
+  double l, r, up, down;
+  if (!st.disparityAt(px.x() - 2, px.y(), &l) || !st.disparityAt(px.x() + 2, px.y(), &r) ||
+      !st.disparityAt(px.x(), px.y() - 2, &up) || !st.disparityAt(px.x(), px.y() + 2, &down))
+    return;
+  const Eigen::Vector3d x(1.0, (r - l) / 4, (down - up) / 4);
+  if (std::fabs(x[1]) >= 1 || std::fabs(x[2]) >= 1 || std::fabs(error) >= 1) return;
+  b->slant_A += x * x.transpose();
+  b->slant_y += x * error;
+}
+
+/// The true point on the ray of camera-frame point `c` (the left camera's depth render `depth`,
+/// intrinsics `K`): inverse depth is affine on a plane, so it is interpolated; false across a depth
+/// edge of the rendered scene (no single true value there) or outside the image.
+bool trueSurfacePoint(const cv::Mat& depth, const CameraIntrinsics& K, const Eigen::Vector3d& c,
+                      Eigen::Vector3d* pt) {
+  const Eigen::Vector2d px = K.project(c);
+  const int u0 = static_cast<int>(std::floor(px.x())), v0 = static_cast<int>(std::floor(px.y()));
+  if (u0 < 0 || v0 < 0 || u0 + 1 >= depth.cols || v0 + 1 >= depth.rows) return false;
+  const float z[4] = {depth.at<float>(v0, u0), depth.at<float>(v0, u0 + 1),
+                      depth.at<float>(v0 + 1, u0), depth.at<float>(v0 + 1, u0 + 1)};
+  const float z_lo = *std::min_element(z, z + 4), z_hi = *std::max_element(z, z + 4);
+  if (!(std::isfinite(z_lo) && std::isfinite(z_hi)) || z_hi - z_lo > 0.05f * z_lo) return false;
+  const double fu = px.x() - u0, fv = px.y() - v0;
+  const double inv_z =
+      (1 - fv) * ((1 - fu) / z[0] + fu / z[1]) + fv * ((1 - fu) / z[2] + fu / z[3]);
+  *pt = c / (c.z() * inv_z);
+  return true;
+}
+
 /// One keyframe's fine-stage associations at the ground truth `T`, each split with the true
-/// depth (`depth`, rendered for the left camera) into its stereo and its mesh part.
-void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const Eigen::Isometry3d& T, double fb,
-                 Budget* b) {
+/// depth (`depth`, rendered for the left camera `K`) into its stereo and its mesh part. The
+/// stereo cloud lives in the rectified frame (StereoCloud::R_rect_left), as the solver sees it.
+void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsics& K,
+                 const Eigen::Isometry3d& T, Budget* b) {
   const LidarStereoSettings s;
   const StereoCloud& st = kf.stereo;
+  const double fb = st.fx * st.baseline;
   for (size_t fi : sampleFaces(kf.mesh, s.fine_faces_per_keyframe)) {
     const MeshFace& f = kf.mesh.faces[fi];
     const Eigen::Vector3d c = T * f.centroid.cast<double>();
-    if (c.z() < 1.0 || c.z() > s.max_depth) continue;
-    const double u = st.fx * c.x() / c.z() + st.cx, v = st.fy * c.y() / c.z() + st.cy;
+    const Eigen::Vector3d cr = st.R_rect_left * c;
+    if (cr.z() < 1.0 || cr.z() > s.max_depth) continue;
+    const Eigen::Vector2d px = projectPinhole(st.fx, st.fy, st.cx, st.cy, cr);
     double d;
-    if (!st.disparityAt(u, v, &d)) continue;
-    // The true disparity at (u, v): inverse depth is affine on a plane, so interpolate it;
-    // pixels across a depth edge of the rendered scene have no single true value.
-    const int u0 = static_cast<int>(std::floor(u)), v0 = static_cast<int>(std::floor(v));
-    const float z[4] = {depth.at<float>(v0, u0), depth.at<float>(v0, u0 + 1),
-                        depth.at<float>(v0 + 1, u0), depth.at<float>(v0 + 1, u0 + 1)};
-    const float z_lo = *std::min_element(z, z + 4), z_hi = *std::max_element(z, z + 4);
-    if (!(std::isfinite(z_lo) && std::isfinite(z_hi)) || z_hi - z_lo > 0.05f * z_lo) {
+    if (!st.disparityAt(px.x(), px.y(), &d)) continue;
+    Eigen::Vector3d pt;
+    if (!trueSurfacePoint(depth, K, c, &pt)) {
       ++b->skipped_edges;
       continue;
     }
-    const double fu = u - u0, fv = v - v0;
-    const double inv_z =
-        (1 - fv) * ((1 - fu) / z[0] + fu / z[1]) + fv * ((1 - fu) / z[2] + fu / z[3]);
-    const double d_true = fb * inv_z;
-    const Eigen::Vector3d ps = st.pointAt(u, v, d), pt = st.pointAt(u, v, d_true);
+    const double d_true = fb / (st.R_rect_left * pt).z();
+    addSlantSample(st, px, d - d_true, b);
+    const Eigen::Vector3d ps = st.pointAt(px.x(), px.y(), d);
     const Eigen::Vector3d m = T.linear() * f.normal.cast<double>();
     // The fine stage's noise model, gate and Huber weight (LidarStereoSettings defaults).
     const double inv_sigma =
@@ -155,8 +197,10 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const Eigen::Isometry
                     : std::fabs(m.z()) > 0.97 ? kFacing
                     : std::fabs(m.x()) > 0.7  ? kLateral
                                               : kOther;
-    const double Z = fb / d_true;
-    const int band = Z < kDepthEdges[1] ? 0 : Z < kDepthEdges[2] ? 1 : 2;
+    const double dr_dd = m.dot(ps) / d * inv_sigma;  // per px of disparity
+    b->g_offset += w * J * dr_dd;
+    if (cls == kRoad) b->g_road_offset += w * J * dr_dd;
+    const int band = pt.z() < kDepthEdges[1] ? 0 : pt.z() < kDepthEdges[2] ? 1 : 2;
     Part& p = b->by_class[cls * 3 + band];
     p.g += w * J * r_stereo, p.disparity_error += d - d_true, ++p.n;
     p.g_mesh += w * J * r_mesh, p.mesh_error += m.dot(c - pt);
@@ -188,6 +232,18 @@ void printBudget(const Budget& b) {
   }
 }
 
+/// What a disparity offset does (of every stereo point, of the road's alone) and the fit of the
+/// disparity error against the disparity's gradient (a matcher's bias on slanted surfaces).
+void printSensitivities(const Budget& b) {
+  const Matrix6d H_inv = b.H.inverse();
+  std::printf("the estimate's move per px of disparity offset (camera axes x y z):\n");
+  printPull("all", H_inv, b.g_offset);
+  printPull("road", H_inv, b.g_road_offset);
+  const Eigen::Vector3d k = b.slant_A.ldlt().solve(b.slant_y);
+  std::printf("disparity error = %+.4f px %+.4f px * dd/du %+.4f px * dd/dv (%.0f stereo points)\n",
+              k[0], k[1], k[2], b.slant_A(0, 0));
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -199,6 +255,7 @@ int main(int argc, char** argv) {
   SimOptions& o = args.sim;
   const KeyframeSettings& ks = args.ks;
   o.frames = 5 * (args.keyframes - 1) + 1;
+  if (args.random_rig) useRandomRig(o.seed, &o);
   std::unique_ptr<Simulator> sim_ptr;
   try {
     sim_ptr = std::make_unique<Simulator>(o);
@@ -209,7 +266,6 @@ int main(int argc, char** argv) {
   const Simulator& sim = *sim_ptr;
   const StereoRig& rig = sim.rig();
   const Eigen::Isometry3d T = rig.T_cam_lidar;
-  const double fb = rig.left.fx * rig.baseline();
   Budget budget;
   for (int i = 0; i < o.frames; i += 5) {
     Frame frame = sim.renderFrame(i);
@@ -217,7 +273,7 @@ int main(int argc, char** argv) {
     const Keyframe kf = makeKeyframe(frame, rig, T, rig.T_right_left, ks);
     const cv::Mat depth = sim::renderCameraDepth(sim.world(), rig.left,
                                                  sim.worldFromLidar(i) * T.inverse(), 250.f, 0);
-    addKeyframe(kf, depth, T, fb, &budget);
+    addKeyframe(kf, depth, rig.left, T, &budget);
   }
   std::printf(
       "tescalib_error_budget: %s drive, seed %llu, %d keyframes, noise %s, refinement "
@@ -240,5 +296,6 @@ int main(int argc, char** argv) {
     return 1;
   }
   printBudget(budget);
+  printSensitivities(budget);
   return 0;
 }

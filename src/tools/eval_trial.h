@@ -32,7 +32,7 @@ struct ExtrinsicOutcome {
   /// The covariance without the model error (LiDAR-stereo): what the window constrains.
   Matrix6d cov_stat = Matrix6d::Constant(std::nan(""));
   /// Pose shift per px of common disparity offset and per m of common LiDAR range offset.
-  Eigen::Matrix<double, 6, 3> bias = Eigen::Matrix<double, 6, 3>::Constant(std::nan(""));
+  LidarStereoBiasSensitivity bias = LidarStereoBiasSensitivity::Constant(std::nan(""));
   /// Within the success thresholds of the evaluation contract: < 0.2 deg and < 3 cm.
   bool success() const {
     return err.head<3>().norm() * kDegPerRad < 0.2 && err.tail<3>().norm() < 0.03;

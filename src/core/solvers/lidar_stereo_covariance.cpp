@@ -15,16 +15,20 @@
 namespace tescalib {
 namespace {
 
+/// A stereo point on the ground (LidarStereoSettings::model_sigma_ground_disparity_px): its
+/// surface normal within 37 deg of the camera's y axis.
+constexpr double kGroundNormalCos = 0.8;
+
 /// What the fine residuals at the estimate tell about the parameters: the pose, then the clouds'
 /// scale and yaw where they are estimated.
 struct FineInformation {
   explicit FineInformation(int parameters)
       : H(Eigen::MatrixXd::Zero(parameters, parameters)),
-        jtd(Eigen::MatrixXd::Zero(parameters, 3)) {}
+        jtd(Eigen::MatrixXd::Zero(parameters, kLidarStereoBiases)) {}
   Eigen::MatrixXd H;                    ///< sum w J^T J
   std::vector<Eigen::VectorXd> scores;  ///< per cluster sum w r J
   /// sum w J dr/db for the window-common biases: disparity offset (px), LiDAR range offset (m),
-  /// disparity scale (relative: an error of f B).
+  /// disparity scale (relative: an error of f B), disparity offset of the ground alone (px).
   Eigen::MatrixXd jtd;
   double dtd = 0;                     ///< sum w D^2, D = dr / d(disparity offset)
   std::vector<double> offset_scores;  ///< per cluster sum w r D (with `scores`: the offset's share)
@@ -87,6 +91,7 @@ void accumulateFineInformation(const LidarStereoEstimate& est, const LidarStereo
     info->jtd.col(1) += w * J * (f.m.dot(f.q) / a0.p_l.norm() * a0.inv_sigma);
     // d (1 + k): ps / (1 + k), dr/dk = m.ps.
     info->jtd.col(2) += w * J * (f.m.dot(f.ps) * a0.inv_sigma);
+    if (std::fabs(f.m.y()) > kGroundNormalCos) info->jtd.col(3) += w * J * D;
     res->keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
         w * J.head<6>() * J.head<6>().transpose();
     info->scores[a0.cluster] += w * r * J;
@@ -135,7 +140,8 @@ bool covariancesFromInformation(const FineInformation& info, const LidarStereoSe
     res->stereo_scale_variance = robust(6, 6);
     res->stereo_scale_variance += std::pow(disparityBiasSigma(*res, s) * bias_moves(6, 0), 2) +
                                   std::pow(s.model_sigma_range_m * bias_moves(6, 1), 2) +
-                                  std::pow(s.model_sigma_disparity_scale * bias_moves(6, 2), 2);
+                                  std::pow(s.model_sigma_disparity_scale * bias_moves(6, 2), 2) +
+                                  std::pow(s.model_sigma_ground_disparity_px * bias_moves(6, 3), 2);
   }
   res->covariance_statistical = res->covariance;
   // Model error that more data does not average away (calibrated on generated drives, see
@@ -170,10 +176,10 @@ bool estimateLidarStereoCovariance(const LidarStereoEstimate& est, const LidarSt
 }
 
 Matrix6d withLidarStereoBiases(const LidarStereoResult& r, const LidarStereoSettings& s,
-                               const Eigen::Matrix<double, 6, 3>& h) {
-  return withCommonBiases(
-      r.covariance_statistical, h,
-      {disparityBiasSigma(r, s), s.model_sigma_range_m, s.model_sigma_disparity_scale});
+                               const LidarStereoBiasSensitivity& h) {
+  return withCommonBiases(r.covariance_statistical, h,
+                          {disparityBiasSigma(r, s), s.model_sigma_range_m,
+                           s.model_sigma_disparity_scale, s.model_sigma_ground_disparity_px});
 }
 
 Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {

@@ -40,7 +40,7 @@ bool estimateLidarStereoCovariance(const LidarStereoEstimate& estimate,
 /// (LidarStereoResult::bias_sensitivity or bias_sensitivity_held), the disparity offset's sigma
 /// that of disparityBiasSigma.
 Matrix6d withLidarStereoBiases(const LidarStereoResult& result, const LidarStereoSettings& settings,
-                               const Eigen::Matrix<double, 6, 3>& sensitivity);
+                               const LidarStereoBiasSensitivity& sensitivity);
 
 /// The covariance of what the window constrains (the trust flags): the statistical part plus
 /// the common biases, with the clouds' scale and yaw held (they absorb only a uniform offset).
