@@ -600,6 +600,8 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
       {"--search-deg 45", "--search-deg must be between 0 (off) and 20"},
       {"--split 1", "bad value '1' for --split"},
       {"--split 2 --overlay x.png", "--split goes with --sequences, without --out and --overlay"},
+      {"--holdout 1", "bad value '1' for --holdout"},
+      {"--holdout 3 --split 2", "--holdout does not go with --split"},
       {"--min-keyframes 0", "--min-keyframes must be between 1 and the window (10)"},
       {"--min-keyframes -1", "--min-keyframes must be between 1 and the window (10)"},
       {"--min-keyframes 11", "--min-keyframes must be between 1 and the window (10)"},
