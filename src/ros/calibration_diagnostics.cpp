@@ -182,20 +182,6 @@ void CalibrationNodelet::summarize(diagnostic_updater::DiagnosticStatusWrapper& 
     stat.summary(diagnostic_updater::DiagnosticStatusWrapper::OK, "calibrated");
 }
 
-void CalibrationNodelet::addQuality(diagnostic_updater::DiagnosticStatusWrapper& stat) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  // One row per criterion: "edge_alignment 0.2310 (initial 0.2070: better, significant)".
-  for (Criterion c : kAllCriteria)
-    stat.add(std::string("quality ") + criterionName(c),
-             published_quality_        ? published_quality_->describe(c)
-             : params_.quality_enabled ? "no estimate yet"
-                                       : "off (quality/enabled)");
-  stat.add("quality keyframes", published_quality_ ? published_quality_->keyframes : 0);
-  stat.add("quality scoring mean seconds", quality_time_.mean());
-  stat.add("quality scoring max seconds", quality_time_.max);
-  stat.add("quality keyframe preparation mean seconds", quality_prepare_time_.mean());
-}
-
 void CalibrationNodelet::addTimings(diagnostic_updater::DiagnosticStatusWrapper& stat) {
   std::lock_guard<std::mutex> lock(mutex_);
   stat.add("pending sets", queue_.size());

@@ -189,11 +189,7 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
   lidar_frame_ = init.lidar_frame;
   const StereoRig& rig = init.rig;
   calibrator_owner_ = std::make_unique<OnlineCalibrator>(rig, params_.online);
-  if (params_.quality_enabled) {
-    ValidationSettings settings;
-    settings.stereo = keyframeSettings(params_.online).stereo;  // the keyframes' clouds
-    quality_ = std::make_unique<WindowQuality>(rig, settings);
-  }
+  startQuality(rig);
   // Published last: the worker threads use the calibrator and quality_ once they see it.
   calibrator_.store(calibrator_owner_.get(), std::memory_order_release);
   // tf was needed for the initial guess only: stop listening (a listener's buffer warns of
@@ -460,16 +456,6 @@ void CalibrationNodelet::solveLoop() {
       NODELET_WARN_THROTTLE(5.0, "tescalib: %s", msg.c_str());
     }
   }
-}
-
-std::optional<WindowQualityScores> CalibrationNodelet::scoreQuality(const OnlineEstimate& e) {
-  if (!quality_) return std::nullopt;  // quality/enabled false
-  const auto keyframes = calibrator()->windowKeyframes(e.stamp);
-  if (keyframes.empty()) return std::nullopt;  // a reset cleared the window meanwhile
-  const WindowQualityScores q = quality_->score(keyframes, e.T_cam_lidar, e.T_right_left);
-  std::lock_guard<std::mutex> lock(mutex_);
-  quality_time_.add(q.seconds);
-  return q;
 }
 
 void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp,

@@ -42,11 +42,13 @@ struct Session {
   std::vector<std::pair<int, double>> published_nees;  ///< (keyframes used, NEES), --perturb-*
   int nees_skipped = 0;  ///< published estimates whose covariance was not positive definite
   std::string last_solve;
-  std::string lidar_frame = "velo_link";   // the data's (a bag's cloud frame); --lidar-frame wins
-  bool keep_last_keyframe = false;         // --overlay
-  Frame last_keyframe;                     // its left image and scan, kept only for --overlay
-  std::vector<Frame> window_keyframes;     // the last window's keyframes, for the quality scores
-  StereoRig initial_rig;                   // the initial guess, for the quality scores
+  std::string lidar_frame = "velo_link";  // the data's (a bag's cloud frame); --lidar-frame wins
+  bool keep_last_keyframe = false;        // --overlay
+  Frame last_keyframe;                    // its left image and scan, kept only for --overlay
+  std::vector<Frame> window_keyframes;    // the last window's keyframes, for the quality scores
+  StereoRig initial_rig;                  // the initial guess, for the quality scores
+  calibrate::MonitorLog monitor;          // the monitor's changes, --json's estimates
+
   int holdout = 0;                         // --holdout N
   int keyframe_candidates = 0;             // keyframes offered, held out or not
   std::vector<Frame> held_out;             // --holdout's keyframes, not calibrated on
@@ -78,7 +80,6 @@ struct Session {
       std::printf("(the initial guess is the recording's calibration)\n");
     return printHeldOut(held_out, holdout, initial_rig, c);
   }
-  calibrate::MonitorLog monitor;  // the monitor's changes, --json's estimates
 
   /// The rig with its initial extrinsics; with --perturb-*, T_cam_lidar is moved away from them
   /// (they stay the reference of the printed errors).

@@ -115,6 +115,8 @@ class CalibrationNodelet : public nodelet::Nodelet {
   /// `quality`: the estimate's quality scores for ~lidar_to_left (none: its quality_* empty).
   void publish(const OnlineEstimate& e, const ros::Time& stamp,
                const WindowQualityScores* quality = nullptr);
+  /// With quality/enabled: the quality scores' state for the rig's initial extrinsics.
+  void startQuality(const StereoRig& rig);
   /// The estimate's and the initial guess's quality scores on the window's keyframes
   /// (quality/enabled; none when off).
   std::optional<WindowQualityScores> scoreQuality(const OnlineEstimate& e);
@@ -223,7 +225,8 @@ class CalibrationNodelet : public nodelet::Nodelet {
   // synchronized set to the end of the first solve that includes it; it is only recorded for
   // keyframes that find the window ready (>= window/min_keyframes), so waiting for the window to
   // fill is not counted (that is what `first_estimate_*` reports).
-  Durations build_time_, solve_time_, update_latency_, quality_time_, quality_prepare_time_;
+  Durations build_time_, solve_time_, update_latency_;
+  Durations quality_time_, quality_prepare_time_;  ///< scoring (solve thread), preparation
   std::vector<ros::WallTime> unsolved_arrivals_;
   ros::WallTime first_set_wall_;  ///< GUARDED_BY(mutex_)
   ros::WallTime last_set_wall_;   ///< GUARDED_BY(mutex_), when the last synchronized set came
