@@ -56,13 +56,14 @@ void WindowQuality::complete(const std::shared_ptr<const Keyframe>& kf, Kept* k)
   if (!k->prepared)
     k->prepared = std::make_shared<const PreparedFrame>(
         prepareFrame(kf->left_gray, kf->right_gray, kf->scan, settings_));
-  if (k->scored.lock() == kf) return;
+  if (k->scored && sameExtrinsic(k->scored_matched, kf->T_right_left_matched)) return;
   const std::shared_ptr<const StereoCloud> cloud = cloudFor(kf, initial_.T_right_left);
   for (Criterion c : kAllCriteria)
     k->initial[static_cast<int>(c)] =
         preparedFrameScore(*k->prepared, kf->scan, *cloud, c, initial_, initial_.T_cam_lidar,
                            initial_.T_right_left, settings_);
-  k->scored = kf;
+  k->scored = true;
+  k->scored_matched = kf->T_right_left_matched;
 }
 
 void WindowQuality::prepare(const std::shared_ptr<const Keyframe>& keyframe) {
@@ -72,7 +73,8 @@ void WindowQuality::prepare(const std::shared_ptr<const Keyframe>& keyframe) {
     const auto it = prepared_.find(keyframe->stamp);
     if (it != prepared_.end()) k = it->second;
   }
-  if (k.prepared && k.scored.lock() == keyframe) return;
+  if (k.prepared && k.scored && sameExtrinsic(k.scored_matched, keyframe->T_right_left_matched))
+    return;
   complete(keyframe, &k);
   k.fresh = true;
   std::lock_guard<std::mutex> lock(mutex_);

@@ -66,10 +66,12 @@ class WindowQuality {
  private:
   struct Kept {
     std::shared_ptr<const PreparedFrame> prepared;
-    /// The initial extrinsics' scores, of the keyframe object `scored` (a keyframe whose cloud
-    /// the window replaced is scored again).
+    /// The initial extrinsics' scores. They read the keyframe's SGBM matches, triangulated for
+    /// the initial pair: valid while its matches are those made with `scored_matched` (a
+    /// keyframe the window replaced with one matched again is scored again).
     std::array<double, kCriteria> initial{};
-    std::weak_ptr<const Keyframe> scored;
+    bool scored = false;
+    Eigen::Isometry3d scored_matched = Eigen::Isometry3d::Identity();
     bool fresh = false;  ///< prepared by prepare() since the last score()
   };
   /// The keyframe's stereo cloud for `T_right_left`: its own, or its matches triangulated again.
