@@ -41,7 +41,7 @@ struct NodeParams {
   std::string save_path = "tescalib_calibration";
   /// Score each published estimate and the initial guess on its keyframes with the validation
   /// criteria (WindowQuality: about 0.05 s per keyframe in the keyframe thread, 0.02 s per
-  /// estimate in the solve thread, 0.1-0.2 s per co-calibrated one, on 2 cores) for
+  /// estimate in the solve thread, 0.07 s per co-calibrated one, on 2 cores) for
   /// ~lidar_to_left's quality_* and /diagnostics.
   bool quality_enabled = true;
 };
