@@ -13,6 +13,7 @@
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/solvers/lidar_stereo_fine.h"
 #include "tescalib/core/solvers/lidar_stereo_solver.h"
 #include "test_util.h"
 
@@ -454,6 +455,26 @@ TEST(LidarStereoSolver, FailsHonestlyWithoutStructure) {
   EXPECT_FALSE(r.observable[5]);    // translation along camera z
   EXPECT_TRUE(r.observable[4]);     // height above the road is constrained
   EXPECT_TRUE(r.covariance_known);  // weak axes are a covariance with large sigma, not none
+}
+
+// An unsettled fine stage that creeps steadily along tz (0.9 mm per update, as on a generated
+// highway) is heading far beyond the 1 cm trust limit; one whose updates decay or alternate is not.
+TEST(LidarStereoSolver, AnUnsettledCreepIsFlaggedAndADecayOrAnAlternationIsNot) {
+  const LidarStereoSettings s;
+  Vector6d step = Vector6d::Zero();
+  step[5] = 0.0009;
+  const std::vector<Vector6d> creep(12, step);
+  const Vector6d drift = unsettledDrift(creep, s);
+  EXPECT_GT(drift[5], 0.05);  // 6 updates summed plus 99 more at rho 0.99
+  EXPECT_NEAR(drift.head<5>().norm(), 0.0, 1e-12);
+  std::vector<Vector6d> decay, alternate;
+  for (int i = 0; i < 12; ++i) {
+    decay.push_back(step * std::pow(0.5, i));
+    alternate.push_back(step * (i % 2 ? -1.0 : 1.0));
+  }
+  EXPECT_LT(unsettledDrift(decay, s)[5], 0.0001);  // 0.5^6 + ... of 0.9 mm, plus as much again
+  EXPECT_NEAR(unsettledDrift(alternate, s)[5], 0.0, 1e-12);
+  EXPECT_EQ(unsettledDrift({}, s), Vector6d::Zero());
 }
 
 TEST(LidarStereoSolver, EmptyWindowIsNotConverged) {

@@ -1,7 +1,9 @@
 #include "tescalib/core/solvers/lidar_stereo_fine.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <vector>
 
 #include "tescalib/core/solvers/lidar_stereo_association.h"
 
@@ -26,11 +28,31 @@ void printUpdate(int it, size_t associations, const Vector6d& d, double scale, d
 
 }  // namespace
 
+Vector6d unsettledDrift(const std::vector<Vector6d>& updates, const LidarStereoSettings& s) {
+  Vector6d scale;
+  scale.head<3>().setConstant(kDegPerRad / s.max_sigma_rot_deg);
+  scale.tail<3>().setConstant(1.0 / s.max_sigma_trans_m);
+  Vector6d sum = Vector6d::Zero();
+  const size_t first = updates.size() / 2;
+  for (size_t i = first; i < updates.size(); ++i) sum += updates[i];
+  if (updates.size() < 2 || !(sum.norm() > 0)) return sum;
+  const Vector6d dir = sum.cwiseProduct(scale).normalized();
+  double num = 0, den = 0;
+  for (size_t i = first; i + 1 < updates.size(); ++i) {
+    const double a = dir.dot(updates[i].cwiseProduct(scale));
+    num += a * dir.dot(updates[i + 1].cwiseProduct(scale)), den += a * a;
+  }
+  const double rho = den > 0 ? std::clamp(num / den, 0.0, 0.99) : 0.0;
+  const double last = dir.dot(updates.back().cwiseProduct(scale));
+  return sum + std::max(last, 0.0) * rho / (1 - rho) * dir.cwiseQuotient(scale);
+}
+
 bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoSettings& s,
                   LidarStereoEstimate* est, LidarStereoResult* res) {
   const ProjectiveAssociation association(window, s);
   std::vector<LidarStereoAssociation>& as = est->fine_associations;
   Vector6d d_prev = Vector6d::Zero();
+  std::vector<Vector6d> updates;
   for (int it = 0; it < s.fine_reassociations; ++it) {
     if (s.cancelled()) {
       res->message = "cancelled";
@@ -49,6 +71,7 @@ bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoS
     }
     if (std::getenv("TESCALIB_DEBUG")) printUpdate(it, as.size(), d, est->scale, est->yaw);
     est->T = perturb(est->T, d);
+    updates.push_back(d);
     if (belowSettleLimits(d, s)) {
       est->settled = true;
       break;
@@ -63,6 +86,7 @@ bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoS
     }
     d_prev = d;
   }
+  est->fine_drift = est->settled ? Vector6d::Zero() : unsettledDrift(updates, s);
   return true;
 }
 

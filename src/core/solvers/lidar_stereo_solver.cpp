@@ -95,9 +95,33 @@ std::string unconstrainedMessage(const LidarStereoResult& res, const LidarStereo
   return buf + weakestClause(res.weak_directions);
 }
 
+/// An unsettled fine stage's drift (LidarStereoEstimate::fine_drift) in units of the trust limits:
+/// where it moved by more than a limit the window does not hold the estimate, so those axes are not
+/// trusted and the drift leads the weak directions (a covariance taken at an estimate that is
+/// still moving can look tight along the very direction it moves in).
+/// Returns whether it flagged anything.
+bool flagDrift(const Vector6d& drift, const LidarStereoSettings& s, LidarStereoResult* res) {
+  Vector6d u;
+  for (int i = 0; i < 3; ++i) {
+    u[i] = drift[i] * kDegPerRad / s.max_sigma_rot_deg;
+    u[3 + i] = drift[3 + i] / s.max_sigma_trans_m;
+  }
+  const double norm = u.norm();
+  if (!(norm > 1.0)) return false;
+  for (int i = 0; i < 6; ++i)
+    if (std::fabs(u[i]) > 1.0) res->observable[i] = false;
+  Eigen::Index largest;
+  u.cwiseAbs().maxCoeff(&largest);
+  WeakDirection w;
+  w.ratio = norm;
+  w.direction = (u[largest] < 0 ? -u : u) / norm;
+  res->weak_directions.insert(res->weak_directions.begin(), w);
+  return true;
+}
+
 /// Sets `res.converged`, or the message saying why it is not.
 void judgeConvergence(const Eigen::Isometry3d& T_init, const LidarStereoSettings& s,
-                      bool all_observable, bool settled, LidarStereoResult* res) {
+                      bool all_observable, bool settled, bool drifting, LidarStereoResult* res) {
   const Vector6d correction = poseError(res->T_cam_lidar, T_init);
   const bool diverged = correction.head<3>().norm() * kDegPerRad > s.max_correction_rot_deg ||
                         correction.tail<3>().norm() > s.max_correction_trans_m;
@@ -108,6 +132,9 @@ void judgeConvergence(const Eigen::Isometry3d& T_init, const LidarStereoSettings
     res->message = "diverged: the correction from the initial guess is implausibly large";
   else if (const std::string bound = nuisanceOnBound(*res, s); !bound.empty())
     res->message = bound;
+  else if (drifting)
+    res->message = "the fine stage keeps moving: the window does not hold the estimate" +
+                   weakestClause(res->weak_directions);
   else if (!all_observable)
     res->message = unconstrainedMessage(*res, s);
   else if (!settled)
@@ -184,8 +211,11 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.message = "Ceres could not solve an update (NaN residuals, or an infeasible bound)";
     return res;
   }
-  const bool all_observable = estimateLidarStereoCovariance(est, s, window.size(), &res);
-  judgeConvergence(T_init, s, all_observable, est.settled, &res);
+  bool all_observable = estimateLidarStereoCovariance(est, s, window.size(), &res);
+  const bool drifting = !est.settled && flagDrift(est.fine_drift, s, &res);
+  if (drifting)
+    all_observable = std::all_of(res.observable, res.observable + 6, [](bool b) { return b; });
+  judgeConvergence(T_init, s, all_observable, est.settled, drifting, &res);
   if (res.converged && s.check_window_halves) checkWindowHalves(window, s, &res);
   // Cancelled at any point (a stage, or the halves): not converged, whatever it reached (the
   // header's promise; a cancel during the halves would otherwise leave a "tested" check).

@@ -20,4 +20,11 @@ namespace tescalib {
 bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoSettings& settings,
                   LidarStereoEstimate* estimate, LidarStereoResult* result);
 
+/// Where an unsettled fine stage was heading ([phi; tau]), from its updates in order: the sum of
+/// the last half of them plus what a steady creep would still add (the geometric series of the
+/// last update with the ratio rho of successive updates along the drift, in units of the trust
+/// limits max_sigma_*; rho clipped to [0, 0.99], so an undamped creep counts 99 more updates).
+/// A decaying sequence adds little, an alternating one nothing.
+Vector6d unsettledDrift(const std::vector<Vector6d>& updates, const LidarStereoSettings& settings);
+
 }  // namespace tescalib

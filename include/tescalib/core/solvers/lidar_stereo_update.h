@@ -22,6 +22,10 @@ struct LidarStereoEstimate {
   /// A Ceres update was not usable: the solve is not converged, and no later stage runs.
   bool solver_failed = false;
   bool settled = false;  ///< the fine stage's updates fell below fine_settle_* (or it is off)
+  /// Where an unsettled fine stage was heading ([phi; tau], zero when it settled): the sum of its
+  /// last half of updates and what their steady creep would still add. A direction the window
+  /// does not hold, whatever the covariance says.
+  Vector6d fine_drift = Vector6d::Zero();
   /// The fine stage's last association set: the residuals of the covariance.
   std::vector<LidarStereoAssociation> fine_associations;
 };
