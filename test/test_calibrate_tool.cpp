@@ -24,6 +24,7 @@
 #include "tescalib/core/io/calibration_io.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/sim/simulator.h"
+#include "tescalib/core/validation/validation.h"
 #include "tescalib/ros/kitti_bag_writer.h"
 #include "test_util.h"
 
@@ -527,6 +528,64 @@ TEST(CalibrateTool, SplitComparesDisjointWindowsByTheirCovariances) {
   EXPECT_NE(r.output.find("mean chi2 "), std::string::npos);
 }
 
+// --holdout N: every Nth keyframe is left out of the calibration and the estimate, the initial
+// guess and the recording's calibration are scored on those, from a folder and from its bag alike.
+TEST(CalibrateTool, HoldoutScoresCalibrationsOnKeyframesLeftOut) {
+  TempDir tmp;
+  const auto sim = writeDrive(tmp, 26, 8);  // 6 keyframes: frames 0, 5, ..., 25
+  writeKittiBag(KittiSequence(tmp.str() + "/drive"), tmp.str() + "/drive.bag", KittiBagOptions{});
+  const std::string start = " --perturb-rot-deg 2 --perturb-trans-m 0.2 --holdout 3";
+  const ToolRun folder = runCalibrate("--sequences " + tmp.str() + "/drive" + start + " --out " +
+                                      tmp.str() + "/result");
+  const ToolRun bag = runCalibrate("--bag " + tmp.str() + "/drive.bag" + start);
+  std::cout << folder.output;
+  ASSERT_EQ(folder.status, 0) << folder.output;
+  ASSERT_EQ(bag.status, 0) << bag.output;
+  // Keyframes 3 and 6 (frames 10 and 25) are held out: 4 are calibrated on.
+  EXPECT_NE(folder.output.find("drive frame 10: held out (--holdout 3)"), std::string::npos);
+  EXPECT_NE(folder.output.find("drive frame 25: held out (--holdout 3)"), std::string::npos);
+  EXPECT_NE(folder.output.find("\n4 keyframes, 0 rejected"), std::string::npos) << folder.output;
+  // The printed block: its title and the indented lines after it.
+  const auto heldOutBlock = [](const std::string& out) {
+    const size_t at = out.find("held-out scores on ");
+    if (at == std::string::npos) return std::string();
+    size_t end = out.find('\n', at);
+    while (end != std::string::npos && out.compare(end + 1, 2, "  ") == 0)
+      end = out.find('\n', end + 1);
+    return out.substr(at, end - at);
+  };
+  const std::string printed = heldOutBlock(folder.output);
+  EXPECT_EQ(printed.rfind("held-out scores on 2 keyframes (1 in 3", 0), 0u) << folder.output;
+  // The bag holds out the same sets and scores them alike.
+  EXPECT_EQ(heldOutBlock(bag.output), printed) << bag.output;
+  // BASE.yaml's held_out: the scores of the written estimate and of the truth on frames 10 and 25,
+  // as ValidationSet gives them; the estimate scores better than the 2 deg / 0.2 m initial guess.
+  const std::string yaml = readAll(tmp.str() + "/result.yaml");
+  const size_t held = yaml.find("  held_out:\n    keyframes: 2\n    every: 3\n");
+  ASSERT_NE(held, std::string::npos) << yaml;
+  const KittiSequence seq(tmp.str() + "/drive");
+  ValidationSet set({seq.load(10), seq.load(25)}, sim->rig());
+  const Eigen::Isometry3d T = readCalibrationYaml(tmp.str() + "/result.yaml").T_cam_lidar;
+  const FrameScores est = set.score(T, sim->rig().T_right_left);
+  const FrameScores truth = set.score(sim->rig().T_cam_lidar, sim->rig().T_right_left);
+  for (Criterion c : kAllCriteria) {
+    const std::string key = std::string("    ") + criterionName(c) + ": {estimate: ";
+    const size_t at = yaml.find(key, held);
+    ASSERT_NE(at, std::string::npos) << yaml;
+    double e = 0, initial = 0, recording = 0;
+    ASSERT_EQ(std::sscanf(yaml.c_str() + at + key.size(), "%lf, initial_guess: %lf, recording: %lf",
+                          &e, &initial, &recording),
+              3)
+        << yaml.substr(at, 200);
+    EXPECT_NEAR(e, summarize(est[int(c)]).mean, 1e-3 * std::fabs(e)) << criterionName(c);
+    EXPECT_NEAR(recording, summarize(truth[int(c)]).mean, 1e-5 * std::fabs(recording))
+        << criterionName(c);
+    EXPECT_TRUE(higherIsBetter(c) ? e > initial : e < initial) << criterionName(c);
+    EXPECT_NE(printed.find(std::string("  ") + criterionName(c) + " ("), std::string::npos);
+  }
+  EXPECT_NO_THROW(readCalibrationYaml(tmp.str() + "/result.yaml"));
+}
+
 TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
   // Usage errors (exit status 2), each named. Numbers are read whole (std::stoi alone took 7.9 as
   // 7), and where the result goes is checked before any work (a folder given as --out must
@@ -541,6 +600,8 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
       {"--search-deg 45", "--search-deg must be between 0 (off) and 20"},
       {"--split 1", "bad value '1' for --split"},
       {"--split 2 --overlay x.png", "--split goes with --sequences, without --out and --overlay"},
+      {"--holdout 1", "bad value '1' for --holdout"},
+      {"--holdout 3 --split 2", "--holdout does not go with --split"},
       {"--min-keyframes 0", "--min-keyframes must be between 1 and the window (10)"},
       {"--min-keyframes -1", "--min-keyframes must be between 1 and the window (10)"},
       {"--min-keyframes 11", "--min-keyframes must be between 1 and the window (10)"},

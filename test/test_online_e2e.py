@@ -183,6 +183,18 @@ class OnlineEndToEnd(unittest.TestCase):
         for e in self.est['lidar_to_left']:
             self.assertIn(e.header.stamp.to_nsec(), raw_stamps,
                           'estimate stamp %d is no left image\'s' % e.header.stamp.to_nsec())
+        # Quality scores (doc/validation.md) on the keyframes of the last solve: the estimate
+        # scores significantly better than the initial guess 2 deg / 0.2 m off on each criterion.
+        self.assertEqual(list(last.quality_criteria),
+                         ['edge_alignment', 'photometric_residual', 'disparity_residual'])
+        self.assertEqual(list(last.quality_higher_is_better), [True, False, False])
+        self.assertEqual(last.quality_keyframes, last.keyframes_used)
+        for name, higher, e, i, significant in zip(
+                last.quality_criteria, last.quality_higher_is_better, last.quality_estimate,
+                last.quality_initial, last.quality_significant):
+            rospy.loginfo('e2e: quality %s %.4f (initial %.4f)', name, e, i)
+            self.assertTrue((e > i if higher else e < i) and significant, name)
+        self.assertEqual(list(self.est['left_to_right'][-1].quality_criteria), [])
         phi, tau = ex.error(ex.from_msg(last.transform), self.truth['T_cam_lidar'])
         rospy.loginfo('e2e: %d estimates; last from %d keyframes: %.4f deg / %.2f cm off the truth',
                       len(self.est['lidar_to_left']), last.keyframes_used, ex.norm(phi) * DEG,
@@ -279,6 +291,10 @@ class OnlineEndToEnd(unittest.TestCase):
             self.assertEqual(d['rejected frames'], '0')
             self.assertGreaterEqual(int(d['keyframes']), 6)  # 8 at 0.5 s spacing over 4 s
         self.assertGreaterEqual(int(d['solves']), 1)
+        # The published estimate's quality against the initial guess, one row per criterion.
+        for name in ('edge_alignment', 'photometric_residual', 'disparity_residual'):
+            self.assertIn('(initial ', d['quality ' + name])
+        self.assertGreater(float(d['quality scoring mean seconds']), 0.0)
 
     def test_6_keyframe_cloud_and_mesh_for_rviz(self):
         with self.lock:

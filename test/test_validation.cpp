@@ -9,9 +9,11 @@
 #include <gtest/gtest.h>
 
 #include "tescalib/core/common/geometry.h"
+#include "tescalib/core/eval/lidar_stereo_agreement.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/sim/simulator.h"
 #include "tescalib/core/validation/validation.h"
+#include "tescalib/core/validation/window_quality.h"
 #include "test_util.h"
 
 using namespace tescalib;
@@ -151,18 +153,20 @@ class ValidationGenerated : public ::testing::Test {
     o.frames = 26;
     o.seed = 7;
     sim_ = std::make_unique<Simulator>(o);
-    std::vector<Frame> frames;
-    for (int i = 0; i < 26; i += 5) frames.push_back(sim_->renderFrame(i));
-    set_ = std::make_unique<ValidationSet>(frames, sim_->rig());
+    for (int i = 0; i < 26; i += 5) frames_.push_back(sim_->renderFrame(i));
+    set_ = std::make_unique<ValidationSet>(frames_, sim_->rig());
   }
   static void TearDownTestSuite() {
     set_.reset();
+    frames_.clear();
     sim_.reset();
   }
   static std::unique_ptr<Simulator> sim_;
+  static std::vector<Frame> frames_;
   static std::unique_ptr<ValidationSet> set_;
 };
 std::unique_ptr<Simulator> ValidationGenerated::sim_;
+std::vector<Frame> ValidationGenerated::frames_;
 std::unique_ptr<ValidationSet> ValidationGenerated::set_;
 
 /// The axes each criterion claims to see (doc/validation.md): none sees the optical axis (tz)
@@ -248,4 +252,78 @@ TEST_F(ValidationGenerated, EachCriterionsOptimumLiesWithinItsUncertaintyOfTheTr
         << criterionName(c) << " " << e.transpose();
     EXPECT_LT(e.tail<3>().norm(), edges ? 0.06 : 0.012) << criterionName(c) << " " << e.transpose();
   }
+}
+
+// The online estimate's quality scores (window_quality.h) on keyframes built as the calibrator
+// builds them: the truth scores better than an initial guess 0.5 deg / 5 cm off on every axis,
+// significantly on each criterion; the scores of a pair are those of ValidationSet's criteria.
+TEST_F(ValidationGenerated, WindowQualityScoresTheTruthAboveAPerturbedInitialGuess) {
+  const StereoRig& truth = sim_->rig();
+  std::vector<std::shared_ptr<const Keyframe>> keyframes;
+  for (const Frame& f : frames_)
+    keyframes.push_back(std::make_shared<const Keyframe>(
+        makeKeyframe(f, truth, truth.T_cam_lidar, truth.T_right_left)));
+  const Vector6d off =
+      (Vector6d() << 0.5 / kDegPerRad, -0.5 / kDegPerRad, 0.5 / kDegPerRad, 0.05, -0.05, 0.05)
+          .finished();
+  StereoRig initial = truth;
+  initial.T_cam_lidar = perturb(truth.T_cam_lidar, off);
+  WindowQuality quality(initial);
+  const WindowQualityScores s = quality.score(keyframes, truth.T_cam_lidar, truth.T_right_left);
+  ASSERT_EQ(s.keyframes, 6);
+  EXPECT_EQ(s.prepared, 6);
+  for (Criterion c : kAllCriteria) {
+    const ScoreSummary a = s.advantage(c);
+    EXPECT_TRUE(a.mean > 0 && significant(a))
+        << criterionName(c) << ": " << a.mean << " +- " << a.standard_error;
+    // The initial guess scored as ValidationSet scores it: the keyframes' clouds are SGBM's with
+    // ValidationSet's settings, so every score is the same.
+    const std::vector<double> set = set_->score(initial.T_cam_lidar, truth.T_right_left)[int(c)];
+    for (int i = 0; i < 6; ++i)
+      EXPECT_NEAR(s.initial[int(c)][i], set[i], 1e-9) << criterionName(c) << " keyframe " << i;
+  }
+  // Kept keyframes are not prepared again and score alike; those not passed are forgotten.
+  const WindowQualityScores again = quality.score(keyframes, truth.T_cam_lidar, truth.T_right_left);
+  EXPECT_EQ(again.prepared, 0);
+  EXPECT_EQ(again.estimate, s.estimate);
+  EXPECT_EQ(again.initial, s.initial);
+  quality.score({keyframes.begin() + 3, keyframes.end()}, truth.T_cam_lidar, truth.T_right_left);
+  EXPECT_EQ(quality.kept(), 3u);
+  // Prepared ahead (the node's keyframe thread), the keyframes are scored alike without being
+  // prepared again; one prepared after the estimate's keyframes is kept for the next estimate.
+  WindowQuality ahead(initial);
+  for (const auto& kf : keyframes) ahead.prepare(kf);
+  const std::vector<std::shared_ptr<const Keyframe>> first5(keyframes.begin(), keyframes.end() - 1);
+  const WindowQualityScores five = ahead.score(first5, truth.T_cam_lidar, truth.T_right_left);
+  EXPECT_EQ(five.prepared, 0);
+  EXPECT_EQ(five.estimate[0], std::vector<double>(s.estimate[0].begin(), s.estimate[0].end() - 1));
+  EXPECT_EQ(five.initial[2], std::vector<double>(s.initial[2].begin(), s.initial[2].end() - 1));
+  EXPECT_EQ(ahead.kept(), 6u);
+  EXPECT_EQ(ahead.score(keyframes, truth.T_cam_lidar, truth.T_right_left).prepared, 0);
+}
+
+// An estimate of the pair (co-calibration) against an initial pair 0.1 deg off in yaw: the
+// initial guess's disparity and photometric scores come from the keyframes' matches triangulated
+// with the initial pair, and the truth scores better on both.
+TEST_F(ValidationGenerated, WindowQualityScoresEachPairWithItsOwnClouds) {
+  const StereoRig& truth = sim_->rig();
+  std::vector<std::shared_ptr<const Keyframe>> keyframes;
+  for (const Frame& f : frames_)
+    keyframes.push_back(std::make_shared<const Keyframe>(
+        makeKeyframe(f, truth, truth.T_cam_lidar, truth.T_right_left)));
+  StereoRig initial = truth;
+  initial.T_right_left = perturb(truth.T_right_left, axisStep(1, 0.1, 0));
+  WindowQuality quality(initial);
+  const WindowQualityScores s = quality.score(keyframes, truth.T_cam_lidar, truth.T_right_left);
+  for (Criterion c : {Criterion::kPhotometric, Criterion::kDisparity}) {
+    const ScoreSummary a = s.advantage(c);
+    EXPECT_TRUE(a.mean > 0 && significant(a))
+        << criterionName(c) << ": " << a.mean << " +- " << a.standard_error;
+  }
+  // The estimate's pair is the keyframes' own: its disparity scores read their clouds.
+  for (int i = 0; i < 6; ++i)
+    EXPECT_DOUBLE_EQ(
+        s.estimate[int(Criterion::kDisparity)][i],
+        lidarDisparityResidual(keyframes[i]->scan, keyframes[i]->stereo, truth.T_cam_lidar)
+            .mean_truncated_abs_px);
 }

@@ -100,6 +100,7 @@ void CalibrationNodelet::diagnose(diagnostic_updater::DiagnosticStatusWrapper& s
   stat.add("last solve", solve_msg);
   stat.add("solving", solving_.load());
   addTimings(stat);
+  addQuality(stat);
   stat.add("last problem", problem);
   stat.add("unknown parameters", unknown_params_);
   stat.add("converged", e ? e->converged : false);

@@ -189,6 +189,8 @@ bool CalibrationNodelet::initCalibrator(const Cloud& cloud, const Info& left_inf
   lidar_frame_ = init.lidar_frame;
   const StereoRig& rig = init.rig;
   calibrator_owner_ = std::make_unique<OnlineCalibrator>(rig, params_.online);
+  startQuality(rig);
+  // Published last: the worker threads use the calibrator and quality_ once they see it.
   calibrator_.store(calibrator_owner_.get(), std::memory_order_release);
   // tf was needed for the initial guess only: stop listening (a listener's buffer warns of
   // TF_REPEATED_DATA at every loop of a bag, and it reads every /tf message for nothing).
@@ -348,6 +350,14 @@ void CalibrationNodelet::preprocessLoop() {
         solve_requested_ = true;
       }
       cv_.notify_all();
+      // While the solve runs: what the quality scores need of the keyframe, so that the
+      // published estimate waits only for its own scores.
+      if (kf && quality_) {
+        const ros::WallTime q0 = ros::WallTime::now();
+        quality_->prepare(kf);
+        std::lock_guard<std::mutex> lock(mutex_);
+        quality_prepare_time_.add((ros::WallTime::now() - q0).toSec());
+      }
     } else if (r == FrameResult::kReset) {
       NODELET_WARN("tescalib: %s", msg.c_str());
       noteProblem(msg);
@@ -414,6 +424,8 @@ void CalibrationNodelet::solveLoop() {
       publishStatus();
     }
     if (updated) {
+      // Before the lock: a ~reset meanwhile waits for no scoring.
+      const std::optional<WindowQualityScores> quality = scoreQuality(*e);
       std::lock_guard<std::mutex> publishing(publish_mutex_);
       const auto current = calibrator()->estimate();
       if (!current || current->solve_id != e->solve_id) {
@@ -423,7 +435,11 @@ void CalibrationNodelet::solveLoop() {
             e->keyframes_used);
         continue;
       }
-      publish(*e, rosStamp(e->stamp));
+      publish(*e, rosStamp(e->stamp), quality ? &*quality : nullptr);
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        published_quality_ = quality;
+      }
       std::string kind = e->stereo_estimated ? "LiDAR-stereo, T_right_left kept"
                                              : "LiDAR-stereo, T_right_left not estimated";
       if (e->co_rounds > 0 && params_.online.joint)
@@ -433,16 +449,20 @@ void CalibrationNodelet::solveLoop() {
       NODELET_INFO(
           "tescalib: new estimate from %d keyframes in %.2f s (keyframe to estimate %.2f s; %s)",
           e->keyframes_used, last_solve_seconds_.load(), latency, kind.c_str());
+      if (quality)
+        NODELET_INFO("tescalib: quality on %d keyframes (%.3f s): %s", quality->keyframes,
+                     quality->seconds, quality->summary().c_str());
     } else {
       NODELET_WARN_THROTTLE(5.0, "tescalib: %s", msg.c_str());
     }
   }
 }
 
-void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp) {
+void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp,
+                                 const WindowQualityScores* quality) {
   std_msgs::Header h;
   h.stamp = stamp;
-  publishEstimateMsgs(e, h, lidar_pub_, stereo_pub_);
+  publishEstimateMsgs(e, h, lidar_pub_, stereo_pub_, quality);
   h.frame_id = params_.left_frame;
   lidar_pose_pub_.publish(ros_conv::toPoseMsg(h, e.T_cam_lidar, e.cov_lidar, e.cov_lidar_known));
   h.frame_id = params_.right_frame;
@@ -453,11 +473,14 @@ void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp
 
 void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
                                              const ros::Publisher& lidar,
-                                             const ros::Publisher& stereo) {
-  lidar.publish(ros_conv::toEstimateMsg(h, params_.left_frame, lidar_frame_, e.T_cam_lidar,
-                                        e.cov_lidar, e.observable_lidar, e.converged,
-                                        e.keyframes_used, e.cost_lidar, e.iterations_lidar,
-                                        e.message, true, e.weakest_lidar, e.cov_lidar_known));
+                                             const ros::Publisher& stereo,
+                                             const WindowQualityScores* quality) {
+  ExtrinsicEstimate m = ros_conv::toEstimateMsg(
+      h, params_.left_frame, lidar_frame_, e.T_cam_lidar, e.cov_lidar, e.observable_lidar,
+      e.converged, e.keyframes_used, e.cost_lidar, e.iterations_lidar, e.message, true,
+      e.weakest_lidar, e.cov_lidar_known);
+  if (quality) ros_conv::setQuality(*quality, &m);
+  lidar.publish(m);
   stereo.publish(ros_conv::toEstimateMsg(
       h, params_.right_frame, params_.left_frame, e.T_right_left, e.cov_stereo, e.observable_stereo,
       e.converged, e.keyframes_used, e.cost_stereo, e.iterations_stereo, e.message,

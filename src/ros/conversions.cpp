@@ -245,6 +245,22 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
   return m;
 }
 
+void setQuality(const WindowQualityScores& q, ExtrinsicEstimate* m) {
+  m->quality_criteria.clear();
+  m->quality_higher_is_better.clear();
+  m->quality_estimate.clear();
+  m->quality_initial.clear();
+  m->quality_significant.clear();
+  for (Criterion c : kAllCriteria) {
+    m->quality_criteria.push_back(criterionName(c));
+    m->quality_higher_is_better.push_back(higherIsBetter(c));
+    m->quality_estimate.push_back(WindowQualityScores::mean(q.estimate, c));
+    m->quality_initial.push_back(WindowQualityScores::mean(q.initial, c));
+    m->quality_significant.push_back(significant(q.advantage(c)));
+  }
+  m->quality_keyframes = static_cast<uint32_t>(q.keyframes);
+}
+
 geometry_msgs::PoseWithCovarianceStamped toPoseMsg(const std_msgs::Header& header,
                                                    const Eigen::Isometry3d& T, const Matrix6d& cov,
                                                    bool estimated) {

@@ -150,9 +150,10 @@ void readSyncWindowAndDeskew(Visit& get, NodeParams* p) {
 }
 
 /// co_calibration/*, stereo/* and images/*.
-/// monitor/*: the calibration monitor (MonitorSettings).
+/// monitor/*: the calibration monitor (MonitorSettings); quality/enabled.
 template <typename Visit>
 void readMonitor(Visit& get, NodeParams* p) {
+  get("quality/enabled", &p->quality_enabled);
   get("monitor/action", &p->online.monitor.action);
   get("monitor/cusum_k", &p->online.monitor.cusum_k);
   get("monitor/cusum_h", &p->online.monitor.cusum_h);

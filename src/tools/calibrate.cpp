@@ -77,6 +77,7 @@ void runSequences(const Args& args, Session* session,
                   const std::function<bool(int)>& take = nullptr) {
   const auto seqs = openSequences(args.sequences);
   StereoRig rig = seqs.front()->rig();
+  session->recording_rig = rig;
   if (!args.init.empty()) applyInit(args.init, &rig);
   session->settings.deskew = args.deskew < 0 ? seqs.front()->sweptScans() : args.deskew > 0;
   session->start(rig, args, std::to_string(seqs.size()) + " sequence(s)");
@@ -105,6 +106,7 @@ void runSequences(const Args& args, Session* session,
       }
       frame.stamp += offset;
       last = frame.stamp;
+      if (session->holdBack(frame, label)) continue;
       session->add(frame, frame.stamp, label);
     }
     offset = last + 1.0;
@@ -152,7 +154,8 @@ struct BagRun {
       ++session->rejected;
       return;
     }
-    if (r.outcome == IntakeOutcome::kCandidate) session->add(r.candidate, label);
+    if (r.outcome == IntakeOutcome::kCandidate && !session->holdBack(r.candidate.frame, label))
+      session->add(r.candidate, label);
   }
 
   /// The first set: the rig from its camera_infos, the initial extrinsic from /tf_static (or
@@ -163,10 +166,13 @@ struct BagRun {
     if (!ros_conv::stereoFromCameraInfo(*set.left_info, *set.right_info, args.init.empty(), &rig,
                                         &error))
       throw DataError(args.bag + ": " + error);
-    if (!args.init.empty())
+    if (!args.init.empty()) {
+      session->recording_rig = recordingRig(set);
       applyInit(args.init, &rig);
-    else
+    } else {
       rig.T_cam_lidar = bagLidarExtrinsic(args.bag, tf, set, "; give --init FILE");
+      session->recording_rig = rig;
+    }
     session->start(rig, args, "bag " + args.bag);
     intake = std::make_unique<FrameIntake>(session->settings, NodeParams().max_stereo_skew);
     intake->start(*set.left_info, *set.right_info);
@@ -182,6 +188,21 @@ struct BagRun {
           "note: the clouds have no per-point time field: de-skewed by azimuth, which is right "
           "only for a LiDAR phase-locked to the cameras that faces its +x at every image stamp "
           "(KITTI's); --deskew 0 otherwise\n");
+  }
+
+  /// With --init: the bag's own calibration (camera_info's pair, /tf_static's LiDAR extrinsic),
+  /// for the held-out scores; none when the bag has no LiDAR extrinsic.
+  std::optional<StereoRig> recordingRig(const BagSet& set) {
+    StereoRig rig;
+    std::string error;
+    if (!ros_conv::stereoFromCameraInfo(*set.left_info, *set.right_info, true, &rig, &error))
+      return std::nullopt;
+    try {
+      rig.T_cam_lidar = bagLidarExtrinsic(args.bag, tf, set, "");
+    } catch (const DataError&) {
+      return std::nullopt;
+    }
+    return rig;
   }
 
   /// The intake's observations, each said once: a camera_info that changed, the ring count,
@@ -233,6 +254,7 @@ void configure(const Args& args, Session* session) {
   session->settings.deskew = args.deskew > 0;
   if (args.search_deg >= 0) session->settings.co.lidar.search_step_deg = args.search_deg;
   session->settings.monitor.action = args.monitor;
+  session->holdout = args.holdout;
   session->keep_last_keyframe = !args.overlay.empty();
 }
 

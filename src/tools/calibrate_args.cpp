@@ -112,6 +112,11 @@ void addCalibrationOptions(CLI::App* app, Args* a) {
            "and print every pair's difference against their covariances (chi2, 6 DoF); "
            "--sequences only, without --out and --overlay")
       ->group(g);
+  cli::add(app, "--holdout", "N", cli::to(&a->holdout, cli::atLeast(2)),
+           "keep every Nth keyframe out of the calibration and score the estimate, the initial "
+           "guess and the recording's calibration on those (doc/validation.md); with --out, "
+           "written into BASE.yaml (quality: held_out:)")
+      ->group(g);
 }
 
 /// Options of the node's expert parameters (doc/parameters.md), for studies.
@@ -212,6 +217,10 @@ bool checkOutputs(const Args& a) {
   if (a.split > 0 && (!a.bag.empty() || !a.out.empty() || !a.overlay.empty())) {
     std::cerr << "tescalib_calibrate: --split goes with --sequences, without --out and --overlay "
                  "(it writes no result)\n";
+    return false;
+  }
+  if (a.split > 0 && a.holdout > 0) {
+    std::cerr << "tescalib_calibrate: --holdout does not go with --split\n";
     return false;
   }
   if (!a.sequences.empty() && !a.bag_option.empty()) {

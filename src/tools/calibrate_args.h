@@ -29,6 +29,7 @@ struct Args {
   double search_deg = -1;   // LidarStereoSettings::search_step_deg; < 0: the default (10)
   std::string bag_option;   // the last option of --bag only given (refused with --sequences)
   int split = 0;            // --split K: K disjoint windows solved on their own (0: off)
+  int holdout = 0;          // --holdout N: every Nth keyframe held out and scored (0: off)
   std::string json;         // every estimate published or held back, with the monitor's state
   std::string monitor = "recalibrate";  // MonitorSettings::action
 };

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -22,6 +23,7 @@
 #include "tescalib/core/uncertainty/trust.h"
 
 #include "calibrate_args.h"
+#include "calibrate_holdout.h"
 #include "calibrate_monitor.h"
 #include "calibrate_print.h"
 #include "calibrate_quality.h"
@@ -46,6 +48,38 @@ struct Session {
   std::vector<Frame> window_keyframes;    // the last window's keyframes, for the quality scores
   StereoRig initial_rig;                  // the initial guess, for the quality scores
   calibrate::MonitorLog monitor;          // the monitor's changes, --json's estimates
+
+  int holdout = 0;                         // --holdout N
+  int keyframe_candidates = 0;             // keyframes offered, held out or not
+  std::vector<Frame> held_out;             // --holdout's keyframes, not calibrated on
+  std::optional<StereoRig> recording_rig;  // the data's own calibration, when known
+
+  /// --holdout: whether the next keyframe is held out (kept for the held-out scores, printed).
+  bool holdBack(const Frame& frame, const std::string& label) {
+    if (!heldOut(keyframe_candidates++, holdout)) return false;
+    held_out.push_back(frame);
+    std::printf("  %s: held out (--holdout %d)\n", label.c_str(), holdout);
+    return true;
+  }
+
+  /// --holdout's scores of `T_cam_lidar` / `T_right_left` (an estimate or the last solve), the
+  /// initial guess and the recording's calibration; the block for BASE.yaml's quality:.
+  std::string printHeldOutScores(const Eigen::Isometry3d& T_cam_lidar,
+                                 const Eigen::Isometry3d& T_right_left) const {
+    if (holdout < 2) return "";
+    if (held_out.empty()) {
+      std::printf("held-out scores: no keyframe was held out (--holdout %d)\n", holdout);
+      return "";
+    }
+    std::vector<HeldOutCalibration> c = {{"estimate", T_cam_lidar, T_right_left},
+                                         {"initial_guess", T_initial, initial_rig.T_right_left}};
+    if (recording_rig && (!recording_rig->T_cam_lidar.isApprox(T_initial, 1e-12) ||
+                          !recording_rig->T_right_left.isApprox(initial_rig.T_right_left, 1e-12)))
+      c.push_back({"recording", recording_rig->T_cam_lidar, recording_rig->T_right_left});
+    else if (recording_rig)
+      std::printf("(the initial guess is the recording's calibration)\n");
+    return printHeldOut(held_out, holdout, initial_rig, c);
+  }
 
   /// The rig with its initial extrinsics; with --perturb-*, T_cam_lidar is moved away from them
   /// (they stay the reference of the printed errors).
@@ -277,6 +311,7 @@ struct Session {
         std::printf("change from the initial guess: %s\n",
                     pose6(poseError(c->T_cam_lidar, T_initial)).c_str());
         printQuality(window_keyframes, initial_rig, c->T_cam_lidar, c->T_right_left);
+        printHeldOutScores(c->T_cam_lidar, c->T_right_left);
         if (!args.overlay.empty())
           writeOverlay(
               args.overlay, c->T_cam_lidar,
@@ -303,8 +338,10 @@ struct Session {
         std::printf("T_right_left against %s: %s\n", reference.c_str(),
                     pose6(poseError(e->T_right_left, T_reference_stereo)).c_str());
     }
-    const std::string quality =
+    std::string quality =
         printQuality(window_keyframes, initial_rig, e->T_cam_lidar, e->T_right_left);
+    if (const std::string h = printHeldOutScores(e->T_cam_lidar, e->T_right_left); !h.empty())
+      quality += (quality.empty() ? "quality:\n" : "") + h;
     // The result files first: an overlay that cannot be written must not cost them.
     if (!args.out.empty()) {
       std::string msg;

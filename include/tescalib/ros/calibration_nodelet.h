@@ -36,6 +36,7 @@
 #include <tescalib/Save.h>
 
 #include "tescalib/core/online/online_calibrator.h"
+#include "tescalib/core/validation/window_quality.h"
 #include "tescalib/ros/frame_intake.h"
 #include "tescalib/ros/params.h"
 
@@ -111,7 +112,14 @@ class CalibrationNodelet : public nodelet::Nodelet {
   void enqueue(PendingFrame pf);
   void preprocessLoop();
   void solveLoop();
-  void publish(const OnlineEstimate& e, const ros::Time& stamp);
+  /// `quality`: the estimate's quality scores for ~lidar_to_left (none: its quality_* empty).
+  void publish(const OnlineEstimate& e, const ros::Time& stamp,
+               const WindowQualityScores* quality = nullptr);
+  /// With quality/enabled: the quality scores' state for the rig's initial extrinsics.
+  void startQuality(const StereoRig& rig);
+  /// The estimate's and the initial guess's quality scores on the window's keyframes
+  /// (quality/enabled; none when off).
+  std::optional<WindowQualityScores> scoreQuality(const OnlineEstimate& e);
   /// The estimate on /tf_static (latched, valid at every time), as robot_state_publisher sends
   /// fixed joints: lookups at now() or at any sensor stamp find it, and it stays after the data
   /// stop or a ~reset (the last published estimate is the best the node has).
@@ -132,6 +140,8 @@ class CalibrationNodelet : public nodelet::Nodelet {
                  double since_last_set, double kept_back_chi2) const;
   /// The keyframe build, solve and update latency durations and the first estimate's figures.
   void addTimings(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /// The published estimate's quality scores against the initial guess, and their cost.
+  void addQuality(diagnostic_updater::DiagnosticStatusWrapper& stat);
   /// Keeps `what` as /diagnostics' "last problem" (every rejection and start-up problem: the
   /// log lines are throttled, the diagnostics say what happened last).
   void noteProblem(const std::string& what);
@@ -157,7 +167,13 @@ class CalibrationNodelet : public nodelet::Nodelet {
   /// Every solve's result, published or not, with why not (OnlineCalibrator::lastSolve).
   ros::Publisher candidate_lidar_pub_, candidate_stereo_pub_;
   void publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
-                           const ros::Publisher& lidar, const ros::Publisher& stereo);
+                           const ros::Publisher& lidar, const ros::Publisher& stereo,
+                           const WindowQualityScores* quality = nullptr);
+  /// Made with the calibrator (quality/enabled): keyframes prepared by the preprocessing thread,
+  /// estimates scored by the solve thread.
+  std::unique_ptr<WindowQuality> quality_;
+  /// The published estimate's quality scores, for /diagnostics. GUARDED_BY(mutex_).
+  std::optional<WindowQualityScores> published_quality_;
   /// Each new keyframe's stereo cloud (left camera frame) and LiDAR mesh, for rviz: computed for
   /// the calibration anyway, published only while someone subscribes.
   ros::Publisher keyframe_cloud_pub_, keyframe_mesh_pub_;
@@ -210,6 +226,7 @@ class CalibrationNodelet : public nodelet::Nodelet {
   // keyframes that find the window ready (>= window/min_keyframes), so waiting for the window to
   // fill is not counted (that is what `first_estimate_*` reports).
   Durations build_time_, solve_time_, update_latency_;
+  Durations quality_time_, quality_prepare_time_;  ///< scoring (solve thread), preparation
   std::vector<ros::WallTime> unsolved_arrivals_;
   ros::WallTime first_set_wall_;  ///< GUARDED_BY(mutex_)
   ros::WallTime last_set_wall_;   ///< GUARDED_BY(mutex_), when the last synchronized set came

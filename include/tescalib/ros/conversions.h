@@ -19,6 +19,7 @@
 #include "tescalib/core/lidar/lidar_mesh.h"
 #include "tescalib/core/stereo/stereo_cloud.h"
 #include "tescalib/core/uncertainty/trust.h"
+#include "tescalib/core/validation/window_quality.h"
 
 namespace tescalib {
 namespace ros_conv {
@@ -111,6 +112,9 @@ ExtrinsicEstimate toEstimateMsg(const std_msgs::Header& header, const std::strin
                                 const std::string& status = "", bool estimated = true,
                                 const WeakDirection& weakest = WeakDirection(),
                                 bool covariance_known = true);
+
+/// The quality_* fields of an estimate message from the window's scores.
+void setQuality(const WindowQualityScores& q, ExtrinsicEstimate* m);
 
 /// The same as a PoseWithCovarianceStamped (header.frame_id = parent). ROS orders the pose
 /// covariance [x y z rx ry rz]; ours is [phi; tau]: the blocks are swapped. `estimated` false:

@@ -121,6 +121,14 @@ std::vector<double> OnlineCalibrator::windowStamps() const {
   return window_.stamps();
 }
 
+std::vector<std::shared_ptr<const Keyframe>> OnlineCalibrator::windowKeyframes(double up_to) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<std::shared_ptr<const Keyframe>> out;
+  for (const auto& k : window_.snapshot(false))
+    if (k->stamp <= up_to) out.push_back(k);
+  return out;
+}
+
 bool OnlineCalibrator::readyToSolve() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return static_cast<int>(window_.size()) >= settings_.minKeyframes() && new_keyframes_ > 0;

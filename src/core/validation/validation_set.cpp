@@ -50,12 +50,19 @@ ValidationSet::ValidationSet(const std::vector<Frame>& frames, const StereoRig& 
   parallelFor(static_cast<int>(frames.size()), resolveThreads(settings.threads), [&](int i) {
     Prepared& p = frames_[i];
     p.frame = frames[i];
-    p.edges_left = edgeStrengthMap(p.frame.left, settings_.edges);
-    p.edges_right = edgeStrengthMap(p.frame.right, settings_.edges);
-    p.grey_left = photometricImage(p.frame.left, settings_.photometric);
-    p.grey_right = photometricImage(p.frame.right, settings_.photometric);
-    p.discontinuities = depthDiscontinuities(p.frame.scan, settings_.edges);
+    p.prepared = prepareFrame(p.frame.left, p.frame.right, p.frame.scan, settings_);
   });
+}
+
+PreparedFrame prepareFrame(const cv::Mat& left, const cv::Mat& right, const LidarScan& scan,
+                           const ValidationSettings& settings) {
+  PreparedFrame p;
+  p.edges_left = edgeStrengthMap(left, settings.edges);
+  p.edges_right = edgeStrengthMap(right, settings.edges);
+  p.grey_left = photometricImage(left, settings.photometric);
+  p.grey_right = photometricImage(right, settings.photometric);
+  p.discontinuities = depthDiscontinuities(scan, settings.edges);
+  return p;
 }
 
 void ValidationSet::updateClouds(const Eigen::Isometry3d& T_right_left) {
@@ -70,23 +77,24 @@ void ValidationSet::updateClouds(const Eigen::Isometry3d& T_right_left) {
   clouds_T_right_left_ = T_right_left;
 }
 
-double ValidationSet::frameScore(const Prepared& p, Criterion c,
-                                 const Eigen::Isometry3d& T_cam_lidar,
-                                 const Eigen::Isometry3d& T_right_left) const {
+double preparedFrameScore(const PreparedFrame& p, const LidarScan& scan, const StereoCloud& cloud,
+                          Criterion c, const StereoRig& rig, const Eigen::Isometry3d& T_cam_lidar,
+                          const Eigen::Isometry3d& T_right_left,
+                          const ValidationSettings& settings) {
   switch (c) {
     case Criterion::kEdgeAlignment: {
       int nl = 0, nr = 0;
-      const double l = edgeAlignment(p.discontinuities, p.edges_left, rig_.left, T_cam_lidar, &nl);
-      const double r = edgeAlignment(p.discontinuities, p.edges_right, rig_.right,
+      const double l = edgeAlignment(p.discontinuities, p.edges_left, rig.left, T_cam_lidar, &nl);
+      const double r = edgeAlignment(p.discontinuities, p.edges_right, rig.right,
                                      T_right_left * T_cam_lidar, &nr);
       return nl + nr > 0 ? (l * nl + r * nr) / (nl + nr) : 0.0;
     }
     case Criterion::kPhotometric:
-      return photometricConsistency(p.frame.scan, p.grey_left, p.grey_right, rig_, T_cam_lidar,
-                                    T_right_left, settings_.photometric)
+      return photometricConsistency(scan, p.grey_left, p.grey_right, rig, T_cam_lidar, T_right_left,
+                                    settings.photometric)
           .residual;
     case Criterion::kDisparity:
-      return lidarDisparityResidual(p.frame.scan, p.cloud, T_cam_lidar).mean_truncated_abs_px;
+      return lidarDisparityResidual(scan, cloud, T_cam_lidar).mean_truncated_abs_px;
   }
   return 0;
 }
@@ -101,7 +109,9 @@ FrameScores ValidationSet::score(const Eigen::Isometry3d& T_cam_lidar,
   }
   parallelFor(static_cast<int>(frames_.size()), resolveThreads(settings_.threads), [&](int i) {
     for (Criterion c : use)
-      out[static_cast<int>(c)][i] = frameScore(frames_[i], c, T_cam_lidar, T_right_left);
+      out[static_cast<int>(c)][i] =
+          preparedFrameScore(frames_[i].prepared, frames_[i].frame.scan, frames_[i].cloud, c, rig_,
+                             T_cam_lidar, T_right_left, settings_);
   });
   return out;
 }

@@ -97,6 +97,11 @@ class OnlineCalibrator {
   Eigen::Isometry3d currentTrightLeft() const;
   /// Stamps of the keyframes in the window, oldest first.
   std::vector<double> windowStamps() const;
+  /// The keyframes in the window stamped at or before `up_to` (an estimate's stamp: those of its
+  /// solve still in the window), oldest first; shared and never modified, so a caller may read
+  /// them while the window slides on.
+  std::vector<std::shared_ptr<const Keyframe>> windowKeyframes(
+      double up_to = std::numeric_limits<double>::infinity()) const;
   /// The calibration monitor's state per extrinsic (calibration_monitor.h).
   MonitorReport monitorReport() const;
 

@@ -46,6 +46,24 @@ struct ValidationSettings {
 /// scores[criterion][frame].
 using FrameScores = std::array<std::vector<double>, kCriteria>;
 
+/// What the criteria need of one frame besides its scan and stereo cloud: both cameras' edge
+/// maps and blurred grey images, and the scan's depth discontinuities.
+struct PreparedFrame {
+  cv::Mat edges_left, edges_right, grey_left, grey_right;
+  std::vector<EdgePoint> discontinuities;
+};
+
+/// Prepares a frame from its images (8-bit, BGR or grey) and its scan.
+PreparedFrame prepareFrame(const cv::Mat& left, const cv::Mat& right, const LidarScan& scan,
+                           const ValidationSettings& settings);
+
+/// One criterion's score on a prepared frame (`scan`: the frame's; `cloud`: its stereo cloud
+/// with `T_right_left`, read by the disparity criterion only).
+double preparedFrameScore(const PreparedFrame& p, const LidarScan& scan, const StereoCloud& cloud,
+                          Criterion c, const StereoRig& rig, const Eigen::Isometry3d& T_cam_lidar,
+                          const Eigen::Isometry3d& T_right_left,
+                          const ValidationSettings& settings);
+
 class ValidationSet {
  public:
   /// Prepares the frames (8-bit BGR pairs of the rig's size). Throws DataError when there is no
@@ -66,13 +84,10 @@ class ValidationSet {
  private:
   struct Prepared {
     Frame frame;
-    cv::Mat edges_left, edges_right, grey_left, grey_right;
-    std::vector<EdgePoint> discontinuities;
+    PreparedFrame prepared;
     StereoCloud cloud;
   };
   void updateClouds(const Eigen::Isometry3d& T_right_left);
-  double frameScore(const Prepared& p, Criterion c, const Eigen::Isometry3d& T_cam_lidar,
-                    const Eigen::Isometry3d& T_right_left) const;
 
   std::vector<Prepared> frames_;
   StereoRig rig_;
