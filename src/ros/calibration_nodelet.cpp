@@ -424,38 +424,43 @@ void CalibrationNodelet::solveLoop() {
       publishStatus();
     }
     if (updated) {
-      // Before the lock: a ~reset meanwhile waits for no scoring.
-      const std::optional<WindowQualityScores> quality = scoreQuality(*e);
-      std::lock_guard<std::mutex> publishing(publish_mutex_);
-      const auto current = calibrator()->estimate();
-      if (!current || current->solve_id != e->solve_id) {
-        NODELET_INFO(
-            "tescalib: a ~reset cleared the estimate from %d keyframes before it was "
-            "published: not published",
-            e->keyframes_used);
-        continue;
-      }
-      publish(*e, rosStamp(e->stamp), quality ? &*quality : nullptr);
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        published_quality_ = quality;
-      }
-      std::string kind = e->stereo_estimated ? "LiDAR-stereo, T_right_left kept"
-                                             : "LiDAR-stereo, T_right_left not estimated";
-      if (e->co_rounds > 0 && params_.online.joint)
-        kind = "joint co-calibration, " + std::to_string(e->co_rounds) + " outer iteration(s)";
-      else if (e->co_rounds > 0)
-        kind = "co-calibration, " + std::to_string(e->co_rounds) + " round(s)";
-      NODELET_INFO(
-          "tescalib: new estimate from %d keyframes in %.2f s (keyframe to estimate %.2f s; %s)",
-          e->keyframes_used, last_solve_seconds_.load(), latency, kind.c_str());
-      if (quality)
-        NODELET_INFO("tescalib: quality on %d keyframes (%.3f s): %s", quality->keyframes,
-                     quality->seconds, quality->summary().c_str());
+      publishSolved(*e, latency);
     } else {
       NODELET_WARN_THROTTLE(5.0, "tescalib: %s", msg.c_str());
     }
   }
+}
+
+/// Scores and publishes what a solve updated, unless a ~reset cleared it meanwhile.
+void CalibrationNodelet::publishSolved(const OnlineEstimate& e, double latency) {
+  // Before the lock: a ~reset meanwhile waits for no scoring.
+  const std::optional<WindowQualityScores> quality = scoreQuality(e);
+  std::lock_guard<std::mutex> publishing(publish_mutex_);
+  const auto current = calibrator()->estimate();
+  if (!current || current->solve_id != e.solve_id) {
+    NODELET_INFO(
+        "tescalib: a ~reset cleared the estimate from %d keyframes before it was "
+        "published: not published",
+        e.keyframes_used);
+    return;
+  }
+  publish(e, rosStamp(e.stamp), quality ? &*quality : nullptr);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    published_quality_ = quality;
+  }
+  std::string kind = e.stereo_estimated ? "LiDAR-stereo, T_right_left kept"
+                                        : "LiDAR-stereo, T_right_left not estimated";
+  if (e.co_rounds > 0 && params_.online.joint)
+    kind = "joint co-calibration, " + std::to_string(e.co_rounds) + " outer iteration(s)";
+  else if (e.co_rounds > 0)
+    kind = "co-calibration, " + std::to_string(e.co_rounds) + " round(s)";
+  NODELET_INFO(
+      "tescalib: new estimate from %d keyframes in %.2f s (keyframe to estimate %.2f s; %s)",
+      e.keyframes_used, last_solve_seconds_.load(), latency, kind.c_str());
+  if (quality)
+    NODELET_INFO("tescalib: quality on %d keyframes (%.3f s): %s", quality->keyframes,
+                 quality->seconds, quality->summary().c_str());
 }
 
 void CalibrationNodelet::publish(const OnlineEstimate& e, const ros::Time& stamp,

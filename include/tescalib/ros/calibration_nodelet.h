@@ -113,6 +113,9 @@ class CalibrationNodelet : public nodelet::Nodelet {
   void preprocessLoop();
   void solveLoop();
   /// `quality`: the estimate's quality scores for ~lidar_to_left (none: its quality_* empty).
+  /// Scores and publishes what a solve updated, unless a ~reset cleared it meanwhile; `latency`:
+  /// from the oldest keyframe the solve answered to its end, s.
+  void publishSolved(const OnlineEstimate& e, double latency);
   void publish(const OnlineEstimate& e, const ros::Time& stamp,
                const WindowQualityScores* quality = nullptr);
   /// With quality/enabled: the quality scores' state for the rig's initial extrinsics.
