@@ -467,7 +467,8 @@ TEST(LidarStereoGenerated, WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow) {
   // when the second half's stereo clouds carry a disparity offset the first half's do not (as if
   // its images had been rectified differently: on real KITTI the sequences of one day disagree
   // like this), the halves disagree beyond the limit, the covariance is scaled by the
-  // disagreement and the solve is no longer declared converged.
+  // disagreement and widened along it (by e e^T / 4, e the halves' difference), and the solve is
+  // no longer declared converged.
   SimOptions o;
   o.frames = 36;
   o.seed = 3;
@@ -509,8 +510,12 @@ TEST(LidarStereoGenerated, WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow) {
   const LidarStereoResult c = solveLidarStereo(window, rig.T_cam_lidar, off);
   EXPECT_FALSE(c.halves.tested);
   EXPECT_TRUE(c.converged) << c.message;
-  EXPECT_LT((c.covariance - b.covariance / b.halves.covariance_scale).norm(),
-            1e-9 + 1e-6 * c.covariance.norm());
+  const Vector6d& e = b.halves.difference;
+  const Matrix6d expected = b.halves.covariance_scale * c.covariance + 0.25 * e * e.transpose();
+  EXPECT_LT((b.covariance - expected).norm(), 1e-9 + 1e-6 * expected.norm());
+  // Along the disagreement the covariance allows at least half of it.
+  const Vector6d u = e.normalized();
+  EXPECT_GE(std::sqrt(u.dot(b.covariance * u)), 0.5 * e.norm());
 }
 
 TEST(LidarStereoGenerated, StereoScaleAndItsVarianceFindABaselineError) {
