@@ -32,14 +32,6 @@ const char* const kFooter =
     "--overlay could not be written, 2 on a usage error.\n"
     "--help-expert also lists the options of the node's expert parameters (doc/offline.md).";
 
-/// An image topic's setter: the topic itself, and its camera_info in the topic's folder.
-std::function<void(const std::string&)> imageTopic(std::string* image, std::string* info) {
-  return [image, info](const std::string& v) {
-    *image = v;
-    *info = v.substr(0, v.rfind('/') + 1) + "camera_info";
-  };
-}
-
 /// The recording: folders or a bag with its topics, the initial guess, de-skewing.
 void addInputOptions(CLI::App* app, Args* a) {
   const char* g = "Input";
@@ -55,11 +47,11 @@ void addInputOptions(CLI::App* app, Args* a) {
   cli::add(app, "--points", "TOPIC", cli::to(&a->topics.points, cli::text),
            "--bag: the point cloud topic")
       ->group(g);
-  cli::add(app, "--left", "IMAGE_TOPIC", imageTopic(&a->topics.left, &a->topics.left_info),
+  cli::add(app, "--left", "IMAGE_TOPIC", cli::imageTopic(&a->topics.left, &a->topics.left_info),
            "--bag: the left image topic itself (the launch files take the namespace and image:= "
            "instead); camera_info is the topic's folder + /camera_info")
       ->group(g);
-  cli::add(app, "--right", "IMAGE_TOPIC", imageTopic(&a->topics.right, &a->topics.right_info),
+  cli::add(app, "--right", "IMAGE_TOPIC", cli::imageTopic(&a->topics.right, &a->topics.right_info),
            "--bag: the right image topic, as --left")
       ->group(g);
   cli::add(app, "--max-skew", "S", cli::to(&a->topics.max_skew, cli::toDouble),

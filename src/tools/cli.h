@@ -67,6 +67,14 @@ inline std::function<int(const std::string&)> atLeast(int min) {
 /// The value as it is given (a name, a path).
 inline std::string text(const std::string& s) { return s; }
 
+/// An image topic option's setter: the topic itself, and its camera_info in the topic's folder.
+inline std::function<void(const std::string&)> imageTopic(std::string* image, std::string* info) {
+  return [image, info](const std::string& v) {
+    *image = v;
+    *info = v.substr(0, v.rfind('/') + 1) + "camera_info";
+  };
+}
+
 /// A seed: decimal digits only, at most 2^53 (a JSON reader's double holds it exactly); "-1"
 /// (which std::stoull wraps to 2^64 - 1) or "1.5" throw std::invalid_argument.
 inline uint64_t toSeed(const std::string& s) {

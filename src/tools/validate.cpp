@@ -72,20 +72,10 @@ void addInputOptions(CLI::App* app, Args* a) {
            "its synchronized sets");
   cli::add(app, "--points", "TOPIC", cli::to(&a->topics.points, cli::text),
            "--bag: the point cloud topic");
-  cli::add(
-      app, "--left", "IMAGE_TOPIC",
-      [a](const std::string& v) {
-        a->topics.left = v;
-        a->topics.left_info = v.substr(0, v.rfind('/') + 1) + "camera_info";
-      },
-      "--bag: the left image topic; camera_info is the topic's folder + /camera_info");
-  cli::add(
-      app, "--right", "IMAGE_TOPIC",
-      [a](const std::string& v) {
-        a->topics.right = v;
-        a->topics.right_info = v.substr(0, v.rfind('/') + 1) + "camera_info";
-      },
-      "--bag: the right image topic, as --left");
+  cli::add(app, "--left", "IMAGE_TOPIC", cli::imageTopic(&a->topics.left, &a->topics.left_info),
+           "--bag: the left image topic; camera_info is the topic's folder + /camera_info");
+  cli::add(app, "--right", "IMAGE_TOPIC", cli::imageTopic(&a->topics.right, &a->topics.right_info),
+           "--bag: the right image topic, as --left");
 }
 
 bool parseArgs(int argc, char** argv, Args* a) {
