@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "tescalib/core/solvers/lidar_stereo_association.h"
+#include "tescalib/core/uncertainty/trust.h"
 
 namespace tescalib {
 namespace {
@@ -29,9 +30,7 @@ void printUpdate(int it, size_t associations, const Vector6d& d, double scale, d
 }  // namespace
 
 Vector6d unsettledDrift(const std::vector<Vector6d>& updates, const LidarStereoSettings& s) {
-  Vector6d scale;
-  scale.head<3>().setConstant(kDegPerRad / s.max_sigma_rot_deg);
-  scale.tail<3>().setConstant(1.0 / s.max_sigma_trans_m);
+  const Vector6d scale = limitScale(s.max_sigma_rot_deg, s.max_sigma_trans_m);
   Vector6d sum = Vector6d::Zero();
   const size_t first = updates.size() / 2;
   for (size_t i = first; i < updates.size(); ++i) sum += updates[i];

@@ -101,20 +101,11 @@ std::string unconstrainedMessage(const LidarStereoResult& res, const LidarStereo
 /// still moving can look tight along the very direction it moves in).
 /// Returns whether it flagged anything.
 bool flagDrift(const Vector6d& drift, const LidarStereoSettings& s, LidarStereoResult* res) {
-  Vector6d u;
-  for (int i = 0; i < 3; ++i) {
-    u[i] = drift[i] * kDegPerRad / s.max_sigma_rot_deg;
-    u[3 + i] = drift[3 + i] / s.max_sigma_trans_m;
-  }
-  const double norm = u.norm();
-  if (!(norm > 1.0)) return false;
+  const Vector6d u = drift.cwiseProduct(limitScale(s.max_sigma_rot_deg, s.max_sigma_trans_m));
+  const WeakDirection w = weakDirectionAlong(u);
+  if (!(w.ratio > 1.0)) return false;
   for (int i = 0; i < 6; ++i)
     if (std::fabs(u[i]) > 1.0) res->observable[i] = false;
-  Eigen::Index largest;
-  u.cwiseAbs().maxCoeff(&largest);
-  WeakDirection w;
-  w.ratio = norm;
-  w.direction = (u[largest] < 0 ? -u : u) / norm;
   res->weak_directions.insert(res->weak_directions.begin(), w);
   return true;
 }

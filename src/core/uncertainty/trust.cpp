@@ -35,12 +35,33 @@ bool axesWithin(const Matrix6d& covariance, double max_sigma_rot_deg, double max
   return all;
 }
 
-std::vector<WeakDirection> weakDirections(const Matrix6d& covariance, double max_sigma_rot_deg,
-                                          double max_sigma_trans_m) {
-  if (!covariance.allFinite() || !(max_sigma_rot_deg > 0) || !(max_sigma_trans_m > 0)) return {};
+namespace {
+/// `d` or -d, whichever has its largest component positive (a direction's one sign).
+Vector6d largestPositive(const Vector6d& d) {
+  Eigen::Index largest;
+  d.cwiseAbs().maxCoeff(&largest);
+  return d[largest] < 0 ? Vector6d(-d) : d;
+}
+}  // namespace
+
+Vector6d limitScale(double max_sigma_rot_deg, double max_sigma_trans_m) {
   Vector6d scale;
   scale << Eigen::Vector3d::Constant(kDegPerRad / max_sigma_rot_deg),
       Eigen::Vector3d::Constant(1.0 / max_sigma_trans_m);
+  return scale;
+}
+
+WeakDirection weakDirectionAlong(const Vector6d& v) {
+  WeakDirection w;
+  w.ratio = v.norm();
+  if (w.ratio > 0) w.direction = largestPositive(v / w.ratio);
+  return w;
+}
+
+std::vector<WeakDirection> weakDirections(const Matrix6d& covariance, double max_sigma_rot_deg,
+                                          double max_sigma_trans_m) {
+  if (!covariance.allFinite() || !(max_sigma_rot_deg > 0) || !(max_sigma_trans_m > 0)) return {};
+  const Vector6d scale = limitScale(max_sigma_rot_deg, max_sigma_trans_m);
   Matrix6d scaled = scale.asDiagonal() * covariance * scale.asDiagonal();
   scaled = 0.5 * (scaled + scaled.transpose()).eval();
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(scaled);
@@ -48,10 +69,7 @@ std::vector<WeakDirection> weakDirections(const Matrix6d& covariance, double max
   for (int i = 5; i >= 0; --i) {  // eigenvalues ascending: the weakest last
     WeakDirection w;
     w.ratio = std::sqrt(std::max(0.0, eig.eigenvalues()[i]));
-    w.direction = eig.eigenvectors().col(i);
-    Eigen::Index largest;
-    w.direction.cwiseAbs().maxCoeff(&largest);
-    if (w.direction[largest] < 0) w.direction = -w.direction;
+    w.direction = largestPositive(eig.eigenvectors().col(i));
     out.push_back(w);
   }
   return out;

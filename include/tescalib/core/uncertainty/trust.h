@@ -35,6 +35,14 @@ struct WeakDirection {
   Vector6d direction = Vector6d::Zero();  ///< unit, limit-scaled; its largest component > 0
 };
 
+/// The per-axis factors that take [phi; tau] (rad, m) into units of the trust limits (rotations
+/// over `max_sigma_rot_deg`, translations over `max_sigma_trans_m`).
+Vector6d limitScale(double max_sigma_rot_deg, double max_sigma_trans_m);
+
+/// A displacement `v` already in units of the limits as a weak direction: ratio |v|, direction
+/// v / |v| with its largest component positive (ratio 0 and no direction when v is zero).
+WeakDirection weakDirectionAlong(const Vector6d& v);
+
 /// The six eigen-directions of `covariance` in units of the limits, the weakest first (the
 /// degeneracy of the paper's uncertainty analysis, in directions rather than axes). Empty when
 /// the covariance is not finite or a limit is not positive.
