@@ -22,6 +22,7 @@
 #include "tescalib/core/sim/simulator.h"
 #include "tescalib/core/sim/simulator_camera.h"
 #include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/solvers/lidar_stereo_covariance.h"
 #include "tescalib/core/solvers/lidar_stereo_solver.h"
 
 using namespace tescalib;
@@ -193,7 +194,7 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
     b->all.g += w * J * r, ++b->all.n;
     b->stereo.g += w * J * r_stereo;
     b->mesh.g += w * J * r_mesh;
-    const int cls = std::fabs(m.y()) > 0.8    ? kRoad
+    const int cls = onGround(m)               ? kRoad
                     : std::fabs(m.z()) > 0.97 ? kFacing
                     : std::fabs(m.x()) > 0.7  ? kLateral
                                               : kOther;

@@ -15,10 +15,6 @@
 namespace tescalib {
 namespace {
 
-/// A stereo point on the ground (LidarStereoSettings::model_sigma_ground_disparity_px): its
-/// surface normal within 37 deg of the camera's y axis.
-constexpr double kGroundNormalCos = 0.8;
-
 /// What the fine residuals at the estimate tell about the parameters: the pose, then the clouds'
 /// scale and yaw where they are estimated.
 struct FineInformation {
@@ -91,7 +87,7 @@ void accumulateFineInformation(const LidarStereoEstimate& est, const LidarStereo
     info->jtd.col(1) += w * J * (f.m.dot(f.q) / a0.p_l.norm() * a0.inv_sigma);
     // d (1 + k): ps / (1 + k), dr/dk = m.ps.
     info->jtd.col(2) += w * J * (f.m.dot(f.ps) * a0.inv_sigma);
-    if (std::fabs(f.m.y()) > kGroundNormalCos) info->jtd.col(3) += w * J * D;
+    if (onGround(f.m)) info->jtd.col(3) += w * J * D;
     res->keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
         w * J.head<6>() * J.head<6>().transpose();
     info->scores[a0.cluster] += w * r * J;
@@ -174,6 +170,8 @@ bool estimateLidarStereoCovariance(const LidarStereoEstimate& est, const LidarSt
   }
   return covariancesFromInformation(info, s, res);
 }
+
+bool onGround(const Eigen::Vector3d& normal) { return std::fabs(normal.y()) > 0.8; }
 
 Matrix6d withLidarStereoBiases(const LidarStereoResult& r, const LidarStereoSettings& s,
                                const LidarStereoBiasSensitivity& h) {

@@ -47,4 +47,8 @@ Matrix6d withLidarStereoBiases(const LidarStereoResult& result, const LidarStere
 Matrix6d constrainedCovariance(const LidarStereoResult& result,
                                const LidarStereoSettings& settings);
 
+/// Whether a surface normal (camera frame) is the ground's for the covariance's ground disparity
+/// offset (LidarStereoSettings::model_sigma_ground_disparity_px): within 37 deg of camera y.
+bool onGround(const Eigen::Vector3d& normal);
+
 }  // namespace tescalib
