@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <memory>
 #include <utility>
@@ -10,6 +11,7 @@
 
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/parallel.h"
+#include "tescalib/core/io/kitti_calib.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/lidar/scan_motion.h"
 #include "tescalib/core/solvers/co_calibration.h"
@@ -40,6 +42,18 @@ bool pickKeyframes(const Args& args, std::vector<std::unique_ptr<KittiSequence>>
     return false;
   }
   d->rig = seqs->front()->rig();
+  d->truth = d->rig;
+  const std::string true_calib = seqs->front()->dir() + "/calib_true.txt";
+  if (std::ifstream(true_calib).good()) {
+    try {
+      d->truth.T_right_left = rigFromOdometryCalib(readKittiOdometryCalib(true_calib)).T_right_left;
+    } catch (const DataError& e) {
+      std::cerr << "tescalib_eval: " << e.what() << "\n";
+      return false;
+    }
+    std::cout << "tescalib_eval: the true right camera is " << true_calib << "'s (the data are "
+              << "rectified with calib.txt's)\n";
+  }
   d->window_size = args.windows == "disjoint" ? static_cast<size_t>(args.window) : picked->size();
   d->n_windows = d->window_size > 0 ? picked->size() / d->window_size : 0;
   if (d->n_windows == 0) {

@@ -15,7 +15,10 @@ namespace tescalib::eval {
 /// clouds, which do not depend on the LiDAR extrinsic. Meshes depend on the view filter of each
 /// trial's initial guess and are rebuilt per trial.
 struct EvalData {
-  StereoRig rig;
+  StereoRig rig;  ///< the sequences' calibration (calib.txt): the stereo clouds' rectification
+  /// The truth errors are measured against: a generated drive's calib_true.txt (real sensors'
+  /// errors moved its right camera off calib.txt's), else `rig`.
+  StereoRig truth;
   std::vector<Keyframe> keyframes;
   size_t available = 0;  ///< keyframes in all the sequences (the windows may use fewer)
   size_t window_size = 0, n_windows = 0;

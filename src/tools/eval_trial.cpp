@@ -88,7 +88,7 @@ Eigen::Isometry3d solveCo(const Args& args, const EvalData& d,
                           const std::vector<Keyframe*>& mwin, const Eigen::Isometry3d& T_init,
                           Trial& tr) {
   const CoCalibrationSettings cs = coSettings(args, solver_settings, d.co_refinement);
-  const Eigen::Isometry3d T_rl_init = perturb(d.rig.T_right_left, tr.stereo.init);
+  const Eigen::Isometry3d T_rl_init = perturb(d.truth.T_right_left, tr.stereo.init);
   CoCalibrationResult r;
   if (args.mode == "joint") {
     JointCalibrationSettings jset;
@@ -116,7 +116,7 @@ Eigen::Isometry3d solveCo(const Args& args, const EvalData& d,
   tr.lidar.bias = r.lidar.bias_sensitivity;
   tr.stereo.cov =
       r.stereo.covariance_known ? r.stereo.covariance : Matrix6d::Constant(std::nan(""));
-  tr.stereo.err = poseError(r.stereo.T_right_left, d.rig.T_right_left);
+  tr.stereo.err = poseError(r.stereo.T_right_left, d.truth.T_right_left);
   tr.message = r.message;
   tr.brightness = r.stereo.brightness;
   return r.lidar.T_cam_lidar;
@@ -133,7 +133,7 @@ void solveStereo(const Args& args, const EvalData& d, const std::vector<const Ke
   ps.lidar_error_sigma_rot_deg = args.lidar_sigma_deg;
   ps.lidar_error_sigma_trans_m = args.lidar_sigma_m;
   PhotometricResult r =
-      solvePhotometric(window, d.rig, T_init, perturb(d.rig.T_right_left, tr.stereo.init), ps);
+      solvePhotometric(window, d.rig, T_init, perturb(d.truth.T_right_left, tr.stereo.init), ps);
   if (args.lidar_sigma_deg > 0 || args.lidar_sigma_m > 0) {
     Matrix6d P = Matrix6d::Zero();
     addAxisVariances(&P, {args.lidar_sigma_deg, args.lidar_sigma_deg, args.lidar_sigma_deg},
@@ -145,7 +145,7 @@ void solveStereo(const Args& args, const EvalData& d, const std::vector<const Ke
   // A solve that ended before its covariance (too few key points, ...) has none: NaN, left out
   // of the NEES, as on the LiDAR side.
   tr.stereo.cov = r.covariance_known ? r.covariance : Matrix6d::Constant(std::nan(""));
-  tr.stereo.err = poseError(r.T_right_left, d.rig.T_right_left);
+  tr.stereo.err = poseError(r.T_right_left, d.truth.T_right_left);
   if (std::getenv("TESCALIB_DEBUG"))
     std::fprintf(stderr, "photo-consistency ratio %.3f over %d key points\n", r.consistency_ratio,
                  r.inliers);
@@ -160,12 +160,12 @@ void solveStereo(const Args& args, const EvalData& d, const std::vector<const Ke
 /// none), so no NEES.
 void solveStereoFeatures(const EvalData& d, const std::vector<const Keyframe*>& window, Trial& tr) {
   const FeatureStereoResult r =
-      estimateStereoFromFeatures(window, d.rig, perturb(d.rig.T_right_left, tr.stereo.init));
+      estimateStereoFromFeatures(window, d.rig, perturb(d.truth.T_right_left, tr.stereo.init));
   tr.converged = r.ok;
   tr.stereo.cov = Matrix6d::Constant(std::nan(""));
-  tr.stereo.err = poseError(r.T_right_left, d.rig.T_right_left);
+  tr.stereo.err = poseError(r.T_right_left, d.truth.T_right_left);
   const Eigen::Vector3d dir = r.T_right_left.translation().normalized(),
-                        dir_gt = d.rig.T_right_left.translation().normalized();
+                        dir_gt = d.truth.T_right_left.translation().normalized();
   if (std::getenv("TESCALIB_DEBUG"))
     std::fprintf(stderr,
                  "features: %d matches, %d inliers, rms %.3f px, sigma %.4f deg / direction %.3f "
@@ -230,7 +230,7 @@ Eigen::Isometry3d drawInitialGuess(const Args& args, int t, const EvalData& d, T
   // The extrinsic the mode does not estimate is given: its error is where it was put.
   if (stereo_mode) tr->lidar.estimated = false, tr->lidar.err = tr->lidar.init;
   if (!stereo_mode && !co_mode) tr->stereo.estimated = false;
-  return perturb(d.rig.T_cam_lidar, tr->lidar.init);
+  return perturb(d.truth.T_cam_lidar, tr->lidar.init);
 }
 
 /// The trial's window (its keyframes in `mwin`, read-only in the result) with per-trial meshes,
@@ -322,7 +322,7 @@ Trial runTrial(const Args& args, int t, const LidarStereoSettings& solver_settin
   const Eigen::Isometry3d T_est = solveTrial(args, d, solver_settings, mwin, window, T_init, tr);
   tr.solve = std::chrono::duration<double>(Clock::now() - t_solve).count();
   ExtrinsicOutcome& est = stereo_mode ? tr.stereo : tr.lidar;
-  if (!stereo_mode) tr.lidar.err = poseError(T_est, d.rig.T_cam_lidar);
+  if (!stereo_mode) tr.lidar.err = poseError(T_est, d.truth.T_cam_lidar);
   if (args.method == "tescalib") {
     // NaN (left out of the means) when a covariance is not positive definite.
     tr.nees = nees(est.err, est.cov);

@@ -27,6 +27,7 @@ const char* const kFooter = "The same arguments give the same bytes.";
 struct Args {
   tescalib::SimOptions options;
   std::string out, calib, rig = "default";
+  std::vector<std::string> realism_set;  ///< --realism-set's assignments, applied after --realism
   bool size_given = false;
 };
 
@@ -155,13 +156,50 @@ void addSensorOptions(CLI::App* app, Args* a) {
       ->group(g);
 }
 
+/// Real sensors' errors: the preset and the changes to it.
+void addRealismOptions(CLI::App* app, Args* a) {
+  using tescalib::cli::add;
+  const char* g = "Real sensors' errors";
+  add(
+      app, "--realism", "none|kitti",
+      [a](const std::string& v) {
+        if (!tescalib::sim::RealismSizes::preset(v, &a->options.realism))
+          throw CLI::ValidationError("--realism must be none or kitti, not '" + v + "'");
+        a->options.realism_name = v;
+      },
+      "none (default): clean sensors; kitti: the right camera's residual rotation and f x B "
+      "error, residual lens distortion, a softer right camera, vignetting, per-laser range "
+      "offsets and elevation errors, a range scale, mixed pixels, a LiDAR-camera time offset and "
+      "low-texture asphalt, sized like the real KITTI recordings; each drive draws its values "
+      "from --seed (sim_info.txt lists them)")
+      ->group(g);
+  add(
+      app, "--realism-set", "KEY=VALUE[,...]",
+      [a](const std::string& v) { a->realism_set.push_back(v); },
+      "sizes one source (after --realism): right_rotation_deg, baseline_scale, lens_k1 (rms), "
+      "right_blur_px, vignetting, laser_range_offset_m, laser_elevation_deg, range_scale (rms), "
+      "mixed_pixel_fraction, lidar_time_offset_s (rms), asphalt_texture (1: clean); 0 switches "
+      "a source off")
+      ->group(g);
+}
+
 bool parse(int argc, char** argv, Args* a) {
   CLI::App app(kDescription, "tescalib_simulate");
   tescalib::cli::setUp(&app, kUsage, "Drive");
   app.footer(kFooter);
   addDriveOptions(&app, a);
   addSensorOptions(&app, a);
-  return tescalib::cli::parse(&app, argc, argv);
+  addRealismOptions(&app, a);
+  if (!tescalib::cli::parse(&app, argc, argv)) return false;
+  for (const std::string& v : a->realism_set) {
+    const std::string problem = a->options.realism.set(v);
+    if (!problem.empty()) {
+      std::cerr << "tescalib_simulate: --realism-set: " << problem << "\n";
+      return false;
+    }
+    a->options.realism_name += " " + v;
+  }
+  return true;
 }
 
 }  // namespace
@@ -190,8 +228,9 @@ int main(int argc, char** argv) {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::cout << "tescalib_simulate: wrote " << options.frames << " frames of "
               << tescalib::sim::scenarioName(options.scenario) << " (seed " << options.seed
-              << ", rig " << options.rig_source << ", " << options.width << "x" << options.height
-              << ") to " << args.out << " in " << seconds << " s\n";
+              << ", rig " << options.rig_source << ", realism " << options.realism_name << ", "
+              << options.width << "x" << options.height << ") to " << args.out << " in " << seconds
+              << " s\n";
   } catch (const tescalib::DataError& e) {
     std::cerr << "tescalib_simulate: " << e.what() << "\n";
     return 1;

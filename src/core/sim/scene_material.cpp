@@ -359,14 +359,16 @@ struct GroundCoords {
   float fp;      ///< isotropic footprint (m)
 };
 
-SurfaceLook groundSurface(GroundSurface surface, const GroundCoords& g, uint32_t seed) {
+SurfaceLook groundSurface(GroundSurface surface, const GroundCoords& g, uint32_t seed,
+                          float asphalt_texture) {
   SurfaceLook out;
   switch (surface) {
     case GroundSurface::kAsphalt: {
       // Patches, then grain down to the aggregate (1 cm).
-      const float n = 0.08f * fractalNoise(g.x, g.y, 4.f, 2, 0.5f, g.fp, seed) +
-                      0.2f * fractalNoise(g.x, g.y, 0.2f, 3, 0.85f, g.fp, seed + 1u) +
-                      0.22f * fractalNoise(g.x, g.y, 0.025f, 2, 0.9f, g.fp, seed + 13u);
+      const float n =
+          asphalt_texture * (0.08f * fractalNoise(g.x, g.y, 4.f, 2, 0.5f, g.fp, seed) +
+                             0.2f * fractalNoise(g.x, g.y, 0.2f, 3, 0.85f, g.fp, seed + 1u) +
+                             0.22f * fractalNoise(g.x, g.y, 0.025f, 2, 0.9f, g.fp, seed + 13u));
       out.albedo = Vec3(0.27f, 0.27f, 0.285f) * (1.f + n);
       out.reflectivity = 0.12f + 0.05f * n;
       break;
@@ -473,7 +475,7 @@ SurfaceLook shadeGround(const RoadPath& road, const GroundLayout& layout, const 
   Eigen::Vector2f t;
   if (!road.toRoad(g.x, g.y, &g.s, &g.l, &t)) {
     g.s = g.x, g.l = g.y, g.fs = g.fl = g.fp;
-    return groundSurface(layout.outside, g, seed);
+    return groundSurface(layout.outside, g, seed, layout.asphalt_texture);
   }
   const Vec3 along(t.x(), t.y(), 0.f), across(-t.y(), t.x(), 0.f);
   g.fs = sp.footprintAlong(along);
@@ -484,9 +486,9 @@ SurfaceLook shadeGround(const RoadPath& road, const GroundLayout& layout, const 
     if (g.l >= b.l0 && g.l < b.l1) band = &b;
   SurfaceLook out;
   if (!band) {
-    out = groundSurface(layout.outside, g, seed);
+    out = groundSurface(layout.outside, g, seed, layout.asphalt_texture);
   } else {
-    out = groundSurface(band->surface, g, seed);
+    out = groundSurface(band->surface, g, seed, layout.asphalt_texture);
     const float own = boxBand(g.l, band->l0, band->l1, g.fl);
     if (own < 1.f) {
       const float edge = (g.l - band->l0 < band->l1 - g.l) ? band->l0 - 1e-3f : band->l1 + 1e-3f;
@@ -494,7 +496,7 @@ SurfaceLook shadeGround(const RoadPath& road, const GroundLayout& layout, const 
       for (const auto& b : layout.bands)
         if (edge >= b.l0 && edge < b.l1) other = b.surface;
       if (other != band->surface) {
-        const SurfaceLook o = groundSurface(other, g, seed);
+        const SurfaceLook o = groundSurface(other, g, seed, layout.asphalt_texture);
         out.albedo = out.albedo * own + o.albedo * (1.f - own);
         out.reflectivity = out.reflectivity * own + o.reflectivity * (1.f - own);
       }

@@ -79,6 +79,11 @@ void validate(const SimOptions& o) {
   const ExtrinsicStep& st = o.step;
   if (st.active() && !(st.rot_deg >= 0 && st.rot_deg <= 90 && st.trans_m >= 0 && st.trans_m <= 1))
     fail("the extrinsic step's rotation must be 0-90 deg and its translation 0-1 m");
+  if (st.active() && st.stereo &&
+      (o.realism.right_rotation_deg > 0 || o.realism.baseline_scale > 0))
+    fail(
+        "a stereo extrinsic step and the realism's right camera errors (right_rotation_deg, "
+        "baseline_scale) cannot be combined; set those two to 0");
 }
 
 }  // namespace
@@ -144,6 +149,18 @@ KittiOdometryCalib defaultSimCalib() {
 
 namespace {
 
+/// `calib` with the right camera at `T_right_left` from the left one (P3's last column and
+/// R_right_left).
+KittiOdometryCalib withRightLeft(const KittiOdometryCalib& calib,
+                                 const Eigen::Isometry3d& T_right_left) {
+  KittiOdometryCalib c = calib;
+  const Eigen::Matrix3d K2_inv = calib.P[2].leftCols<3>().inverse();
+  c.R_right_left = T_right_left.linear();
+  c.P[3].col(3) =
+      calib.P[3].leftCols<3>() * (T_right_left.translation() + K2_inv * calib.P[2].col(3));
+  return c;
+}
+
 /// The calibration after `step` of `calib` (whose rig is `rig`), and that rig.
 KittiOdometryCalib stepCalib(const KittiOdometryCalib& calib, const StereoRig& rig,
                              const ExtrinsicStep& step, uint64_t seed, StereoRig* after) {
@@ -154,9 +171,7 @@ KittiOdometryCalib stepCalib(const KittiOdometryCalib& calib, const StereoRig& r
   const Eigen::Matrix3d K2_inv = calib.P[2].leftCols<3>().inverse();
   if (step.stereo) {
     after->T_right_left = perturb(rig.T_right_left, delta);
-    c.R_right_left = after->T_right_left.linear();
-    c.P[3].col(3) =
-        calib.P[3].leftCols<3>() * (after->T_right_left.translation() + K2_inv * calib.P[2].col(3));
+    c = withRightLeft(calib, after->T_right_left);
   } else {
     after->T_cam_lidar = perturb(rig.T_cam_lidar, delta);
     Eigen::Isometry3d T_cam0_cam2 = Eigen::Isometry3d::Identity();
@@ -180,6 +195,9 @@ struct Simulator::Impl {
   bool after(double t, const ExtrinsicStep& step) const { return step.active() && t >= step.at_s; }
   sim::LidarModel lidar = sim::LidarModel::hdl64e();
   sim::LidarNoise lidar_noise;
+  sim::RealismDraw realism;
+  StereoRig true_rig;
+  KittiOdometryCalib true_calib;
 };
 
 Simulator::Simulator(const SimOptions& options)
@@ -188,8 +206,15 @@ Simulator::Simulator(const SimOptions& options)
   rig_ = rigFromOdometryCalib(options_.calib);
   rig_.left.width = rig_.right.width = options_.width;
   rig_.left.height = rig_.right.height = options_.height;
+  impl_->realism = sim::drawRealism(options_.realism, options_.seed,
+                                    static_cast<int>(impl_->lidar.elevation_deg.size()));
+  impl_->true_rig = rig_;
+  impl_->true_rig.T_right_left = impl_->realism.trueRightLeft(rig_.T_right_left);
+  impl_->true_calib = impl_->realism.movesRightCamera()
+                          ? withRightLeft(options_.calib, impl_->true_rig.T_right_left)
+                          : options_.calib;
   impl_->T_cam2_lidar = rig_.T_cam_lidar;
-  impl_->T_cam3_lidar = rig_.T_right_left * rig_.T_cam_lidar;
+  impl_->T_cam3_lidar = impl_->true_rig.T_right_left * rig_.T_cam_lidar;
   // cam0 = cam2 shifted back by K^-1 P2[:,3] (the reader's definition of cam2).
   Eigen::Isometry3d T_cam0_cam2 = Eigen::Isometry3d::Identity();
   T_cam0_cam2.translation() =
@@ -211,7 +236,19 @@ Simulator::Simulator(const SimOptions& options)
   impl_->lidar_noise.range_sigma = n.lidar_range_sigma_m;
   impl_->lidar_noise.direction_sigma_rad = n.lidar_direction_sigma_deg * M_PI / 180.0;
   impl_->lidar_noise.intensity_sigma = n.lidar_intensity_sigma;
+  const sim::RealismDraw& r = impl_->realism;
+  if (options_.realism.laser_range_offset_m > 0)
+    impl_->lidar_noise.laser_range_offset_m = r.laser_range_offset_m;
+  if (options_.realism.laser_elevation_deg > 0)
+    impl_->lidar_noise.laser_elevation_rad = r.laser_elevation_rad;
+  impl_->lidar_noise.range_scale = r.range_scale;
+  impl_->lidar_noise.mixed_pixel_fraction = r.mixed_pixel_fraction;
+  world_->ground.asphalt_texture = static_cast<float>(r.asphalt_texture);
 }
+
+const sim::RealismDraw& Simulator::realism() const { return impl_->realism; }
+const StereoRig& Simulator::trueRig() const { return impl_->true_rig; }
+const KittiOdometryCalib& Simulator::trueCalib() const { return impl_->true_calib; }
 
 Simulator::~Simulator() = default;
 
@@ -254,14 +291,15 @@ Eigen::Isometry3d Simulator::cam0Pose(int i) const {
 LidarScan Simulator::renderScan(int i, int threads) const {
   const int t = resolveThreads(threads > 0 ? threads : options_.threads);
   const uint64_t seed = sim::subSeed(options_.seed, 4 * uint64_t(i) + 3);
+  // The scan stamped stamp(i) is taken lidar_time_offset_s after the cameras' trigger.
+  const double t0 = stamp(i) + impl_->realism.lidar_time_offset_s;
   if (options_.lidar_sweep) {
-    const double t0 = stamp(i);
     return sim::simulateSweptLidarScan(
         *world_, [&](double dt) { return worldFromLidarAt(t0 + dt); }, impl_->lidar,
         impl_->lidar_noise, seed, t);
   }
-  return sim::simulateLidarScan(*world_, worldFromLidar(i), impl_->lidar, impl_->lidar_noise, seed,
-                                t);
+  return sim::simulateLidarScan(*world_, worldFromLidarAt(t0), impl_->lidar, impl_->lidar_noise,
+                                seed, t);
 }
 
 Frame Simulator::renderFrame(int i, int threads) const {
@@ -280,9 +318,14 @@ Frame Simulator::renderFrame(int i, int threads) const {
   const bool after = impl_->after(f.stamp, options_.step);
   const Eigen::Isometry3d& T_cam2_lidar = after ? impl_->T_cam2_lidar_after : impl_->T_cam2_lidar;
   const Eigen::Isometry3d& T_cam3_lidar = after ? impl_->T_cam3_lidar_after : impl_->T_cam3_lidar;
+  const sim::RealismDraw& r = impl_->realism;
+  settings.lens_k1 = static_cast<float>(r.lens_k1);
+  settings.vignetting = static_cast<float>(r.left_vignetting);
   f.left = sim::renderCamera(*world_, shadows, rig_.left, T_wl * T_cam2_lidar.inverse(),
                              {float(options_.left_gain), float(options_.left_offset)}, settings);
   settings.noise_seed = sim::subSeed(options_.seed, 4 * uint64_t(i) + 2);
+  settings.vignetting = static_cast<float>(r.right_vignetting);
+  settings.blur_sigma_px = static_cast<float>(r.right_blur_px);
   f.right = sim::renderCamera(*world_, shadows, rig_.right, T_wl * T_cam3_lidar.inverse(),
                               {float(options_.right_gain), float(options_.right_offset)}, settings);
   f.scan = renderScan(i, t);
@@ -341,6 +384,20 @@ std::string stepInfo(const Simulator& sim) {
   return o.str();
 }
 
+/// sim_info.txt's lines on SimOptions::realism: the sizes and this drive's draw.
+std::string realismInfo(const Simulator& sim) {
+  const SimOptions& o = sim.options();
+  if (o.realism.none()) return "";
+  std::ostringstream s;
+  s << "# real sensors' errors (tescalib_simulate --realism, --realism-set): the sizes, then\n"
+    << "# this drive's values drawn from the seed; with the right camera moved, calib_true.txt\n"
+    << "# and T_right_left_true hold the true rig (calib.txt the nominal one)\n"
+    << "realism: " << o.realism_name << "\n"
+    << o.realism.yaml() << sim.realism().yaml()
+    << "T_right_left_true: " << yamlList(sim.trueRig().T_right_left) << "\n";
+  return s.str();
+}
+
 /// sim_info.txt: the sequence's parameters and ground truth (YAML).
 void writeSimInfo(const Simulator& sim, const sim::LidarModel& lidar, const std::string& dir) {
   std::ofstream info(fs::path(dir) / "sim_info.txt");
@@ -387,8 +444,8 @@ void writeSimInfo(const Simulator& sim, const sim::LidarModel& lidar, const std:
        << "# ground truth as KittiSequence reads it from calib.txt (3x4, row major)\n"
        << "T_cam_lidar: " << yamlList(sim.rig().T_cam_lidar) << "\n"
        << "T_right_left: " << yamlList(sim.rig().T_right_left) << "\n"
-       << stepInfo(sim) << "sun_direction_world: [" << sun.x() << ", " << sun.y() << ", " << sun.z()
-       << "]\n"
+       << stepInfo(sim) << realismInfo(sim) << "sun_direction_world: [" << sun.x() << ", "
+       << sun.y() << ", " << sun.z() << "]\n"
        << "poses: cam0 pose of each frame in the cam0 frame of frame 0 (KITTI convention)\n"
        << "lidar_motion: "
        << (o.lidar_sweep
@@ -432,6 +489,11 @@ void Simulator::writeSequence(const std::string& dir) const {
     writeKittiOdometryCalib(after.string(), impl_->calib_after);
   else
     fs::remove(after, ec);  // an earlier output's
+  const fs::path true_calib = fs::path(dir) / "calib_true.txt";
+  if (impl_->realism.movesRightCamera())
+    writeKittiOdometryCalib(true_calib.string(), impl_->true_calib);
+  else
+    fs::remove(true_calib, ec);
   writeTimesAndPoses(*this, dir);
   writeSimInfo(*this, impl_->lidar, dir);
   writeFrames(*this, dir);

@@ -5,6 +5,8 @@
 #include <limits>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
+
 #include "tescalib/core/common/parallel.h"
 #include "tescalib/core/common/pinhole.h"
 #include "tescalib/core/sim/scene_surface.h"
@@ -62,8 +64,8 @@ class CameraRays {
   };
 
   CameraRays(const SceneWorld& world, const CameraIntrinsics& K,
-             const Eigen::Isometry3d& T_world_cam, float max_range)
-      : world_(world), K_(K) {
+             const Eigen::Isometry3d& T_world_cam, float max_range, float lens_k1 = 0.f)
+      : world_(world), K_(K), k1_(lens_k1) {
     R_ = T_world_cam.linear().cast<float>();
     origin_ = T_world_cam.translation().cast<float>();
     PinholeView view;
@@ -78,7 +80,9 @@ class CameraRays {
   /// Traces the ray through image point (u, v).
   Ray trace(float u, float v) const {
     Ray ray;
-    ray.r = R_ * pinholeRay(float(K_.fx), float(K_.fy), float(K_.cx), float(K_.cy), u, v);
+    Vec3 x = pinholeRay(float(K_.fx), float(K_.fy), float(K_.cx), float(K_.cy), u, v);
+    if (k1_ != 0.f) x = undistorted(x);
+    ray.r = R_ * x;
     ray.len = ray.r.norm();
     ray.d = ray.r / ray.len;
     const int tx = std::clamp(static_cast<int>(u) / kTile, 0, tiles_.tilesX() - 1);
@@ -92,8 +96,16 @@ class CameraRays {
   const Vec3& origin() const { return origin_; }
 
  private:
+  /// The ray (x, y, 1) whose distorted image point is `xd` (x (1 + k1 r^2) = xd, by fixed point).
+  Vec3 undistorted(const Vec3& xd) const {
+    Eigen::Vector2f x = xd.head<2>();
+    for (int i = 0; i < 4; ++i) x = xd.head<2>() / (1.f + k1_ * x.squaredNorm());
+    return Vec3(x.x(), x.y(), 1.f);
+  }
+
   const SceneWorld& world_;
   const CameraIntrinsics& K_;
+  float k1_;
   Eigen::Matrix3f R_;
   Vec3 origin_;
   TileCandidates tiles_;
@@ -102,8 +114,8 @@ class CameraRays {
 class CameraRenderer {
  public:
   CameraRenderer(const SceneWorld& world, const SunShadowGrid& shadows, const CameraIntrinsics& K,
-                 const Eigen::Isometry3d& T_world_cam, float max_range)
-      : world_(world), shadows_(shadows), rays_(world, K, T_world_cam, max_range) {
+                 const Eigen::Isometry3d& T_world_cam, float max_range, float lens_k1)
+      : world_(world), shadows_(shadows), rays_(world, K, T_world_cam, max_range, lens_k1) {
     step_x_ = rays_.R().col(0) / static_cast<float>(K.fx);
     step_y_ = rays_.R().col(1) / static_cast<float>(K.fy);
   }
@@ -155,7 +167,8 @@ class CameraRenderer {
 cv::Mat renderCamera(const SceneWorld& world, const SunShadowGrid& shadows,
                      const CameraIntrinsics& K, const Eigen::Isometry3d& T_world_cam,
                      const CameraExposure& exposure, const CameraRenderSettings& settings) {
-  const CameraRenderer renderer(world, shadows, K, T_world_cam, settings.max_range);
+  const CameraRenderer renderer(world, shadows, K, T_world_cam, settings.max_range,
+                                settings.lens_k1);
   const int W = K.width, H = K.height;
   // Each pixel integrates the light over its area, as a camera's does: the mean of four
   // rotated-grid samples. A point sample per pixel would alias the finest texture detail, and two
@@ -174,15 +187,24 @@ cv::Mat renderCamera(const SceneWorld& world, const SunShadowGrid& shadows,
       value[static_cast<size_t>(y) * W + x] = 0.25f * sum;
     }
   });
+  if (settings.blur_sigma_px > 0.f) {
+    cv::Mat plane(H, W, CV_32FC3, value.data());
+    cv::GaussianBlur(plane, plane, cv::Size(0, 0), settings.blur_sigma_px, 0, cv::BORDER_REPLICATE);
+  }
   // Exposure and noise. Noise comes from a per-pixel hash, so it does not depend on threads.
   cv::Mat image(H, W, CV_8UC3);
+  const float corner2 = static_cast<float>(std::max(K.cx * K.cx, (W - K.cx) * (W - K.cx)) +
+                                           std::max(K.cy * K.cy, (H - K.cy) * (H - K.cy)));
   const uint32_t seed = static_cast<uint32_t>(settings.noise_seed ^ (settings.noise_seed >> 32));
   parallelFor(H, threads, [&](int y) {
     auto* row = image.ptr<cv::Vec3b>(y);
+    const float dy2 = static_cast<float>((y - K.cy) * (y - K.cy));
     for (int x = 0; x < W; ++x) {
       const size_t i = static_cast<size_t>(y) * W + x;
+      const float dx = static_cast<float>(x - K.cx);
+      const float gain = exposure.gain * (1.f - settings.vignetting * (dx * dx + dy2) / corner2);
       for (int ch = 0; ch < 3; ++ch) {  // BGR
-        float v = exposure.gain * value[i][2 - ch] + exposure.offset;
+        float v = gain * value[i][2 - ch] + exposure.offset;
         if (settings.noise_sigma > 0.f)
           v += settings.noise_sigma *
                gaussianFromHash(hash32(seed, static_cast<uint32_t>(i), static_cast<uint32_t>(ch)));

@@ -15,6 +15,12 @@ namespace sim {
 namespace {
 constexpr int kAzimuthBins = 720;
 constexpr float kBeamDivergence = 0.002f;  // rad; the LiDAR's texture footprint
+constexpr float kMixedEdge = 0.3f;         // m; a depth edge under a beam's footprint
+
+/// values[ring], or 0 when `values` is empty.
+double laserValue(const std::vector<double>& values, int ring) {
+  return values.empty() ? 0.0 : values[static_cast<size_t>(ring)];
+}
 }  // namespace
 
 LidarModel LidarModel::hdl64e() {
@@ -51,19 +57,25 @@ LidarScan spin(const SceneWorld& world, const std::vector<Eigen::Isometry3d>& cu
   parallelFor(rings, resolveThreads(threads), [&](int order) {
     const int ring = rings - 1 - order;  // stored top beam first
     const double el = model.elevation_deg[ring] * M_PI / 180.0;
+    const double el_true = el + laserValue(noise.laser_elevation_rad, ring);
+    const double range_offset = laserValue(noise.laser_range_offset_m, ring);
     LidarScan& out = per_ring[order];
     out.reserve(n);
     for (int k = 0; k < n; ++k) {
       const double az = beamAzimuth(k, n);
       const Eigen::Vector3d omega(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az),
                                   std::sin(el));
+      const Eigen::Vector3d omega_true =
+          el_true == el ? omega
+                        : Eigen::Vector3d(std::cos(el_true) * std::cos(az),
+                                          std::cos(el_true) * std::sin(az), std::sin(el_true));
       // Tangent basis N(omega) = [N1 N2]: azimuth and elevation directions.
       const Eigen::Vector3d n1(-std::sin(az), std::cos(az), 0.0);
-      const Eigen::Vector3d n2 = omega.cross(n1);
+      const Eigen::Vector3d n2 = omega_true.cross(n1);
       const uint32_t id = static_cast<uint32_t>(ring * n + k);
       const double w1 = noise.direction_sigma_rad * gaussianFromHash(hash32(seed32, id, 0u));
       const double w2 = noise.direction_sigma_rad * gaussianFromHash(hash32(seed32, id, 1u));
-      const Eigen::Vector3f beam = (omega + w1 * n1 + w2 * n2).normalized().cast<float>();
+      const Eigen::Vector3f beam = (omega_true + w1 * n1 + w2 * n2).normalized().cast<float>();
       const Eigen::Isometry3d& T = pose(k);
       const Eigen::Vector3f origin = T.translation().cast<float>();
       const Eigen::Vector3f d = T.linear().cast<float>() * beam;
@@ -73,7 +85,20 @@ LidarScan spin(const SceneWorld& world, const std::vector<Eigen::Isometry3d>& cu
           traceRay(world.prims, sectors[c].begin(bin, 0), sectors[c].end(bin, 0), origin, d,
                    static_cast<float>(model.max_range) + 1.f);
       if (hit.prim == TraceResult::kNoHit) continue;
-      const double range = hit.t + noise.range_sigma * gaussianFromHash(hash32(seed32, id, 2u));
+      double t = hit.t;
+      if (noise.mixed_pixel_fraction > 0 &&
+          unitFloat(hash32(seed32, id, 4u)) < noise.mixed_pixel_fraction) {
+        // The footprint's other half, a beam divergence further along the azimuth.
+        const Eigen::Vector3f d2 =
+            T.linear().cast<float>() * (beam + kBeamDivergence * n1.cast<float>()).normalized();
+        const TraceResult h2 =
+            traceRay(world.prims, sectors[c].begin(bin, 0), sectors[c].end(bin, 0), origin, d2,
+                     static_cast<float>(model.max_range) + 1.f);
+        if (h2.prim != TraceResult::kNoHit && std::fabs(h2.t - hit.t) > kMixedEdge)
+          t = hit.t + unitFloat(hash32(seed32, id, 5u)) * (h2.t - hit.t);
+      }
+      const double range = noise.range_scale * t + range_offset +
+                           noise.range_sigma * gaussianFromHash(hash32(seed32, id, 2u));
       if (range > model.max_range || range < model.min_range) continue;
       SurfacePoint sp = surfaceAt(world, hit, origin, d);
       const Eigen::Vector3f t1 = sp.normal.unitOrthogonal();

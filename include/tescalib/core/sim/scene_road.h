@@ -79,6 +79,7 @@ struct GroundLayout {
   std::vector<GroundBand> bands;                  ///< lateral bands, any order
   std::vector<LaneMarking> markings;              ///< painted lines (on asphalt)
   GroundSurface outside = GroundSurface::kField;  ///< beyond the bands and the corridor
+  float asphalt_texture = 1.f;                    ///< contrast of the asphalt's patches and grain
 };
 
 }  // namespace sim

@@ -8,6 +8,8 @@
 //   DIR/poses.txt     cam0 pose of each frame in the first cam0 frame (KITTI convention, 3x4)
 //   DIR/sim_info.txt  the generator's parameters (scenario, seed, noise, exposures, ...)
 //   DIR/calib_after_step.txt  with SimOptions::step: the ground truth after the step
+//   DIR/calib_true.txt  with SimOptions::realism moving the right camera: the true rig (calib.txt
+//                       holds the nominal rectified pair the data are rectified with)
 // The same options give the same bytes (no time-based randomness, no thread-order dependence).
 #pragma once
 
@@ -21,6 +23,7 @@
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/sim/random_rig.h"
 #include "tescalib/core/sim/scene_builder.h"
+#include "tescalib/core/sim/sensor_realism.h"
 
 namespace tescalib {
 
@@ -87,6 +90,10 @@ struct SimOptions {
   std::string rig_source = "default";
   /// A change of the true extrinsic during the drive (written as calib_after_step.txt).
   ExtrinsicStep step;
+  /// Real sensors' errors (sizes; each drive draws its values from `seed`) and the name of the
+  /// preset they started from, for sim_info.txt.
+  sim::RealismSizes realism;
+  std::string realism_name = "none";
 };
 
 /// Options whose rig (calib, image size, LiDAR mounting) is drawn from `seed`
@@ -123,6 +130,12 @@ class Simulator {
   Eigen::Isometry3d cam0Pose(int i) const;
   /// The noise parameters in use.
   SimNoise noise() const { return SimNoise::forLevel(options_.noise); }
+  /// This drive's real sensors' errors (all off without SimOptions::realism).
+  const sim::RealismDraw& realism() const;
+  /// The true rig: rig() with the right camera where SimOptions::realism put it.
+  const StereoRig& trueRig() const;
+  /// calib.txt of the true rig (written as calib_true.txt when it differs from calib.txt).
+  const KittiOdometryCalib& trueCalib() const;
 
   /// Renders frame i in memory: scan (with rings) and both images (BGR). `threads` 0 = the
   /// options' thread count.

@@ -1,7 +1,7 @@
 // Renders a rectified pinhole image of a generated world: ray casting with exact geometry,
 // procedural textures, sun light with cast shadows plus sky light, every pixel the mean of four
 // rotated-grid samples over its area, haze, and per-camera affine brightness (gain, offset) with
-// Gaussian image noise.
+// Gaussian image noise; optionally a residual lens distortion, blur and vignetting.
 #pragma once
 
 #include <cstdint>
@@ -30,6 +30,13 @@ struct CameraRenderSettings {
   uint64_t noise_seed = 0;  ///< seed of the noise pattern (differs per frame and camera)
   float max_range = 250.f;  ///< primitives farther than this are not drawn (m)
   int threads = 1;          ///< rows are shared among this many threads
+  /// Residual radial distortion of the rectified image: the scene point at normalised image
+  /// coordinates x appears at x (1 + lens_k1 |x|^2).
+  float lens_k1 = 0.f;
+  float blur_sigma_px = 0.f;  ///< Gaussian blur of the optics (px; 0: none)
+  /// Brightness lost at the image's corners (fraction): the gain falls off as 1 - v (r /
+  /// r_corner)^2.
+  float vignetting = 0.f;
 };
 
 /// Renders the image (CV_8UC3, BGR) of camera `K` at pose `T_world_cam` (optical frame: x right,

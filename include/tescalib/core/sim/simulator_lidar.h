@@ -29,11 +29,19 @@ struct LidarModel {
   static LidarModel hdl64e();
 };
 
-/// Measurement noise of the LiDAR.
+/// Measurement noise of the LiDAR, and the systematic errors of a real sensor's lasers.
 struct LidarNoise {
   double range_sigma = 0.02;         ///< sigma_d: along the beam (m)
   double direction_sigma_rad = 0.0;  ///< sigma_l: beam direction, per tangent axis (rad)
   double intensity_sigma = 0.01;     ///< reflectance noise (0..1 scale)
+  /// Per laser (ring 0 lowest; empty: none): added to every range of the laser (m).
+  std::vector<double> laser_range_offset_m;
+  /// Per laser: the true elevation minus the nominal one the points are reported along (rad).
+  std::vector<double> laser_elevation_rad;
+  double range_scale = 1;  ///< reported range = range_scale * true range + offset + noise
+  /// Share of the beams whose footprint straddles a depth edge (the ranges under its two halves
+  /// differ by more than 0.3 m) that return a range between the two.
+  double mixed_pixel_fraction = 0;
 };
 
 /// One scan in KITTI's storage order: ring after ring, top beam first, each ring one
