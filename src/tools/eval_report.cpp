@@ -53,8 +53,8 @@ Json extrinsicJson(const ExtrinsicOutcome& o) {
     j["covariance_statistical"] = jsonArray(c, 36);
   }
   if (o.bias.allFinite()) {
-    double b[18];
-    for (int i = 0; i < 18; ++i) b[i] = o.bias(i % 6, i / 6);
+    double b[6 * kLidarStereoBiases];
+    for (int i = 0; i < 6 * kLidarStereoBiases; ++i) b[i] = o.bias(i % 6, i / 6);
     j["bias_sensitivity_disparity_px"] = jsonArray(b, 6);
     j["bias_sensitivity_range_m"] = jsonArray(b + 6, 6);
     j["bias_sensitivity_disparity_scale"] = jsonArray(b + 12, 6);

@@ -58,7 +58,7 @@ bool RealismSizes::preset(const std::string& name, RealismSizes* sizes) {
   }
   if (name != "kitti") return false;
   RealismSizes k;
-  k.right_rotation_deg = 0.015;
+  k.right_rotation_deg = 0.01;
   k.baseline_scale = 0.008;
   k.lens_k1 = 0.008;
   k.right_blur_px = 0.5;
@@ -68,7 +68,7 @@ bool RealismSizes::preset(const std::string& name, RealismSizes* sizes) {
   k.range_scale = 0.003;
   k.mixed_pixel_fraction = 0.5;
   k.lidar_time_offset_s = 0.005;
-  k.asphalt_texture = 0.5;
+  k.asphalt_texture = 0.75;
   *sizes = k;
   return true;
 }
