@@ -13,6 +13,7 @@
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/common/pose_format.h"
+#include "tescalib/core/eval/disparity_signatures.h"
 #include "tescalib/core/eval/lidar_stereo_agreement.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/stereo/image_quality.h"
@@ -21,11 +22,12 @@
 
 namespace {
 
-const char* const kUsage = "usage: rosrun tescalib tescalib_check_data DIR [DIR...]";
+const char* const kUsage = "usage: rosrun tescalib tescalib_check_data DIR [DIR...] [--frames N]";
 const char* const kDescription =
     "DIR: a KITTI sequence (odometry or raw layout, or tescalib_simulate output). Prints the "
     "frames, keyframes and rings the reader sees, how well the data's own calibration predicts "
-    "the stereo disparity (SGBM minus the LiDAR-predicted disparity by depth) and whether the "
+    "the stereo disparity (SGBM minus the LiDAR-predicted disparity by depth, by third of the "
+    "image and by ring, and its fit as an offset plus a scale of the disparity) and whether the "
     "right image's rows are where that calibration puts them, and the pair's contrast, clipped "
     "pixels and sharpness as the online node's image check sees them.";
 
@@ -60,9 +62,63 @@ void printReader(const std::string& dir, const tescalib::KittiSequence& seq,
             << agree.best_global_shift << " px\n";
 }
 
+/// The residual's samples of frame `f` (whose stereo cloud is `sc`) and of the frames after it,
+/// `frames` frames in all (fewer when the sequence has fewer); `last` gets the last one's id.
+std::vector<tescalib::DisparitySample> pooledSamples(const tescalib::KittiSequence& seq,
+                                                     const tescalib::Frame& f,
+                                                     const tescalib::StereoCloud& sc, int frames,
+                                                     int* last) {
+  const tescalib::StereoRig& rig = seq.rig();
+  std::vector<tescalib::DisparitySample> out =
+      tescalib::disparitySamples(f.scan, sc, rig.T_cam_lidar);
+  *last = f.index;
+  for (size_t i = 1; i < std::min(seq.size(), static_cast<size_t>(frames)); ++i) {
+    const tescalib::Frame g = seq.load(i);
+    const tescalib::StereoCloud c =
+        tescalib::computeStereoCloud(g.left, g.right, rig, rig.T_right_left);
+    const std::vector<tescalib::DisparitySample> more =
+        tescalib::disparitySamples(g.scan, c, rig.T_cam_lidar);
+    out.insert(out.end(), more.begin(), more.end());
+    *last = g.index;
+  }
+  return out;
+}
+
+/// The residual by third of the image and by ring, and its fit against the disparity, over the
+/// points of the first `frames` frames.
+void printSignatures(const tescalib::KittiSequence& seq, const tescalib::Frame& f,
+                     const tescalib::StereoCloud& sc, int frames) {
+  int last = f.index;
+  const std::vector<tescalib::DisparitySample> samples = pooledSamples(seq, f, sc, frames, &last);
+  const tescalib::DisparitySignatures s = tescalib::disparitySignatures(samples);
+  const int used = static_cast<int>(std::min(seq.size(), static_cast<size_t>(frames)));
+  if (used > 1)
+    std::cout << "  the next three lines pool frames " << f.index << "-" << last << " (" << used
+              << " frames, " << s.points << " points)\n";
+  std::cout << std::fixed << std::setprecision(3)
+            << "  by column (left / middle / right third): " << std::showpos << s.third_median_px[0]
+            << " / " << s.third_median_px[1] << " / " << s.third_median_px[2] << std::noshowpos
+            << " px (" << s.third_points[0] << " / " << s.third_points[1] << " / "
+            << s.third_points[2] << " points)\n"
+            << "  by ring: ring-to-ring jump " << s.ring_jump_px << " px over " << s.rings
+            << " rings (" << s.ring_pairs << " neighbouring pairs";
+  if (s.ring_max_jump_ring >= 0)
+    std::cout << ", largest " << s.ring_max_jump_px << " px between rings " << s.ring_max_jump_ring
+              << " and " << s.ring_max_jump_ring + 1;
+  std::cout << "; ring medians " << std::showpos << s.ring_min_median_px << " to "
+            << s.ring_max_median_px << std::noshowpos << " px)\n"
+            << "  measured disparity offset " << std::showpos << s.fit.offset_px << " px, scale "
+            << 100 * s.fit.scale << std::noshowpos << " % (stereo minus LiDAR = offset + scale "
+            << "x LiDAR disparity, Huber fit of " << s.fit.points << " points, spread "
+            << s.fit.sigma_px << " px)\n"
+            << std::setprecision(4);
+}
+
 /// The stereo pair at the data's calibration: SGBM against the LiDAR-predicted disparity by
-/// depth, the right image's rows against the calibration, and the images' quality.
-void printStereo(const tescalib::StereoRig& rig, const tescalib::Frame& f) {
+/// depth and its signatures (over the first `frames` frames), the right image's rows against the
+/// calibration, and the images' quality.
+void printStereo(const tescalib::KittiSequence& seq, const tescalib::Frame& f, int frames) {
+  const tescalib::StereoRig& rig = seq.rig();
   const tescalib::StereoCloud sc =
       tescalib::computeStereoCloud(f.left, f.right, rig, rig.T_right_left);
   const tescalib::VerticalAlignment va =
@@ -78,6 +134,7 @@ void printStereo(const tescalib::StereoRig& rig, const tescalib::Frame& f) {
               << std::setprecision(3) << std::showpos << dr.bin_median_px[b] << std::noshowpos
               << " (" << dr.bin_points[b] << ")";
   std::cout << std::setprecision(4) << "\n";
+  printSignatures(seq, f, sc, frames);
   std::cout << "  right-image rows vs the calibration (found - predicted v): " << va.points
             << " corners, median " << std::showpos << va.median_px << " px, fit " << va.offset_px
             << " " << va.slope_x_px << " x " << va.slope_y_px << " y px" << std::noshowpos
@@ -105,8 +162,13 @@ int main(int argc, char** argv) {
   CLI::App app(kDescription, "tescalib_check_data");
   tescalib::cli::setUp(&app, kUsage, "Options");
   std::vector<std::string> dirs;
+  int frames = 1;
   // Not ->required(): an unknown option alone is named as such, not as a missing DIR.
   app.add_option("DIR", dirs, "KITTI sequences")->type_name("");
+  tescalib::cli::add(&app, "--frames", "N", tescalib::cli::to(&frames, tescalib::cli::atLeast(1)),
+                     "the residual's signatures (by column, by ring, the offset and scale fit) "
+                     "over the points of the first N frames of each sequence, or all when it has "
+                     "fewer (default 1: frame 0 alone, the frame of the other lines)");
   if (argc < 2) {
     std::cout << app.help();
     return 2;
@@ -125,7 +187,7 @@ int main(int argc, char** argv) {
       const tescalib::KittiSequence seq(dir);
       const tescalib::Frame f = seq.load(0);
       printReader(dir, seq, f);
-      printStereo(seq.rig(), f);
+      printStereo(seq, f, frames);
     } catch (const tescalib::DataError& e) {
       std::cerr << "tescalib_check_data: " << e.what() << "\n";
       ++bad;

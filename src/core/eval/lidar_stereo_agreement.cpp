@@ -68,13 +68,11 @@ DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat&
   return out;
 }
 
-DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoCloud& cloud,
-                                         const Eigen::Isometry3d& T_cam_lidar) {
-  DisparityResidual out;
+std::vector<DisparitySample> disparitySamples(const LidarScan& scan, const StereoCloud& cloud,
+                                              const Eigen::Isometry3d& T_cam_lidar) {
+  std::vector<DisparitySample> out;
   if (cloud.disparity.empty() || cloud.baseline <= 0) return out;
   const Eigen::Isometry3d T = Eigen::Isometry3d(cloud.R_rect_left) * T_cam_lidar;
-  std::vector<double> all;
-  std::array<std::vector<double>, DisparityResidual::kBins> bins;
   const double* edges = DisparityResidual::kBinEdges;
   for (const LidarPoint& p : scan) {
     const Eigen::Vector3d r = T * Eigen::Vector3d(p.x, p.y, p.z);
@@ -82,13 +80,30 @@ DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoClou
     double d = 0;
     const Eigen::Vector2d px = projectPinhole(cloud.fx, cloud.fy, cloud.cx, cloud.cy, r);
     if (!cloud.disparityAt(px.x(), px.y(), &d)) continue;
-    const double diff = d - cloud.fx * cloud.baseline / r.z();
+    DisparitySample s;
+    s.depth_m = r.z();
+    s.lidar_px = cloud.fx * cloud.baseline / r.z();
+    s.difference_px = d - s.lidar_px;
+    s.column_fraction = px.x() / cloud.disparity.cols;
+    s.ring = p.ring;
+    out.push_back(s);
+  }
+  return out;
+}
+
+DisparityResidual disparityResidualOf(const std::vector<DisparitySample>& samples) {
+  DisparityResidual out;
+  std::vector<double> all;
+  std::array<std::vector<double>, DisparityResidual::kBins> bins;
+  const double* edges = DisparityResidual::kBinEdges;
+  for (const DisparitySample& s : samples) {
+    const double diff = s.difference_px;
     ++out.points_with_disparity;
-    out.mean_truncated_abs_px += std::min(std::fabs(diff), 3.0);
-    if (std::fabs(diff) > 3.0) continue;
+    out.mean_truncated_abs_px += std::min(std::fabs(diff), DisparityResidual::kMaxDifferencePx);
+    if (std::fabs(diff) > DisparityResidual::kMaxDifferencePx) continue;
     all.push_back(diff);
     int b = 0;
-    while (r.z() >= edges[b + 1]) ++b;
+    while (b + 1 < DisparityResidual::kBins && s.depth_m >= edges[b + 1]) ++b;
     bins[b].push_back(diff);
   }
   out.points = static_cast<int>(all.size());
@@ -99,6 +114,11 @@ DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoClou
     out.bin_median_px[b] = medianOf(bins[b]);
   }
   return out;
+}
+
+DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoCloud& cloud,
+                                         const Eigen::Isometry3d& T_cam_lidar) {
+  return disparityResidualOf(disparitySamples(scan, cloud, T_cam_lidar));
 }
 
 }  // namespace tescalib

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
@@ -36,6 +37,7 @@ DisparityAgreement lidarDisparityAgreement(const LidarScan& scan, const cv::Mat&
 /// offset is what a relative yaw of the cameras or a matching bias gives, and moves the
 /// optical-axis estimate by about Z^2 / (f b) per px at depth Z.
 struct DisparityResidual {
+  static constexpr double kMaxDifferencePx = 3.0;  ///< beyond it: an occlusion or a mismatch
   static constexpr int kBins = 4;
   static constexpr double kBinEdges[kBins + 1] = {3.0, 7.5, 15.0, 25.0, 40.0};  ///< m
   int points = 0;
@@ -47,6 +49,24 @@ struct DisparityResidual {
   int points_with_disparity = 0;
   double mean_truncated_abs_px = 0;
 };
+
+/// One LiDAR point of the residual: 3-40 m in front of the camera, with a stereo disparity at its
+/// projection into the cloud's rectified left image.
+struct DisparitySample {
+  double depth_m = 0;          ///< in the rectified left camera frame
+  double lidar_px = 0;         ///< the LiDAR-predicted disparity fx b / Z
+  double difference_px = 0;    ///< stereo minus LiDAR-predicted disparity
+  double column_fraction = 0;  ///< the projection's column over the image's width (0 to 1)
+  int ring = 0;                ///< the LiDAR point's ring
+};
+
+/// Every LiDAR point 3-40 m in front of the camera with a stereo disparity, the differences beyond
+/// DisparityResidual::kMaxDifferencePx included (the frames of a sequence can be pooled).
+std::vector<DisparitySample> disparitySamples(const LidarScan& scan, const StereoCloud& cloud,
+                                              const Eigen::Isometry3d& T_cam_lidar);
+
+/// The residual's medians and its truncated mean over `samples` (of one frame or pooled).
+DisparityResidual disparityResidualOf(const std::vector<DisparitySample>& samples);
 
 DisparityResidual lidarDisparityResidual(const LidarScan& scan, const StereoCloud& cloud,
                                          const Eigen::Isometry3d& T_cam_lidar);
