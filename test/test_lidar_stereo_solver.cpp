@@ -59,7 +59,8 @@ StereoRig kittiLikeRig() {
 /// rectified for, so they are short by f yaw (1 + x_r^2). `disparity_offset` (px) is added to
 /// every disparity.
 Keyframe planeKeyframe(const std::vector<Plane>& planes, const StereoRig& rig, uint64_t seed,
-                       double right_yaw = 0.0, double disparity_offset = 0.0) {
+                       double right_yaw = 0.0, double disparity_offset = 0.0,
+                       double baseline_scale = 1.0) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> range_noise(0.0, 0.01), disp_noise(0.0, 0.2);
   Keyframe kf;
@@ -95,7 +96,7 @@ Keyframe planeKeyframe(const std::vector<Plane>& planes, const StereoRig& rig, u
       int hit = -1;
       const double t = cast(planes, Eigen::Vector3d::Zero(), r, &hit);
       if (!std::isfinite(t) || t > 40) continue;
-      const double d_true = st.fx * st.baseline / t;
+      const double d_true = st.fx * baseline_scale * st.baseline / t;
       const double xr = (u - d_true - st.cx) / st.fx;
       const double d =
           d_true - st.fx * right_yaw * (1.0 + xr * xr) + disparity_offset + disp_noise(rng);
@@ -128,11 +129,12 @@ std::vector<Plane> streetCanyon(double shift) {
 /// Three views of the street canyon 0.7 m apart (noise seeds first_seed, +1, +2), clouds
 /// rectified with a right camera `right_yaw` off, every disparity `disparity_offset` px more.
 std::vector<Keyframe> canyonKeyframes(const StereoRig& rig, uint64_t first_seed,
-                                      double right_yaw = 0.0, double disparity_offset = 0.0) {
+                                      double right_yaw = 0.0, double disparity_offset = 0.0,
+                                      double baseline_scale = 1.0) {
   std::vector<Keyframe> kfs;
   for (int k = 0; k < 3; ++k)
-    kfs.push_back(
-        planeKeyframe(streetCanyon(0.7 * k), rig, first_seed + k, right_yaw, disparity_offset));
+    kfs.push_back(planeKeyframe(streetCanyon(0.7 * k), rig, first_seed + k, right_yaw,
+                                disparity_offset, baseline_scale));
   return kfs;
 }
 
@@ -142,10 +144,13 @@ std::vector<const Keyframe*> windowOf(const std::vector<Keyframe>& kfs) {
   return window;
 }
 
+/// The noise of planeKeyframe's clouds; the stereo scale held (the clouds' baseline is exact):
+/// these tests study the pose, the yaw and the offset, the scale has its own test.
 LidarStereoSettings testSettings() {
   LidarStereoSettings s;
   s.disparity_sigma = 0.2;
   s.lidar_range_sigma = 0.01;
+  s.estimate_stereo_scale = false;
   return s;
 }
 
@@ -202,6 +207,35 @@ TEST(LidarStereoSolver, WithAConsistentSampleTheEstimateDoesNotDependOnTheGuessV
   const Vector6d d = poseError(ends[0], ends[1]);
   EXPECT_LT(d.head<3>().norm() * kDegPerRad, 0.001);
   EXPECT_LT(d.tail<3>().norm(), 2e-4);
+}
+
+TEST(LidarStereoSolver, EstimatesTheStereoScaleByDefault) {
+  // Clouds of a pair whose true baseline is 1 % longer than the one they were computed with (an
+  // f x B error, as real pairs have): by default the solver estimates the clouds' scale and
+  // finds the extrinsic; with the scale held, the optical axis absorbs it.
+  const StereoRig rig = kittiLikeRig();
+  const std::vector<Keyframe> kfs = canyonKeyframes(rig, 41, 0.0, 0.0, 1.01);
+  std::mt19937_64 rng(3);
+  const Eigen::Isometry3d T_init =
+      perturb(rig.T_cam_lidar, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
+  LidarStereoSettings s = testSettings();
+  s.estimate_stereo_scale = LidarStereoSettings{}.estimate_stereo_scale;
+  ASSERT_TRUE(s.estimate_stereo_scale);
+  s.model_sigma_disparity_px = 0;
+  const LidarStereoResult with = solveLidarStereo(windowOf(kfs), T_init, s);
+  const Vector6d e = poseError(with.T_cam_lidar, rig.T_cam_lidar);
+  s.estimate_stereo_scale = false;
+  const LidarStereoResult held = solveLidarStereo(windowOf(kfs), T_init, s);
+  const Vector6d e0 = poseError(held.T_cam_lidar, rig.T_cam_lidar);
+  std::printf("scale %.4f (true 1.01), error %.4f deg %.2f cm; held: %.4f deg %.2f cm\n",
+              with.stereo_scale, e.head<3>().norm() * kDegPerRad, 100 * e.tail<3>().norm(),
+              e0.head<3>().norm() * kDegPerRad, 100 * e0.tail<3>().norm());
+  EXPECT_TRUE(with.converged) << with.message;
+  EXPECT_NEAR(with.stereo_scale, 1.01, 0.002);
+  EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.05);
+  EXPECT_LT(e.tail<3>().norm(), 0.01);
+  EXPECT_GT(e0.tail<3>().norm(), 3 * e.tail<3>().norm());
+  EXPECT_GT(e0.tail<3>().norm(), 0.02);
 }
 
 TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatADisparityOffsetDoes) {

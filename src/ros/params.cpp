@@ -198,6 +198,7 @@ void readSolversAndStart(Visit& get, NodeParams* p) {
   get("lidar_stereo/check_window_halves", &p->online.co.lidar.check_window_halves);
   get("lidar_stereo/halves_chi2_limit", &p->online.co.lidar.halves_chi2_limit);
   get("lidar_stereo/measure_disparity_offset", &p->online.co.lidar.measure_disparity_offset);
+  get("lidar_stereo/estimate_stereo_scale", &p->online.co.lidar.estimate_stereo_scale);
   get("lidar_stereo/search_deg", &p->online.co.lidar.search_step_deg);
   get("lidar_stereo/search_min_keyframes", &p->online.search_min_keyframes);
   get("lidar_stereo/consistent_sample", &p->online.keyframe.mesh.consistent_sample);

@@ -184,7 +184,8 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
       "disparity offset; co: the node's co_calibration/lidar_estimates_stereo_yaw)")
       ->group(g);
   add(app, "--stereo-scale", "0|1", to(&a->stereo_scale, cli::toSwitch),
-      "lidar_stereo mode: the solve also estimates a scale of the stereo clouds (always on in co)")
+      "lidar_stereo mode: the solve also estimates a scale of the stereo clouds (default 1; "
+      "always on in co; 0: the clouds' baseline is exact)")
       ->group(g);
   add(app, "--check-halves", "0|1", to(&a->check_halves, cli::toSwitch),
       "after a converged solve, solve each half of the window again; disagreeing halves widen the "

@@ -59,7 +59,7 @@ bool RealismSizes::preset(const std::string& name, RealismSizes* sizes) {
   if (name != "kitti") return false;
   RealismSizes k;
   k.right_rotation_deg = 0.01;
-  k.baseline_scale = 0.008;
+  k.baseline_scale = 0.012;
   k.lens_k1 = 0.008;
   k.right_blur_px = 0.5;
   k.vignetting = 0.15;
@@ -67,7 +67,7 @@ bool RealismSizes::preset(const std::string& name, RealismSizes* sizes) {
   k.laser_elevation_deg = 0.1;
   k.range_scale = 0.003;
   k.mixed_pixel_fraction = 0.5;
-  k.lidar_time_offset_s = 0.005;
+  k.lidar_time_offset_s = 0.001;
   k.asphalt_texture = 0.75;
   *sizes = k;
   return true;
