@@ -236,6 +236,17 @@ TEST(LidarStereoSolver, EstimatesTheStereoScaleByDefault) {
   EXPECT_LT(e.tail<3>().norm(), 0.01);
   EXPECT_GT(e0.tail<3>().norm(), 3 * e.tail<3>().norm());
   EXPECT_GT(e0.tail<3>().norm(), 0.02);
+  // A window that cannot be trusted names the f x B error it found as a suspect.
+  s.estimate_stereo_scale = true;
+  s.max_sigma_trans_m = 0.0002;
+  const LidarStereoResult strict = solveLidarStereo(windowOf(kfs), T_init, s);
+  EXPECT_FALSE(strict.converged);
+  EXPECT_NE(strict.message.find("f x B looks +1.0 %"), std::string::npos) << strict.message;
+  // Clouds with an exact baseline do not raise that suspicion.
+  const std::vector<Keyframe> exact = canyonKeyframes(rig, 41);
+  const LidarStereoResult strict_exact = solveLidarStereo(windowOf(exact), T_init, s);
+  EXPECT_FALSE(strict_exact.converged);
+  EXPECT_EQ(strict_exact.message.find("f x B"), std::string::npos) << strict_exact.message;
 }
 
 TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatADisparityOffsetDoes) {

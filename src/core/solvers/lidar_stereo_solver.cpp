@@ -82,17 +82,33 @@ std::string nuisanceOnBound(const LidarStereoResult& res, const LidarStereoSetti
   return "";
 }
 
-/// Why the window does not constrain every axis.
+/// The stereo pair's f x B error the estimated clouds' scale shows, as a clause ("" unless the
+/// scale is estimated and off 1 by more than 2 sigma and 0.3 %).
+std::string scaleClause(const LidarStereoResult& res, const LidarStereoSettings& s) {
+  const double off = res.stereo_scale - 1, sigma = std::sqrt(res.stereo_scale_variance);
+  if (!s.estimate_stereo_scale || !(std::fabs(off) > std::max(2 * sigma, 0.003))) return "";
+  char buf[160];
+  std::snprintf(buf, sizeof buf,
+                "; the stereo pair's f x B looks %+.1f %% (+- %.1f %%) off its calibration's",
+                100 * off, 100 * sigma);
+  return buf;
+}
+
+/// Why the window does not constrain every axis, with the error sources it suspects: the
+/// rectification or matching (a common disparity offset beyond the model's), the pair's f x B
+/// (the clouds' scale), else the scene.
 std::string unconstrainedMessage(const LidarStereoResult& res, const LidarStereoSettings& s) {
+  const std::string scale = scaleClause(res, s);
   if (!disparityOffsetWidensBias(res, s))
-    return "the window does not constrain every axis (degenerate scene)" +
+    return "the window does not constrain every axis (" +
+           std::string(scale.empty() ? "degenerate scene)" : "suspected sensor error)") + scale +
            weakestClause(res.weak_directions);
   char buf[200];
   std::snprintf(buf, sizeof buf,
                 "the window does not constrain every axis with the common disparity offset its "
                 "residuals show (%+.2f px, model %.2f px: rectification or matching bias?)",
                 res.disparity_offset_px, s.model_sigma_disparity_px);
-  return buf + weakestClause(res.weak_directions);
+  return buf + scale + weakestClause(res.weak_directions);
 }
 
 /// An unsettled fine stage's drift (LidarStereoEstimate::fine_drift) in units of the trust limits:
@@ -125,7 +141,7 @@ void judgeConvergence(const Eigen::Isometry3d& T_init, const LidarStereoSettings
     res->message = bound;
   else if (drifting)
     res->message = "the fine stage keeps moving: the window does not hold the estimate" +
-                   weakestClause(res->weak_directions);
+                   scaleClause(*res, s) + weakestClause(res->weak_directions);
   else if (!all_observable)
     res->message = unconstrainedMessage(*res, s);
   else if (!settled)
