@@ -499,13 +499,13 @@ TEST(OnlineCalibratorGenerated, TheFirstCoEstimateReplacesTheLidarFirstOne) {
   // alternation's gain can narrow others, rx 0.91x when measured).
   EXPECT_GT((co.cov_lidar - co.cov_lidar_given_stereo).diagonal().maxCoeff(), 0);
   EXPECT_TRUE(lidar_first.cov_lidar.isApprox(lidar_first.cov_lidar_given_stereo));
-  // The case the common gate refused: some LiDAR axis's variance more than max_variance_growth
-  // (2) times wider (rz 2.39 when measured).
+  // Some LiDAR axis's variance wider than the LiDAR-first one's (1.45x when measured, the
+  // LiDAR-first solve estimating the clouds' scale too).
   const Vector6d ratio =
       co.cov_lidar_given_stereo.diagonal().cwiseQuotient(lidar_first.cov_lidar.diagonal());
   std::cout << "[ online   ] co / LiDAR-first LiDAR variance per axis: " << ratio.transpose()
             << "\n";
-  EXPECT_GT(ratio.maxCoeff(), 1.5);
+  EXPECT_GT(ratio.maxCoeff(), 1.2);
   EXPECT_LT(ratio.maxCoeff(), settings.max_variance_growth_first_co);
   // Its own bound still holds: below the co estimate's growth it is refused, and the LiDAR-first
   // estimate stays.

@@ -313,12 +313,14 @@ TEST(LidarStereoGenerated, HighwayIsWeakInTheDirectionsThePaperNames) {
   const std::vector<Keyframe> highway_kfs = generatedWindow(Scenario::kHighway, 10, 1);
   std::vector<const Keyframe*> highway_window;
   for (const auto& kf : highway_kfs) highway_window.push_back(&kf);
+  LidarStereoSettings held;  // the stereo scale held: the pose alone
+  held.estimate_stereo_scale = false;
   auto solve = [&](Scenario scenario) {
-    if (scenario == Scenario::kHighway) return solveLidarStereo(highway_window, T_true);
+    if (scenario == Scenario::kHighway) return solveLidarStereo(highway_window, T_true, held);
     const std::vector<Keyframe> kfs = generatedWindow(scenario, 10, 1);
     std::vector<const Keyframe*> window;
     for (const auto& kf : kfs) window.push_back(&kf);
-    return solveLidarStereo(window, T_true);
+    return solveLidarStereo(window, T_true, held);
   };
   const LidarStereoResult u = solve(Scenario::kUrban), h = solve(Scenario::kHighway);
   LidarStereoSettings nuisances;
@@ -409,7 +411,10 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
   }
   // The estimate does not depend on the measured disparity offset; the +0.3 px window's
   // covariance does (it widens the bias term and flags tz), checked at the end.
-  LidarStereoSettings unmeasured;
+  // The stereo scale held: it would absorb part of a common bias (checked elsewhere).
+  LidarStereoSettings held;
+  held.estimate_stereo_scale = false;
+  LidarStereoSettings unmeasured = held;
   unmeasured.measure_disparity_offset = false;
   auto solve = [](const std::vector<Keyframe>& kfs, const Eigen::Isometry3d& init,
                   const LidarStereoSettings& settings) {
@@ -417,9 +422,9 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
     for (const auto& kf : kfs) window.push_back(&kf);
     return solveLidarStereo(window, init, settings);
   };
-  const LidarStereoResult r0 = solve(plain, rig.T_cam_lidar, LidarStereoSettings());
+  const LidarStereoResult r0 = solve(plain, rig.T_cam_lidar, held);
   ASSERT_TRUE(r0.converged) << r0.message;
-  EXPECT_FALSE(disparityOffsetWidensBias(r0, LidarStereoSettings()))
+  EXPECT_FALSE(disparityOffsetWidensBias(r0, held))
       << r0.disparity_offset_px << " +- " << r0.disparity_offset_sigma_px;
   const char* axes[6] = {"rx", "ry", "rz", "tx", "ty", "tz"};
   const char* names[2] = {"disparity +0.3 px", "range +3 cm"};
@@ -450,12 +455,12 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
   // With the offset measured (the default) the +0.3 px window finds it in its residuals (it must
   // be added back: -0.3 px) and no longer trusts its estimate; the unbiased window measures
   // nothing beyond the model.
-  const LidarStereoResult measured = solve(shifted, r0.T_cam_lidar, LidarStereoSettings());
+  const LidarStereoResult measured = solve(shifted, r0.T_cam_lidar, held);
   std::cout << "[ bias     ] disparity +0.3 px: offset measured " << measured.disparity_offset_px
             << " +- " << measured.disparity_offset_sigma_px << " px; unbiased window "
             << r0.disparity_offset_px << " +- " << r0.disparity_offset_sigma_px << " px\n";
   EXPECT_NEAR(measured.disparity_offset_px, -delta_px, 0.05);
-  EXPECT_TRUE(disparityOffsetMeasured(measured, LidarStereoSettings()));
+  EXPECT_TRUE(disparityOffsetMeasured(measured, held));
   EXPECT_TRUE(
       measured.T_cam_lidar.isApprox(solve(shifted, r0.T_cam_lidar, unmeasured).T_cam_lidar, 1e-12));
   EXPECT_FALSE(measured.converged);
@@ -483,6 +488,7 @@ TEST(LidarStereoGenerated, WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow) {
   // mixed window already (-0.24 px, the average of its halves' offsets).
   LidarStereoSettings settings;
   settings.measure_disparity_offset = false;
+  settings.estimate_stereo_scale = false;  // a scale would absorb part of the half's offset
   auto solve = [&rig, &settings](const std::vector<Keyframe>& kfs) {
     std::vector<const Keyframe*> window;
     for (const auto& kf : kfs) window.push_back(&kf);
@@ -541,7 +547,9 @@ TEST(LidarStereoGenerated, StereoScaleAndItsVarianceFindABaselineError) {
   EXPECT_GT(sigma, 1e-4);
   EXPECT_LT(sigma, 3e-3);
   EXPECT_LT(std::fabs(r.stereo_scale - 1 / 1.01), 3 * sigma);
-  const LidarStereoResult fixed = solveLidarStereo(window, rig.T_cam_lidar);
+  LidarStereoSettings held_scale;
+  held_scale.estimate_stereo_scale = false;
+  const LidarStereoResult fixed = solveLidarStereo(window, rig.T_cam_lidar, held_scale);
   EXPECT_EQ(fixed.stereo_scale, 1.0);
   EXPECT_EQ(fixed.stereo_scale_variance, 0.0);
   // A baseline 1.4x too long needs a scale beyond the bound (1 / 1.3): the solve ends on the
