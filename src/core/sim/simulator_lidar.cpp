@@ -39,6 +39,20 @@ constexpr int kSweepChunks = 90;  // culling poses per revolution (4 deg, 1.1 ms
 /// Azimuth of azimuth step k of n (rad, counter-clockwise from the front; k may be fractional).
 double beamAzimuth(double k, int n) { return 2 * M_PI * (k + 0.5) / n; }
 
+/// The reflectance a beam along `d` from `origin` reports at `hit`: the material's, weakened at
+/// grazing incidence, plus `noise`, clamped to 0..1 in steps of 0.01.
+float beamIntensity(const SceneWorld& world, const TraceResult& hit, const Eigen::Vector3f& origin,
+                    const Eigen::Vector3f& d, float noise) {
+  SurfacePoint sp = surfaceAt(world, hit, origin, d);
+  const Eigen::Vector3f t1 = sp.normal.unitOrthogonal();
+  sp.dpdx = hit.t * kBeamDivergence * t1;
+  sp.dpdy = hit.t * kBeamDivergence * sp.normal.cross(t1);
+  const SurfaceLook look = lookAt(world, hit, sp);
+  const float incidence = std::fabs(sp.normal.dot(d));
+  const float intensity = look.reflectivity * (0.35f + 0.65f * incidence) + noise;
+  return std::round(std::clamp(intensity, 0.f, 1.f) * 100.f) / 100.f;
+}
+
 /// One revolution; beam k (azimuth step) is fired from `pose(k)` and traced among the candidates
 /// culled from `cull_pose(chunk(k))`.
 template <class PoseOf, class ChunkOf>
@@ -100,21 +114,13 @@ LidarScan spin(const SceneWorld& world, const std::vector<Eigen::Isometry3d>& cu
       const double range = noise.range_scale * t + range_offset +
                            noise.range_sigma * gaussianFromHash(hash32(seed32, id, 2u));
       if (range > model.max_range || range < model.min_range) continue;
-      SurfacePoint sp = surfaceAt(world, hit, origin, d);
-      const Eigen::Vector3f t1 = sp.normal.unitOrthogonal();
-      sp.dpdx = hit.t * kBeamDivergence * t1;
-      sp.dpdy = hit.t * kBeamDivergence * sp.normal.cross(t1);
-      const SurfaceLook look = lookAt(world, hit, sp);
-      const float incidence = std::fabs(sp.normal.dot(d));
-      float intensity =
-          look.reflectivity * (0.35f + 0.65f * incidence) +
-          static_cast<float>(noise.intensity_sigma) * gaussianFromHash(hash32(seed32, id, 3u));
-      intensity = std::round(std::clamp(intensity, 0.f, 1.f) * 100.f) / 100.f;
       LidarPoint p;
       p.x = static_cast<float>(range * omega.x());
       p.y = static_cast<float>(range * omega.y());
       p.z = static_cast<float>(range * omega.z());
-      p.intensity = intensity;
+      p.intensity = beamIntensity(
+          world, hit, origin, d,
+          static_cast<float>(noise.intensity_sigma) * gaussianFromHash(hash32(seed32, id, 3u)));
       p.ring = static_cast<uint16_t>(ring);
       out.push_back(p);
     }
