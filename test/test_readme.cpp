@@ -45,8 +45,9 @@ std::vector<std::string> toolCommands(const std::string& block, const std::strin
   std::istringstream lines(block);
   for (std::string line; std::getline(lines, line);) {
     if (line.rfind("rosrun tescalib ", 0) != 0) continue;
-    line = std::string(TESCALIB_BIN_DIR) + "/" + line.substr(16);
-    commands.push_back(std::regex_replace(line, std::regex("/tmp/"), dir + "/"));
+    // The README's /tmp/ paths go to `dir`; the tool's own path (which may lie under /tmp) stays.
+    const std::string args = std::regex_replace(line.substr(16), std::regex("/tmp/"), dir + "/");
+    commands.push_back(std::string(TESCALIB_BIN_DIR) + "/" + args);
   }
   return commands;
 }
