@@ -46,7 +46,7 @@ bool pickKeyframes(const Args& args, std::vector<std::unique_ptr<KittiSequence>>
   const std::string true_calib = seqs->front()->dir() + "/calib_true.txt";
   if (std::ifstream(true_calib).good()) {
     try {
-      d->truth.T_right_left = rigFromOdometryCalib(readKittiOdometryCalib(true_calib)).T_right_left;
+      d->truth.T_right_left = readCheckedOdometryRig(true_calib).T_right_left;
     } catch (const DataError& e) {
       std::cerr << "tescalib_eval: " << e.what() << "\n";
       return false;

@@ -237,10 +237,8 @@ Simulator::Simulator(const SimOptions& options)
   impl_->lidar_noise.direction_sigma_rad = n.lidar_direction_sigma_deg * M_PI / 180.0;
   impl_->lidar_noise.intensity_sigma = n.lidar_intensity_sigma;
   const sim::RealismDraw& r = impl_->realism;
-  if (options_.realism.laser_range_offset_m > 0)
-    impl_->lidar_noise.laser_range_offset_m = r.laser_range_offset_m;
-  if (options_.realism.laser_elevation_deg > 0)
-    impl_->lidar_noise.laser_elevation_rad = r.laser_elevation_rad;
+  impl_->lidar_noise.laser_range_offset_m = r.laser_range_offset_m;
+  impl_->lidar_noise.laser_elevation_rad = r.laser_elevation_rad;
   impl_->lidar_noise.range_scale = r.range_scale;
   impl_->lidar_noise.mixed_pixel_fraction = r.mixed_pixel_fraction;
   world_->ground.asphalt_texture = static_cast<float>(r.asphalt_texture);
