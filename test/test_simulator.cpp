@@ -3,6 +3,7 @@
 // model, determinism, --calib honoured, and the scenarios' character.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -528,6 +529,41 @@ TEST(Simulator, SameSeedSameBytesAnyThreadCount) {
         p.x != q.x || p.y != q.y || p.z != q.z || p.intensity != q.intensity || p.ring != q.ring;
   }
   EXPECT_EQ(differing, 0);
+}
+
+TEST(Simulator, EveryKthFrameIsTheSameDriveAtAKeyframeRate) {
+  TempDir all, every;
+  SimOptions o = options(Scenario::kUrban, 7, 13);
+  o.width = 320;
+  o.height = 120;
+  simulateSequence(o, all.str());
+  o.write_every = 3;  // frames 0, 3, 6 of the same drive
+  simulateSequence(o, every.str());
+  const auto a = readTree(all.str()), e = readTree(every.str());
+  ASSERT_EQ(e.size(), 4u + 3u * 3u);
+  for (int k = 0; k < 3; ++k) {
+    char from[16], to[16];
+    std::snprintf(from, sizeof from, "%06d", 3 * k);
+    std::snprintf(to, sizeof to, "%06d", k);
+    for (const char* f : {"image_2/%s.png", "image_3/%s.png", "velodyne/%s.bin"}) {
+      char pa[40], pe[40];
+      std::snprintf(pa, sizeof pa, f, from);
+      std::snprintf(pe, sizeof pe, f, to);
+      EXPECT_EQ(e.at(pe), a.at(pa)) << pe << " is not " << pa;
+    }
+  }
+  auto lines = [](const std::string& text, int step) {
+    std::istringstream in(text);
+    std::string line, kept;
+    for (int i = 0; std::getline(in, line); ++i)
+      if (i % step == 0) kept += line + "\n";
+    return kept;
+  };
+  EXPECT_EQ(e.at("times.txt"), lines(a.at("times.txt"), 3));
+  EXPECT_EQ(e.at("poses.txt"), lines(a.at("poses.txt"), 3));
+  EXPECT_EQ(readInfo(every.str() + "/sim_info.txt").at("written_every"), "3");
+  o.write_every = 8;
+  EXPECT_THROW(simulateSequence(o, every.str()), DataError);
 }
 
 TEST(Simulator, CalibFileBecomesTheGroundTruth) {

@@ -62,6 +62,9 @@ void validate(const SimOptions& o) {
   auto fail = [](const std::string& what) { throw DataError("tescalib_simulate: " + what); };
   if (o.frames < 1 || o.frames > 1000000)
     fail("frames must be between 1 and 1000000 (got " + std::to_string(o.frames) + ")");
+  if (o.write_every < 1 || o.write_every > o.frames)
+    fail("--every must be between 1 and the number of frames (got " +
+         std::to_string(o.write_every) + ")");
   if (o.width < 32 || o.height < 32 || o.width > 8192 || o.height > 8192)
     fail("image size " + std::to_string(o.width) + "x" + std::to_string(o.height) +
          " is out of range (32..8192 px)");
@@ -358,7 +361,7 @@ void writeTimesAndPoses(const Simulator& sim, const std::string& dir) {
   std::ofstream poses(d / "poses.txt");
   if (!times || !poses) throw DataError(dir + ": cannot write times.txt / poses.txt");
   char buf[32];
-  for (int i = 0; i < sim.options().frames; ++i) {
+  for (int i = 0; i < sim.options().frames; i += sim.options().write_every) {
     std::snprintf(buf, sizeof(buf), "%.6e", sim.stamp(i));
     times << buf << "\n";
     writeRow(poses, sim.cam0Pose(i));
@@ -413,6 +416,7 @@ void writeSimInfo(const Simulator& sim, const sim::LidarModel& lidar, const std:
        << "seed: " << o.seed << "\n"
        << "noise: " << noiseLevelName(o.noise) << "\n"
        << "frame_rate_hz: " << kFrameRate << "\n"
+       << "written_every: " << o.write_every << "\n"
        << "image_width: " << o.width << "\n"
        << "image_height: " << o.height << "\n"
        << "lidar_beams: " << lidar.elevation_deg.size() << "\n"
@@ -452,17 +456,19 @@ void writeSimInfo(const Simulator& sim, const sim::LidarModel& lidar, const std:
                : "none (each scan is taken at its frame's pose)\n");
 }
 
-/// Renders every frame (frames in parallel, one thread each) into image_2, image_3 and velodyne;
-/// the first error is thrown once all have ended.
+/// Renders the frames written (SimOptions::write_every), in parallel, one thread each, into
+/// image_2, image_3 and velodyne; the first error is thrown once all have ended.
 void writeFrames(const Simulator& sim, const std::string& dir) {
   const fs::path d(dir);
   std::mutex error_mutex;
   std::string error;
   const std::vector<int> png_params = {cv::IMWRITE_PNG_COMPRESSION, 1};
-  parallelFor(sim.options().frames, resolveThreads(sim.options().threads), [&](int i) {
+  const int every = sim.options().write_every;
+  const int written = (sim.options().frames + every - 1) / every;
+  parallelFor(written, resolveThreads(sim.options().threads), [&](int k) {
     try {
-      const Frame f = sim.renderFrame(i, 1);
-      const std::string name = frameName(i);
+      const Frame f = sim.renderFrame(k * every, 1);
+      const std::string name = frameName(k);
       const std::string left = (d / "image_2" / (name + ".png")).string();
       const std::string right = (d / "image_3" / (name + ".png")).string();
       if (!cv::imwrite(left, f.left, png_params)) throw DataError(left + ": cannot write image");

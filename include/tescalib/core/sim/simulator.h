@@ -78,6 +78,9 @@ struct SimOptions {
   double right_gain = 0.9;                       ///< right camera gain
   double right_offset = 8.0;                     ///< right camera offset (grey levels)
   int threads = 0;                               ///< worker threads, 0 = all cores
+  /// Write only frames 0, k, 2k, ... of the drive (numbered 0, 1, 2, ... with their own stamps
+  /// and poses): the same drive at a keyframe rate (5: 2 Hz), 1/k of the rendering.
+  int write_every = 1;
   /// Sweep each scan over its 0.1 s revolution as a real spinning LiDAR does (clockwise, the
   /// cameras triggered when it faces forward): a raw, motion-skewed scan. Off: every beam fires
   /// from the pose of the camera trigger (a perfectly motion-compensated scan).
