@@ -4,7 +4,8 @@
 # BENCH=sim|kitti|all (default all) selects the generated-drive or the real-KITTI part; BENCH=core
 # runs only the rows of doc/benchmarks.md's main table, one per benchmark target (about 25 minutes);
 # BENCH=rigs only the random-rig rows (RIGS rigs drawn by tescalib_simulate --rig random, about
-# 1.5 minutes each).
+# 1.5 minutes each). BENCH=monitor runs the calibration monitor's rows (scripts/bench_monitor.sh,
+# about 2.5 minutes per 60 s drive).
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
@@ -68,7 +69,8 @@ kitti_co() {  # day sequences rot-deg trans-m: co from the LiDAR that far off, 1
 }
 case $BENCH in
   sim | kitti | all | core | rigs) ;;
-  *) echo "[bench] BENCH=$BENCH: expected sim, kitti, all, core or rigs" >&2; exit 2 ;;
+  monitor) exec bash "$ROOT/scripts/bench_monitor.sh" ;;
+  *) echo "[bench] BENCH=$BENCH: expected sim, kitti, all, core, rigs or monitor" >&2; exit 2 ;;
 esac
 RIG_SEEDS=${RIG_SEEDS:-"301 302 303 304 305 306 307 308 309 310"}
 random_rigs() {  # name rot-deg trans-m: LiDAR-stereo on each random rig's urban drive, window 20

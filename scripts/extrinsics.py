@@ -83,14 +83,18 @@ def from_msg(transform):
 
 def read_sim_info(path):
     """Ground truth of a tescalib_simulate drive: {'T_cam_lidar': (q, t), 'T_right_left': (q, t)}
-    from its sim_info.txt (3x4 row-major lists)."""
+    from its sim_info.txt (3x4 row-major lists); with --extrinsic-step also the truth after it
+    ('T_cam_lidar_after_step', 'T_right_left_after_step') and 'extrinsic_step_at_s'."""
     out = {}
     with open(path) as f:
         for line in f:
             key, _, value = line.partition(':')
-            if key in ('T_cam_lidar', 'T_right_left'):
+            if key in ('T_cam_lidar', 'T_right_left', 'T_cam_lidar_after_step',
+                       'T_right_left_after_step'):
                 out[key] = from_3x4([float(v) for v in value.strip().strip('[]').split(',')])
-    if len(out) != 2:
+            elif key == 'extrinsic_step_at_s':
+                out[key] = float(value)
+    if 'T_cam_lidar' not in out or 'T_right_left' not in out:
         raise ValueError('%s: T_cam_lidar or T_right_left missing' % path)
     return out
 

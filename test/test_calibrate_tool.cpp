@@ -840,4 +840,26 @@ TEST(CalibrateTool, TheMonitorHoldsBackEstimatesOnceALidarBumpIsSuspected) {
   EXPECT_GT(published_before, 2);
   EXPECT_GT(suspect_at, o.step.at_s);
   EXPECT_LT(suspect_at, o.step.at_s + 5);
+  // tescalib_eval scores the same run against the truth of each estimate's moment.
+  const ToolRun score =
+      runTool(TESCALIB_EVAL_BIN, "--sequences " + tmp.str() + "/drive --score-estimates " + json +
+                                     " --json " + tmp.str() + "/score.json");
+  ASSERT_EQ(score.status, 0) << score.output;
+  EXPECT_NE(score.output.find("after the step at 4.00 s: suspect +"), std::string::npos)
+      << score.output;
+  const nlohmann::json l = nlohmann::json::parse(readAll(tmp.str() + "/score.json"))
+                               .at("extrinsics")
+                               .at("lidar_to_left");
+  EXPECT_DOUBLE_EQ(l.at("step_at_s").get<double>(), o.step.at_s);
+  EXPECT_NEAR(l.at("suspect_delay_s").get<double>(), suspect_at - o.step.at_s, 1e-9);
+  EXPECT_TRUE(l.at("changed_delay_s").is_null());          // too short for `changed`
+  EXPECT_TRUE(l.at("first_published_delay_s").is_null());  // nothing published after the step
+  EXPECT_EQ(l.at("false_changes"), 0);
+  EXPECT_EQ(l.at("solves").get<size_t>(), j.at("estimates").size());
+  const ToolRun bad =
+      runTool(TESCALIB_EVAL_BIN, "--sequences " + tmp.str() + "/drive --score-estimates " +
+                                     tmp.str() + "/drive/calib.txt");
+  EXPECT_NE(bad.status, 0);
+  EXPECT_NE(bad.output.find("not a tescalib_calibrate --json file"), std::string::npos)
+      << bad.output;
 }

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "eval_args.h"
+#include "eval_monitor.h"
 #include "eval_report.h"
 #include "eval_trial.h"
 
@@ -15,6 +16,7 @@ int main(int argc, char** argv) {
     std::cerr << "tescalib_eval: --help lists the options\n";
     return 2;
   }
+  if (!args.score_estimates.empty()) return scoreEstimates(args) ? 0 : 1;
   EvalData data;
   if (!loadData(args, &data)) return 1;
   const tescalib::LidarStereoSettings solver_settings = lidarSettings(args, data.kfs);

@@ -75,6 +75,11 @@ void addRunOptions(CLI::App* app, Args* a) {
       "co, joint: the stereo pair's translation error (default 0.1)")
       ->group(g);
   add(app, "--json", "FILE", to(&a->json, cli::text), "writes the results as JSON")->group(g);
+  add(app, "--score-estimates", "FILE", to(&a->score_estimates, cli::text),
+      "instead of trials: scores tescalib_calibrate --json FILE's estimates of the drive in "
+      "--sequences against the truth of each one's moment (calib.txt, calib_after_step.txt): "
+      "the monitor's delays, the recalibrated estimate, false alarms (doc/online.md)")
+      ->group(g);
 }
 
 /// The keyframes: de-skewing and sparser scans.

@@ -20,6 +20,7 @@ struct Args {
   uint64_t seed = 1;
   int window = 20;
   std::string json;
+  std::string score_estimates;  ///< tescalib_calibrate --json FILE to score instead of trials
   std::string stages = "coarse,fine";
   int cov_cells_x = -1, cov_cells_y = -1;  ///< -1: the solver default
   int smooth_keypoints_px = -1;  ///< photometric smooth_depth_radius_px; -1: the solver default
