@@ -20,13 +20,18 @@ def runs(row_dir):
 
 
 def memory(run_dir):
-    """The calibrator's resident memory (MB) at its first and last sample, or None."""
+    """The calibrator's resident memory (MB) 30 s into the run (its window full) and at its last
+    sample, or None."""
     try:
         with open(os.path.join(run_dir, 'memory.txt')) as f:
-            rss = [int(line.split()[1]) / 1024 for line in f if len(line.split()) == 2]
+            rss = [(int(t), int(kb) / 1024) for t, kb in (line.split() for line in f
+                                                          if len(line.split()) == 2)]
     except OSError:
         return None
-    return (rss[0], rss[-1]) if rss else None
+    if not rss:
+        return None
+    start = next((mb for t, mb in rss if t >= 30), rss[-1][1])
+    return start, rss[-1][1]
 
 
 def value(x):
