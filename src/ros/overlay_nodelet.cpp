@@ -17,6 +17,20 @@
 namespace tescalib {
 namespace {
 
+/// The monitor's line for the overlay while an extrinsic is suspect, changed or recalibrating,
+/// e.g. "monitor: LiDAR->left suspect (the drawn extrinsic is the last published one)"; empty
+/// otherwise.
+std::string monitorLine(const CalibrationStatus& s) {
+  std::string line;
+  for (const auto& [name, state] :
+       {std::pair<const char*, const std::string&>{"LiDAR->left", s.lidar_to_left},
+        {"left->right", s.left_to_right}}) {
+    if (state != "suspect" && state != "changed" && state != "recalibrating") continue;
+    line += (line.empty() ? "monitor: " : "; ") + std::string(name) + " " + state;
+  }
+  return line.empty() ? line : line + " (the drawn extrinsic is the last published one)";
+}
+
 /// One status line of an estimate for the overlay image, e.g.
 /// "LiDAR->left: converged, 10 kf, sigma <= 0.019 deg / 0.69 cm, weak: none".
 std::string statusLine(const char* name, const ExtrinsicEstimate& e) {
@@ -74,6 +88,11 @@ void OverlayNodelet::onInit() {
                                                       std::lock_guard<std::mutex> lock(mutex_);
                                                       stereo_est_ = *m;
                                                     });
+  status_sub_ =
+      nh.subscribe<CalibrationStatus>("status", 1, [this](const CalibrationStatus::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        status_ = *m;
+      });
   // ~image_transport, or else the calibration nodelet's (whose estimates it draws: the
   // namespace lidar_to_left resolves into), so that a config's transport reaches both.
   std::string transport;
@@ -102,9 +121,10 @@ void OverlayNodelet::onSet(const Cloud::ConstPtr& cloud, const Image::ConstPtr& 
                            const Info::ConstPtr& ri) {
   if (left_pub_.getNumSubscribers() == 0 && right_pub_.getNumSubscribers() == 0) return;
   std::optional<ExtrinsicEstimate> le, se, candidate;
+  std::optional<CalibrationStatus> monitor;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    le = lidar_est_, se = stereo_est_, candidate = lidar_candidate_;
+    le = lidar_est_, se = stereo_est_, candidate = lidar_candidate_, monitor = status_;
   }
   LidarScan scan;
   cv::Mat l, r;
@@ -142,6 +162,10 @@ void OverlayNodelet::onSet(const Cloud::ConstPtr& cloud, const Image::ConstPtr& 
   drawLidarOverlay(scan, T_cl, lc, &l, max_depth_);
   std::vector<std::string> status{statusLine("LiDAR->left", *le)};
   if (se) status.push_back(statusLine("left->right", *se));
+  if (monitor) {
+    const std::string line = monitorLine(*monitor);
+    if (!line.empty()) status.push_back(line);
+  }
   drawStatusText(status, &l);
   left_pub_.publish(ros_conv::toImageMsg(l, left->header, "bgr8"));
   if (se && ros_conv::toBgr8(*right, &r, &error) && ros_conv::fromCameraInfo(*ri, &rc, &error)) {

@@ -18,6 +18,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include <tescalib/CalibrationStatus.h>
 #include <tescalib/ExtrinsicEstimate.h>
 
 namespace tescalib {
@@ -38,7 +39,7 @@ class OverlayNodelet : public nodelet::Nodelet {
   image_transport::SubscriberFilter left_sub_, right_sub_;  ///< through ~image_transport
   message_filters::Subscriber<Info> left_info_sub_, right_info_sub_;
   std::unique_ptr<message_filters::Synchronizer<Policy>> sync_;
-  ros::Subscriber lidar_est_sub_, stereo_est_sub_, lidar_candidate_sub_;
+  ros::Subscriber lidar_est_sub_, stereo_est_sub_, lidar_candidate_sub_, status_sub_;
   image_transport::Publisher left_pub_, right_pub_;
   std::mutex mutex_;
   std::optional<ExtrinsicEstimate> lidar_est_, stereo_est_;  ///< GUARDED_BY(mutex_)
@@ -46,6 +47,8 @@ class OverlayNodelet : public nodelet::Nodelet {
   /// been published, labelled as not trusted: on data where nothing converges (real KITTI) the
   /// overlay still shows where the window puts the LiDAR.
   std::optional<ExtrinsicEstimate> lidar_candidate_;  ///< GUARDED_BY(mutex_)
+  /// The calibration monitor's states (~status): drawn while an extrinsic is not `calibrated`.
+  std::optional<CalibrationStatus> status_;  ///< GUARDED_BY(mutex_)
   double max_depth_ = 40.0;
 };
 
