@@ -202,3 +202,24 @@ TEST(CalibrationMonitor, AWindowWhoseHalvesDisagreeDropsItsOldestKeyframes) {
   add(&w, 6);
   EXPECT_EQ(w.stamps(), (std::vector<double>{2, 4, 5, 6}));  // by information again
 }
+
+TEST(CalibrationMonitor, AWeakDirectionOfTheWindowRaisesNoAlarm) {
+  // Highway windows hardly constrain t_z (sigma 10 cm here): their estimates wander 5 cm along it
+  // from window to window, and the chi2 against both covariances stays small. The same wander
+  // where the windows constrain t_z to 5 mm is a change.
+  for (const double sigma_tz : {0.10, 0.005}) {
+    Matrix6d P = windowCovariance();
+    P(5, 5) = sigma_tz * sigma_tz;
+    ExtrinsicMonitor m{MonitorSettings()};
+    m.published(5, kI, P);
+    bool changed = false;
+    for (double t = 5.5; t < 65; t += 0.5) {
+      Eigen::Isometry3d T = kI;
+      T.translation().z() = (static_cast<int>(t / 3) % 2 ? 0.05 : -0.05);
+      m.observe(window(t), T, P);
+      m.published(t, T, P);
+      changed = changed || m.status().state == MonitorState::kChanged;
+    }
+    EXPECT_EQ(changed, sigma_tz < 0.01) << "sigma_tz " << sigma_tz;
+  }
+}
