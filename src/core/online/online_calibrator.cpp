@@ -193,6 +193,7 @@ bool OnlineCalibrator::startSolve(bool recording_ended, WindowSolveInput* input,
   input->T_cam_lidar = estimate_ ? estimate_->T_cam_lidar : rig_.T_cam_lidar;
   input->T_right_left = estimate_ ? estimate_->T_right_left : rig_.T_right_left;
   input->search_start = next_search_start_;
+  input->last_converged = !last_solve_ || last_solve_->converged;
   return true;
 }
 

@@ -31,7 +31,8 @@ CoCalibrationSettings coSettings(const WindowSolveInput& in, const OnlineSetting
   // (generated windows: 0.03-0.07 deg off; real KITTI 0.13-0.15 deg).
   if (current) cs.stereo_from_features = false;
   // Warm only from a co-calibration: a LiDAR-first estimate has the stereo pair at its start.
-  const bool from_co = current && current->stereo_estimated && s.warm_start_fine_only;
+  const bool from_co =
+      current && current->stereo_estimated && s.warm_start_fine_only && in.last_converged;
   // The joint solve has no warm rounds: it starts from the estimate (see OnlineSettings), and
   // its initial round's LiDAR-stereo solve runs the fine stage alone, as a warm LiDAR-stereo
   // update does.
@@ -114,7 +115,7 @@ WindowSolveResult solveLidarStereoWindow(const WindowSolveInput& in, const Onlin
   LidarStereoSettings ls = s.co.lidar;
   ls.cancel = cancel;
   ls.disparity_sigma = s.keyframe.stereo.disparity_sigma;
-  if (current && s.warm_start_fine_only) ls.run_coarse = false;
+  if (current && s.warm_start_fine_only && in.last_converged) ls.run_coarse = false;
   if (!searchAllowed(in, s)) ls.search_step_deg = 0;
   if (s.spread_search) ls.search_start = in.search_start;
   const LidarStereoResult r = solveLidarStereoSearch(cwin, in.T_cam_lidar, ls);

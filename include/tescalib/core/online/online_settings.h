@@ -101,6 +101,8 @@ struct OnlineSettings {
   /// from a converged estimate it only costs time (70-80 % of a 10-keyframe solve). With
   /// co-calibration it also makes the updates after a co-calibrated estimate warm rounds
   /// (warm_co_rounds); false: a full alternation each time (several s instead of about 1 s).
+  /// After a solve that did not converge the next one runs the coarse stage (a full alternation)
+  /// again: the extrinsic may have moved beyond the fine stage's basin.
   bool warm_start_fine_only = true;
   /// Before the first estimate, a LiDAR-stereo solve (also co-calibration's LiDAR-first one)
   /// that does not converge tries the wide-basin search (LidarStereoSettings::search_step_deg, in

@@ -42,6 +42,11 @@ struct WindowSolveInput {
   /// The search start this solve tries when its guess does not converge
   /// (OnlineSettings::spread_search; LidarStereoSettings::search_start).
   int search_start = 0;
+  /// The calibrator's last solve converged (or there was none). A warm start from the published
+  /// estimate skips the coarse stage (OnlineSettings::warm_start_fine_only) only then: after a
+  /// failure, an extrinsic that changed by more than the fine stage's basin among the causes,
+  /// the coarse stage brings the start in.
+  bool last_converged = true;
 };
 
 struct WindowSolveResult {
