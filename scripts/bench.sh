@@ -5,7 +5,7 @@
 # runs only the rows of doc/benchmarks.md's main table, one per benchmark target (about 25 minutes);
 # BENCH=rigs only the random-rig rows (RIGS rigs drawn by tescalib_simulate --rig random, about
 # 1.5 minutes each). BENCH=monitor runs the calibration monitor's rows (scripts/bench_monitor.sh,
-# about 2.5 minutes per 60 s drive).
+# about 3 minutes per 60 s drive).
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
