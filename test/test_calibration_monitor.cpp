@@ -174,35 +174,6 @@ TEST(CalibrationMonitor, ARestartedWindowKeepsOnlyTheKeyframesAfterTheChange) {
   }
 }
 
-TEST(CalibrationMonitor, AWindowWhoseHalvesDisagreeDropsItsOldestKeyframes) {
-  // By information the window keeps an informative old keyframe (stamp 0) over newer, weaker
-  // ones; while the solves' window halves disagree (keyframes from before a change of the rig
-  // among them) it drops the oldest instead, so that the window comes to hold only keyframes
-  // from after the change.
-  auto add = [](KeyframeWindow* w, double stamp) {
-    auto k = std::make_shared<Keyframe>();
-    k->stamp = stamp;
-    w->add(k);
-    return k;
-  };
-  KeyframeWindow w(4, "information");
-  std::vector<std::shared_ptr<Keyframe>> solved;
-  for (int i = 0; i < 4; ++i) solved.push_back(add(&w, i));
-  std::vector<Matrix6d> information(4, Matrix6d::Identity());
-  information[0] *= 100;  // the old keyframe constrains the most
-  w.storeInformation(solved, information);
-  add(&w, 4);
-  EXPECT_EQ(w.stamps(), (std::vector<double>{0, 2, 3, 4}));  // keyframe 1 went: least informative
-  w.setHalvesDisagree(true);
-  add(&w, 5);
-  EXPECT_EQ(w.stamps(), (std::vector<double>{2, 3, 4, 5}));
-  w.setHalvesDisagree(false);
-  w.storeInformation(w.snapshot(false),
-                     {information[0], information[1], information[2], information[3]});
-  add(&w, 6);
-  EXPECT_EQ(w.stamps(), (std::vector<double>{2, 4, 5, 6}));  // by information again
-}
-
 TEST(CalibrationMonitor, AWeakDirectionOfTheWindowRaisesNoAlarm) {
   // Highway windows hardly constrain t_z (sigma 10 cm here): their estimates wander 5 cm along it
   // from window to window, and the chi2 against both covariances stays small. The same wander

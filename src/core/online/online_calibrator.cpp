@@ -213,7 +213,6 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
     return false;
   }
   window_.storeInformation(input.keyframes, result.keyframe_information);
-  window_.setHalvesDisagree(result.halves_disagree);
   if (result.searched) next_search_start_ = (input.search_start + 1) % 8;
   OnlineEstimate& e = result.estimate;
   e.solve_id = ++solves_kept_;

@@ -93,7 +93,6 @@ WindowSolveResult coCalibrateWindow(const WindowSolveInput& in, const StereoRig&
     out.lidar_sensitivity = r.lidar_stereo_sensitivity;
   out.clouds_recomputed = true;
   out.searched = r.lidar.search_starts > 1;
-  out.halves_disagree = r.lidar.halves.tested && r.lidar.halves.chi2 > cs.lidar.halves_chi2_limit;
   out.keyframe_information = r.lidar.keyframe_information;
   out.estimate = coEstimate(r, warm);
   if (!warm)
@@ -121,7 +120,6 @@ WindowSolveResult solveLidarStereoWindow(const WindowSolveInput& in, const Onlin
   const LidarStereoResult r = solveLidarStereoSearch(cwin, in.T_cam_lidar, ls);
   WindowSolveResult out;
   out.searched = r.search_starts > 1;
-  out.halves_disagree = r.halves.tested && r.halves.chi2 > ls.halves_chi2_limit;
   out.solver_cancelled = r.message == "cancelled";
   out.keyframe_information = r.keyframe_information;
   OnlineEstimate& e = out.estimate;

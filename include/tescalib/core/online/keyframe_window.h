@@ -41,12 +41,6 @@ class KeyframeWindow {
   /// ignored), kept for the keyframes still in the window (it slides during a solve).
   void storeInformation(const std::vector<std::shared_ptr<Keyframe>>& solved,
                         const std::vector<Matrix6d>& information);
-  /// Whether the last solve's window halves disagreed (WindowSolveResult::halves_disagree): while
-  /// they do, a full window drops its oldest keyframe, not the least informative one. Keyframes
-  /// from before a change of the rig would otherwise stay for their information and keep every
-  /// later window straddling the change (never consistent, never converged, no evidence for the
-  /// monitor).
-  void setHalvesDisagree(bool disagree) { halves_disagree_ = disagree; }
   /// Replaces the window's keyframes by those of `solved` whose stereo cloud was recomputed for
   /// another left->right extrinsic (matched by stamp).
   void adoptRecomputedClouds(const std::vector<std::shared_ptr<Keyframe>>& solved);
@@ -57,7 +51,6 @@ class KeyframeWindow {
 
   int size_;
   bool by_information_;
-  bool halves_disagree_ = false;
   std::deque<std::shared_ptr<Keyframe>> keyframes_;
   /// Per-keyframe LiDAR-stereo information from the last solve that used it, by stamp.
   std::map<double, Matrix6d> information_;

@@ -67,9 +67,6 @@ struct WindowSolveResult {
   std::string message;  ///< the solver's (empty for a converged warm co-calibration update)
   /// The search ran (the guess did not converge): the next solve tries the next start.
   bool searched = false;
-  /// The window's two halves disagreed beyond LidarStereoSettings::halves_chi2_limit
-  /// (checkWindowHalves): its older keyframes may predate a change of the rig.
-  bool halves_disagree = false;
 };
 
 /// Solves the window. Throws what the solvers throw (a DataError on an estimate gone far off,
