@@ -230,8 +230,7 @@ int main(int argc, char** argv) {
     tescalib::simulateSequence(options, args.out);
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const int written = (options.frames + options.write_every - 1) / options.write_every;
-    std::cout << "tescalib_simulate: wrote " << written << " frames of "
+    std::cout << "tescalib_simulate: wrote " << options.writtenFrames() << " frames of "
               << tescalib::sim::scenarioName(options.scenario) << " (seed " << options.seed
               << ", rig " << options.rig_source << ", realism " << options.realism_name << ", "
               << options.width << "x" << options.height << ") to " << args.out << " in " << seconds

@@ -464,8 +464,7 @@ void writeFrames(const Simulator& sim, const std::string& dir) {
   std::string error;
   const std::vector<int> png_params = {cv::IMWRITE_PNG_COMPRESSION, 1};
   const int every = sim.options().write_every;
-  const int written = (sim.options().frames + every - 1) / every;
-  parallelFor(written, resolveThreads(sim.options().threads), [&](int k) {
+  parallelFor(sim.options().writtenFrames(), resolveThreads(sim.options().threads), [&](int k) {
     try {
       const Frame f = sim.renderFrame(k * every, 1);
       const std::string name = frameName(k);

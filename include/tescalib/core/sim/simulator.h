@@ -81,6 +81,8 @@ struct SimOptions {
   /// Write only frames 0, k, 2k, ... of the drive (numbered 0, 1, 2, ... with their own stamps
   /// and poses): the same drive at a keyframe rate (5: 2 Hz), 1/k of the rendering.
   int write_every = 1;
+  /// How many frames the sequence's folder holds: frames 0, write_every, ... below `frames`.
+  int writtenFrames() const { return (frames + write_every - 1) / write_every; }
   /// Sweep each scan over its 0.1 s revolution as a real spinning LiDAR does (clockwise, the
   /// cameras triggered when it faces forward): a raw, motion-skewed scan. Off: every beam fires
   /// from the pose of the camera trigger (a perfectly motion-compensated scan).
