@@ -20,6 +20,7 @@
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/eval/lidar_stereo_agreement.h"
 #include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/io/sim_info.h"
 #include "tescalib/core/lidar/scan_motion.h"
 #include "tescalib/core/sim/simulator.h"
 #include "tescalib/core/sim/simulator_camera.h"
@@ -128,19 +129,6 @@ std::map<std::string, std::string> readTree(const std::string& dir) {
   for (const auto& e : fs::recursive_directory_iterator(dir))
     if (e.is_regular_file()) files[fs::relative(e.path(), dir).string()] = readFile(e.path());
   return files;
-}
-
-/// "key: value" of sim_info.txt.
-std::map<std::string, std::string> readInfo(const std::string& path) {
-  std::map<std::string, std::string> kv;
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line)) {
-    const auto colon = line.find(':');
-    if (line.empty() || line[0] == '#' || colon == std::string::npos) continue;
-    kv[line.substr(0, colon)] = line.substr(colon + 2);
-  }
-  return kv;
 }
 
 /// Fraction of scan points higher than `height` m above the ground.
@@ -266,7 +254,7 @@ TEST(Simulator, WritesKittiLayoutWithRingsPosesAndInfo) {
   EXPECT_LT(step.norm(), 1.4);
   EXPECT_LT(std::fabs(step.x()), 0.1);
   EXPECT_LT((sim.cam0Pose(2).translation() - positions[2]).norm(), 1e-9);
-  const auto info = readInfo((tmp.path / "sim_info.txt").string());
+  const auto info = readSimInfo(tmp.path.string());
   EXPECT_EQ(info.at("scenario"), "urban");
   EXPECT_EQ(info.at("seed"), "7");
   EXPECT_NEAR(std::stod(info.at("brightness_a")), o.right_gain / o.left_gain, 1e-9);
@@ -561,7 +549,7 @@ TEST(Simulator, EveryKthFrameIsTheSameDriveAtAKeyframeRate) {
   };
   EXPECT_EQ(e.at("times.txt"), lines(a.at("times.txt"), 3));
   EXPECT_EQ(e.at("poses.txt"), lines(a.at("poses.txt"), 3));
-  EXPECT_EQ(readInfo(every.str() + "/sim_info.txt").at("written_every"), "3");
+  EXPECT_EQ(readSimInfo(every.str()).at("written_every"), "3");
   o.write_every = 8;
   EXPECT_THROW(simulateSequence(o, every.str()), DataError);
 }
@@ -773,7 +761,7 @@ TEST(Simulator, AnExtrinsicStepMovesTheLidarOrTheRightCameraFromItsTime) {
   EXPECT_NEAR(ds.head<3>().norm() * kDegPerRad, 0.5, 1e-6);
   EXPECT_NEAR(ds.tail<3>().norm(), 0.03, 1e-6);
   EXPECT_LT(poseError(after_s.T_cam_lidar, before.T_cam_lidar).norm(), 1e-6);
-  const auto info = readInfo(lidar.str() + "/sim_info.txt");
+  const auto info = readSimInfo(lidar.str());
   EXPECT_EQ(info.at("extrinsic_step_at_s"), "0.1");
   EXPECT_EQ(info.at("extrinsic_step"), "lidar");
   // The stepped LiDAR sits where the new truth puts it from the camera, which did not move.

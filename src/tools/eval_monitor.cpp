@@ -14,25 +14,13 @@
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/eval/monitor_score.h"
 #include "tescalib/core/io/kitti_calib.h"
+#include "tescalib/core/io/sim_info.h"
 
 namespace tescalib::eval {
 namespace {
 
 namespace fs = std::filesystem;
 using Run = std::map<std::string, std::vector<MonitoredEstimate>>;
-
-/// sim_info.txt's "key: value" lines (empty without the file).
-std::map<std::string, std::string> simInfo(const fs::path& dir) {
-  std::map<std::string, std::string> info;
-  std::ifstream in(dir / "sim_info.txt");
-  std::string line;
-  while (std::getline(in, line)) {
-    const size_t colon = line.find(": ");
-    if (line.empty() || line[0] == '#' || colon == std::string::npos) continue;
-    info[line.substr(0, colon)] = line.substr(colon + 2);
-  }
-  return info;
-}
 
 /// Both extrinsics' truth over the drive: calib.txt (calib_true.txt's right camera when there
 /// is one), calib_after_step.txt from sim_info.txt's extrinsic_step_at_s on.
@@ -43,7 +31,7 @@ std::map<std::string, ExtrinsicTruth> readTruth(const fs::path& dir) {
   std::map<std::string, ExtrinsicTruth> truth;
   truth["lidar_to_left"].before = truth["lidar_to_left"].after = before.T_cam_lidar;
   truth["left_to_right"].before = truth["left_to_right"].after = before.T_right_left;
-  const auto info = simInfo(dir);
+  const auto info = readSimInfo(dir.string());
   if (!info.count("extrinsic_step_at_s")) return truth;
   const StereoRig after = readCheckedOdometryRig((dir / "calib_after_step.txt").string());
   const bool stereo = info.count("extrinsic_step") && info.at("extrinsic_step") == "stereo";

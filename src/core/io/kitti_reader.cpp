@@ -14,6 +14,7 @@
 
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
+#include "tescalib/core/io/sim_info.h"
 
 namespace fs = std::filesystem;
 
@@ -305,19 +306,14 @@ Frame KittiSequence::load(size_t i) const {
 }
 
 bool KittiSequence::sweptScans() const {
-  std::ifstream info(fs::path(dir_) / "sim_info.txt");
-  if (!info) return layout_ == KittiLayout::kRaw;
-  std::string line;
-  while (std::getline(info, line))
-    if (line.rfind("lidar_sweep:", 0) == 0) {
-      std::istringstream value(line.substr(12));
-      int swept = 0;
-      if (!(value >> swept))
-        throw DataError((fs::path(dir_) / "sim_info.txt").string() +
-                        ": 'lidar_sweep:' is not followed by 0 or 1");
-      return swept == 1;
-    }
-  return false;
+  if (!fs::exists(fs::path(dir_) / "sim_info.txt")) return layout_ == KittiLayout::kRaw;
+  const auto info = readSimInfo(dir_);
+  const auto swept = info.find("lidar_sweep");
+  if (swept == info.end()) return false;
+  if (swept->second != "0" && swept->second != "1")
+    throw DataError((fs::path(dir_) / "sim_info.txt").string() +
+                    ": 'lidar_sweep:' is not followed by 0 or 1");
+  return swept->second == "1";
 }
 
 std::vector<size_t> KittiSequence::keyframes(double min_dt) const {
