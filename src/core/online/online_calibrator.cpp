@@ -218,7 +218,7 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
   e.solve_id = ++solves_kept_;
   e.chi2_to_published = chi2ToPublished(e, estimate_);
   std::string refusal = publicationRefusal(e, estimate_, settings_, *msg);
-  const std::string monitor_note = monitorSolve(input, e);
+  const std::string monitor_note = monitorSolve(input, result);
   if (!monitor_note.empty())
     refusal = refusal.empty() ? monitor_note : refusal + "; " + monitor_note;
   if (!refusal.empty()) {
@@ -239,13 +239,17 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
   return true;
 }
 
-std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input, const OnlineEstimate& e) {
+std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input,
+                                           const WindowSolveResult& result) {
   const MonitorSettings& m = settings_.monitor;
+  const OnlineEstimate& e = result.estimate;
   if (m.action == "off" || !estimate_) return "";
   std::vector<double> stamps;
   for (const auto& k : input.keyframes) stamps.push_back(k->stamp);
   if (e.converged && e.cov_lidar_known)
     monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar);
+  else if (const auto& half = result.newer_half)
+    monitor_.lidar_to_left.observe(half->stamps, half->T_cam_lidar, half->covariance);
   if (e.converged && e.stereo_estimated && e.cov_stereo_known && estimate_->stereo_estimated)
     monitor_.left_to_right.observe(stamps, e.T_right_left, e.cov_stereo);
   const MonitorStatus* changed = nullptr;

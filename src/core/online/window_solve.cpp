@@ -23,6 +23,7 @@ CoCalibrationSettings coSettings(const WindowSolveInput& in, const OnlineSetting
   const std::optional<OnlineEstimate>& current = in.published;
   CoCalibrationSettings cs = s.co;
   cs.lidar.cancel = cancel;
+  cs.lidar.halves_when_unsettled = current.has_value();  // the monitor's evidence (newerHalf)
   // Its LiDAR-first fallback searches as the LiDAR-stereo solves do.
   if (!searchAllowed(in, s)) cs.lidar.search_step_deg = 0;
   if (s.spread_search) cs.lidar.search_start = in.search_start;
@@ -73,6 +74,22 @@ OnlineEstimate coEstimate(const CoCalibrationResult& r, bool warm) {
   return e;
 }
 
+/// The newer half of `r`'s window (`keyframes`) when its halves disagreed and it is trusted.
+std::optional<NewerHalfEstimate> newerHalf(
+    const LidarStereoResult& r, const LidarStereoSettings& settings,
+    const std::vector<std::shared_ptr<Keyframe>>& keyframes) {
+  const LidarStereoResult::Halves& h = r.halves;
+  if (!h.tested || h.chi2 <= settings.halves_chi2_limit || !h.second_trusted ||
+      h.second_begin >= keyframes.size())
+    return std::nullopt;
+  NewerHalfEstimate half;
+  for (size_t i = h.second_begin; i < keyframes.size(); ++i)
+    half.stamps.push_back(keyframes[i]->stamp);
+  half.T_cam_lidar = h.second_T;
+  half.covariance = h.second_covariance;
+  return half;
+}
+
 WindowSolveResult coCalibrateWindow(const WindowSolveInput& in, const StereoRig& rig,
                                     const OnlineSettings& s, const std::atomic<bool>* cancel) {
   bool warm = false;
@@ -93,6 +110,7 @@ WindowSolveResult coCalibrateWindow(const WindowSolveInput& in, const StereoRig&
     out.lidar_sensitivity = r.lidar_stereo_sensitivity;
   out.clouds_recomputed = true;
   out.searched = r.lidar.search_starts > 1;
+  out.newer_half = newerHalf(r.lidar, cs.lidar, in.keyframes);
   out.keyframe_information = r.lidar.keyframe_information;
   out.estimate = coEstimate(r, warm);
   if (!warm)
@@ -115,11 +133,13 @@ WindowSolveResult solveLidarStereoWindow(const WindowSolveInput& in, const Onlin
   ls.cancel = cancel;
   ls.disparity_sigma = s.keyframe.stereo.disparity_sigma;
   if (current && s.warm_start_fine_only && in.last_converged) ls.run_coarse = false;
+  ls.halves_when_unsettled = current.has_value();  // the monitor's evidence (newerHalf)
   if (!searchAllowed(in, s)) ls.search_step_deg = 0;
   if (s.spread_search) ls.search_start = in.search_start;
   const LidarStereoResult r = solveLidarStereoSearch(cwin, in.T_cam_lidar, ls);
   WindowSolveResult out;
   out.searched = r.search_starts > 1;
+  out.newer_half = newerHalf(r, ls, in.keyframes);
   out.solver_cancelled = r.message == "cancelled";
   out.keyframe_information = r.keyframe_information;
   OnlineEstimate& e = out.estimate;

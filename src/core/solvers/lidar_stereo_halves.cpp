@@ -34,6 +34,11 @@ void printHalves(double chi2, const Vector6d& e, const LidarStereoResult& a,
 
 }  // namespace
 
+bool windowHalvesDue(const LidarStereoResult& r, const LidarStereoSettings& s) {
+  if (!s.check_window_halves || s.cancelled()) return false;
+  return r.converged || (s.halves_when_unsettled && !r.settled && r.fine_inliers >= s.min_inliers);
+}
+
 void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarStereoSettings& s,
                        LidarStereoResult* full) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -69,6 +74,10 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   full->halves.tested = true;
   full->halves.chi2 = chi2;
   full->halves.difference = e;
+  full->halves.second_T = b.T_cam_lidar;
+  full->halves.second_covariance = b.covariance;
+  full->halves.second_trusted = b.converged;
+  full->halves.second_begin = half;
   if (chi2 <= s.halves_chi2_limit) return;
   // The halves disagree beyond what the covariances allow: the data hold an error the model
   // does not know (on real KITTI, sequences of one day differ by 3-6 sigma). Scale the

@@ -133,10 +133,13 @@ class OnlineCalibrator {
   /// window holds too few keyframes.
   bool startSolve(bool recording_ended, WindowSolveInput* input, uint64_t* generation,
                   std::string* msg);
-  /// Feeds a solve's estimate to the monitor; returns why the monitor holds it back (empty: it
-  /// does not), and restarts the window on `changed` with MonitorSettings::action recalibrate.
+  /// Feeds a solve's estimate to the monitor (a converged one; else the newer half of a window
+  /// whose halves disagreed, when that half is trusted: a window straddling a change of the
+  /// LiDAR's extrinsic does not converge as a whole); returns why the monitor holds it back
+  /// (empty: it does not), and restarts the window on `changed` with MonitorSettings::action
+  /// recalibrate.
   std::string monitorSolve(const WindowSolveInput& input,
-                           const OnlineEstimate& e);  ///< REQUIRES(mutex_)
+                           const WindowSolveResult& result);  ///< REQUIRES(mutex_)
   /// Records a solve's result and publishes it when the publish policy lets it.
   bool concludeSolve(const WindowSolveInput& input, uint64_t generation, WindowSolveResult result,
                      std::string* msg, OnlineEstimate* published);

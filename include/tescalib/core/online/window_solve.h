@@ -49,6 +49,15 @@ struct WindowSolveInput {
   bool last_converged = true;
 };
 
+/// The newer half of a window whose two halves disagreed (LidarStereoResult::Halves), solved on
+/// its own with every axis trusted: what the calibration monitor compares when the extrinsic
+/// changed inside the window, which then does not converge as a whole.
+struct NewerHalfEstimate {
+  std::vector<double> stamps;  ///< its keyframes' stamps
+  Eigen::Isometry3d T_cam_lidar = Eigen::Isometry3d::Identity();
+  Matrix6d covariance = Matrix6d::Zero();
+};
+
 struct WindowSolveResult {
   /// The solve's estimate; keyframes_used, stamp, solve_seconds, solve_id and chi2_to_published
   /// are the caller's to fill.
@@ -67,6 +76,8 @@ struct WindowSolveResult {
   std::string message;  ///< the solver's (empty for a converged warm co-calibration update)
   /// The search ran (the guess did not converge): the next solve tries the next start.
   bool searched = false;
+  /// Set when the LiDAR-stereo solve's halves disagreed and the newer one is trusted.
+  std::optional<NewerHalfEstimate> newer_half;
 };
 
 /// Solves the window. Throws what the solvers throw (a DataError on an estimate gone far off,

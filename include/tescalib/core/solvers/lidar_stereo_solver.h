@@ -134,6 +134,11 @@ struct LidarStereoSettings {
   /// 22.46 is the 99.9 % quantile) the data hold an error the model does not explain, and the
   /// covariance is scaled by chi2 / 6 (the trust flags are evaluated again with it).
   bool check_window_halves = true;
+  /// Also on a solve whose fine stage did not settle (with enough associations): a window
+  /// straddling a change of the extrinsic often does not, and its newer half then still says
+  /// where the extrinsic went (Halves::second_T). The online calibrator sets it once an estimate
+  /// is published, for its monitor.
+  bool halves_when_unsettled = false;
   int min_keyframes_per_half = 2;
   double halves_chi2_limit = 22.46;
   /// Wide-basin search (solveLidarStereoSearch; 0: off; co-calibration's LiDAR-stereo solves do
@@ -236,13 +241,21 @@ struct LidarStereoResult {
   int search_starts = 1;
   Eigen::Vector3d search_offset_rad = Eigen::Vector3d::Zero();
   /// The split-window check (LidarStereoSettings::check_window_halves; `tested` false when it
-  /// did not run: check off, solve not converged, or too few keyframes).
+  /// did not run: check off, solve not converged (see halves_when_unsettled), or too few
+  /// keyframes).
   struct Halves {
     bool tested = false;
     double chi2 = 0;                         ///< (x_a - x_b)^T (P_a + P_b)^-1 (x_a - x_b), 6 DoF
     double covariance_scale = 1.0;           ///< applied to the covariances (1: consistent)
     Vector6d difference = Vector6d::Zero();  ///< first half's estimate minus the second's
     double seconds = 0;
+    /// The second (newer) half's own estimate and covariance, and whether that half's solve
+    /// converged with every axis trusted: when the halves disagree because the extrinsic
+    /// changed inside the window, the calibration monitor compares this one.
+    Eigen::Isometry3d second_T = Eigen::Isometry3d::Identity();
+    Matrix6d second_covariance = Matrix6d::Zero();
+    bool second_trusted = false;
+    size_t second_begin = 0;  ///< index in the window of the second half's first keyframe
   } halves;
   std::string message;  ///< why it did not converge, when it did not
 };
@@ -307,5 +320,10 @@ bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& settings,
 /// Real KITTI windows fail it (sequences of one day disagree by 3-6 sigma), generated ones pass.
 void checkWindowHalves(const std::vector<const Keyframe*>& window,
                        const LidarStereoSettings& settings, LidarStereoResult* full);
+
+/// Whether the split-window check runs on `result`: the check is on and the solve converged or,
+/// with LidarStereoSettings::halves_when_unsettled, its fine stage did not settle with enough
+/// associations.
+bool windowHalvesDue(const LidarStereoResult& result, const LidarStereoSettings& settings);
 
 }  // namespace tescalib
