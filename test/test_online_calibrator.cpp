@@ -18,6 +18,7 @@
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/online/online_calibrator.h"
+#include "tescalib/core/online/window_solve.h"
 #include "tescalib/core/sim/simulator.h"
 #include "test_util.h"
 
@@ -312,6 +313,46 @@ StereoRig perturbedRig(const Simulator& sim, unsigned seed, double lidar_deg, do
   return rig;
 }
 }  // namespace
+
+TEST(OnlineCalibratorGenerated, AfterAnUnconvergedSolveTheWarmStartRunsTheCoarseStageAgain) {
+  // A published estimate far off (the extrinsic changed beyond the fine stage's basin): the
+  // warm start from it runs the fine stage only while the last solve converged, and the coarse
+  // stage again after one that did not, which brings the start in.
+  SimOptions o;
+  o.frames = 40;
+  o.seed = 12;
+  const Simulator sim(o);
+  const StereoRig far = perturbedRig(sim, 5, 6.0, 0.6);
+  WindowSolveInput in;
+  for (int i = 0; i < o.frames; i += 5)
+    in.keyframes.push_back(std::make_shared<Keyframe>(
+        makeKeyframe(sim.renderFrame(i), sim.rig(), far.T_cam_lidar, sim.rig().T_right_left)));
+  OnlineEstimate published;
+  published.T_cam_lidar = in.T_cam_lidar = far.T_cam_lidar;
+  published.T_right_left = in.T_right_left = sim.rig().T_right_left;
+  published.converged = true;
+  in.published = published;
+  OnlineSettings settings;
+  settings.estimate_stereo = false;
+  std::map<bool, WindowSolveResult> r;
+  for (bool last_converged : {true, false}) {
+    in.last_converged = last_converged;
+    r[last_converged] = solveWindow(in, sim.rig(), settings, nullptr);
+  }
+  auto off = [&sim](const WindowSolveResult& w) {
+    const Vector6d e = poseError(w.estimate.T_cam_lidar, sim.rig().T_cam_lidar);
+    return std::make_pair(e.head<3>().norm() * kDegPerRad, e.tail<3>().norm());
+  };
+  for (bool last_converged : {true, false})
+    std::cout << "[ warm     ] last solve converged " << last_converged << ": converged "
+              << r[last_converged].estimate.converged << ", " << off(r[last_converged]).first
+              << " deg / " << off(r[last_converged]).second * 100 << " cm off the truth "
+              << r[last_converged].message << "\n";
+  EXPECT_FALSE(r[true].estimate.converged);
+  ASSERT_TRUE(r[false].estimate.converged) << r[false].message;
+  EXPECT_LT(off(r[false]).first, 0.1);
+  EXPECT_LT(off(r[false]).second, 0.015);
+}
 
 // A pair whose right image sits a pixel lower than camera_info says: the first keyframe is taken
 // with a warning that names the offset; the pair as rendered gives none. Checked once.
