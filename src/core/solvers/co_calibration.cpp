@@ -84,10 +84,8 @@ namespace {
 // which take a converged LiDAR-stereo solve as it is), and a second opinion from the initial guess
 // on a stable estimate far from it.
 void checkFinalLidar(const CoAlternation& a, CoCalibrationResult* res) {
-  LidarStereoSettings check = a.ls_last;  // the inner solves' settings switch the check off
-  check.check_window_halves = a.s.lidar.check_window_halves;
-  check.halves_when_unsettled = a.s.lidar.halves_when_unsettled;
-  if (windowHalvesDue(res->lidar, check)) {
+  // Due by the caller's settings: the inner solves' (ls_last) switch the check off.
+  if (windowHalvesDue(res->lidar, a.s.lidar)) {
     const auto t_h = Clock::now();
     checkWindowHalves(a.cwin, a.ls_last, &res->lidar);
     res->seconds_lidar += secondsSince(t_h);
