@@ -27,8 +27,10 @@ from tescalib.srv import Save
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker
 
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path('tescalib'), 'scripts'))
+_PKG = rospkg.RosPack().get_path('tescalib')
+sys.path[:0] = [os.path.join(_PKG, 'scripts'), os.path.join(_PKG, 'test')]
 import extrinsics as ex  # noqa: E402
+from generated_drive import generated_drive  # noqa: E402
 
 DEG = 180 / math.pi
 FRAMES = 40  # 4 s at 10 Hz: 8 keyframes 0.5 s apart
@@ -69,12 +71,11 @@ class OnlineEndToEnd(unittest.TestCase):
         rospy.Subscriber('/tescalib/keyframe/lidar_mesh', Marker, cls.on_keyframe, 'mesh')
 
         cls.tmp = tempfile.mkdtemp(prefix='tescalib_e2e_')
-        drive, cls.bag = os.path.join(cls.tmp, 'urban'), os.path.join(cls.tmp, 'urban.bag')
+        cls.bag = os.path.join(cls.tmp, 'urban.bag')
         t0 = time.time()
-        subprocess.run(['rosrun', 'tescalib', 'tescalib_simulate', '--scenario', 'urban',
-                        '--frames', str(FRAMES), '--seed', str(SEED), '--out', drive]
-                       + (['--lidar-sweep', '1'] if cls.sweep else []),
-                       check=True, stdout=subprocess.DEVNULL)
+        sweep = ['--lidar-sweep', '1'] if cls.sweep else []
+        drive = generated_drive(
+            ['--scenario', 'urban', '--frames', str(FRAMES), '--seed', str(SEED)] + sweep)
         # Stamps off the files' 0.1 s grid, as a driver's are: 0.5 s multiples survive a round
         # trip through a double, these do not (the estimates' stamps are checked in test_1).
         subprocess.run(['rosrun', 'tescalib', 'kitti_to_bag', '--in', drive, '--out', cls.bag,
@@ -82,7 +83,7 @@ class OnlineEndToEnd(unittest.TestCase):
                        + (['--like-kitti2bag', '1'] if cls.like_kitti2bag else []),
                        check=True, stdout=subprocess.DEVNULL)
         cls.truth = ex.read_sim_info(os.path.join(drive, 'sim_info.txt'))
-        rospy.loginfo('e2e: generated %d frames and the bag in %.1f s', FRAMES, time.time() - t0)
+        rospy.loginfo('e2e: the drive (%d frames) and its bag in %.1f s', FRAMES, time.time() - t0)
         # The nodes subscribe while the drive is generated; give a slow start a moment more.
         deadline = time.time() + 20
         while time.time() < deadline and not cls.subscribed():
