@@ -835,22 +835,25 @@ TEST(OnlineCalibratorGenerated, WithoutTheAzimuthModelOnlyCloudsWithPointTimesAr
 }
 
 /// The loop tests' drive: 46 frames (10 keyframes 0.5 s apart), seed 4.
-std::unique_ptr<Simulator> loopDrive() {
-  SimOptions o;
-  o.frames = 46;
-  o.seed = 4;
-  return std::make_unique<Simulator>(o);
+const tescalib_test::SharedDrive& loopDrive() {
+  static const tescalib_test::SharedDrive drive([] {
+    SimOptions o;
+    o.frames = 46;
+    o.seed = 4;
+    return o;
+  }());
+  return drive;
 }
 
 /// A calibrator with a 10-keyframe window, started 1 deg / 0.1 m off on `sim`, its estimate
 /// published from all 46 frames of the loop drive.
-std::unique_ptr<OnlineCalibrator> calibratedOnTheLoopDrive(const Simulator& sim,
-                                                           OnlineSettings settings,
+std::unique_ptr<OnlineCalibrator> calibratedOnTheLoopDrive(OnlineSettings settings,
                                                            OnlineEstimate* published) {
   settings.window_size = 10;
-  auto cal = std::make_unique<OnlineCalibrator>(perturbedRig(sim, 3, 1.0, 0.1), settings);
+  const tescalib_test::SharedDrive& drive = loopDrive();
+  auto cal = std::make_unique<OnlineCalibrator>(perturbedRig(drive.sim(), 3, 1.0, 0.1), settings);
   std::string msg;
-  EXPECT_NO_FATAL_FAILURE(addKeyframes(*cal, sim, 0, 46));  // 10 keyframes
+  EXPECT_NO_FATAL_FAILURE(addKeyframes(*cal, drive, 0, 46));  // 10 keyframes
   EXPECT_TRUE(cal->solve(&msg, published)) << msg;
   return cal;
 }
@@ -860,16 +863,16 @@ TEST(OnlineCalibratorGenerated, AFewKeyframesAfterALoopDoNotReplaceAFullWindowsE
   // 10-keyframe estimate (rotation errors 2-3x larger): a trace-ratio gate sees only translation
   // (rotation is 0.5 % of the trace), and a few keyframes' covariance is mostly the model
   // error's floor, like a full window's.
-  const auto drive = loopDrive();
-  const Simulator& sim = *drive;
+  const tescalib_test::SharedDrive& drive = loopDrive();
+  const Simulator& sim = drive.sim();
   OnlineEstimate full;
-  const auto calibrator = calibratedOnTheLoopDrive(sim, coCalibrating(), &full);
+  const auto calibrator = calibratedOnTheLoopDrive(coCalibrating(), &full);
   ASSERT_FALSE(::testing::Test::HasFailure());
   OnlineCalibrator& cal = *calibrator;
   std::string msg;
   EXPECT_EQ(full.keyframes_used, 10);
   // The loop: time jumps back, then three keyframes of the drive's start again.
-  Frame again = sim.renderFrame(0);
+  Frame again = drive.frame(0);
   again.stamp = sim.stamp(45) - 20.0;
   EXPECT_EQ(cal.addFrame(again, again.stamp, &msg), FrameResult::kReset) << msg;
   // The loop's message says what happens to the published estimate.
@@ -878,7 +881,7 @@ TEST(OnlineCalibratorGenerated, AFewKeyframesAfterALoopDoNotReplaceAFullWindowsE
             std::string::npos)
       << msg;
   for (int i = 0; i < 15; i += 5) {
-    Frame f = sim.renderFrame(i);
+    Frame f = drive.frame(i);
     f.stamp += again.stamp + 1.0;
     ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
   }
@@ -889,7 +892,7 @@ TEST(OnlineCalibratorGenerated, AFewKeyframesAfterALoopDoNotReplaceAFullWindowsE
   EXPECT_EQ(cal.estimate()->keyframes_used, 10);
   // Refilled to 10 keyframes, the window's solves are published again.
   for (int i = 15; i < 50; i += 5) {
-    Frame f = sim.renderFrame(std::min(i, 45));
+    Frame f = drive.frame(std::min(i, 45));
     f.stamp = again.stamp + 1.0 + 0.5 * i;
     ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
   }
@@ -902,19 +905,19 @@ TEST(OnlineCalibratorGenerated, ASolveKeptBackSaysWhetherItStillAgreesWithThePub
   // published estimate) says how far it is from the published one in chi2; beyond
   // changed_chi2 it says the extrinsic may have changed. The same drive again agrees; the drive
   // with the LiDAR turned by 0.3 deg about its z axis (a knock on the mount) does not.
-  const auto drive = loopDrive();
-  const Simulator& sim = *drive;
+  const tescalib_test::SharedDrive& drive = loopDrive();
+  const Simulator& sim = drive.sim();
   const OnlineSettings settings = coCalibrating();
   auto afterALoop = [&](double turn_deg, std::string* msg, OnlineEstimate* kept) {
     OnlineEstimate published;
-    const auto calibrator = calibratedOnTheLoopDrive(sim, settings, &published);
+    const auto calibrator = calibratedOnTheLoopDrive(settings, &published);
     OnlineCalibrator& cal = *calibrator;
     const Eigen::Matrix3f R =
         Eigen::AngleAxisf(static_cast<float>(turn_deg / kDegPerRad), Eigen::Vector3f::UnitZ())
             .toRotationMatrix();
     const double start = sim.stamp(45) - 20.0;
     for (int i = 0; i < 15; i += 5) {
-      Frame f = sim.renderFrame(i);
+      Frame f = drive.frame(i);
       f.stamp += start;
       for (LidarPoint& p : f.scan) {
         const Eigen::Vector3f q = R * Eigen::Vector3f(p.x, p.y, p.z);
