@@ -553,6 +553,7 @@ TEST(LidarStereoGenerated, AWindowStraddlingALidarBumpSolvesItsNewerHalfToTheNew
   ASSERT_TRUE(h.tested);
   EXPECT_GT(h.chi2, LidarStereoSettings().halves_chi2_limit);
   EXPECT_EQ(h.second_begin, 6u);
+  EXPECT_TRUE(h.second_settled);
   EXPECT_TRUE(h.second_trusted);
   EXPECT_LT(after.head<3>().norm() * kDegPerRad, 0.1);
   EXPECT_LT(after.tail<3>().norm(), 0.015);

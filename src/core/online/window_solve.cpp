@@ -74,12 +74,12 @@ OnlineEstimate coEstimate(const CoCalibrationResult& r, bool warm) {
   return e;
 }
 
-/// The newer half of `r`'s window (`keyframes`) when its halves disagreed and it is trusted.
+/// The newer half of `r`'s window (`keyframes`) when its halves disagreed and it settled.
 std::optional<NewerHalfEstimate> newerHalf(
     const LidarStereoResult& r, const LidarStereoSettings& settings,
     const std::vector<std::shared_ptr<Keyframe>>& keyframes) {
   const LidarStereoResult::Halves& h = r.halves;
-  if (!h.tested || h.chi2 <= settings.halves_chi2_limit || !h.second_trusted ||
+  if (!h.tested || h.chi2 <= settings.halves_chi2_limit || !h.second_settled ||
       h.second_begin >= keyframes.size())
     return std::nullopt;
   NewerHalfEstimate half;

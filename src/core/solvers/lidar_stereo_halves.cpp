@@ -76,6 +76,7 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   full->halves.difference = e;
   full->halves.second_T = b.T_cam_lidar;
   full->halves.second_covariance = b.covariance;
+  full->halves.second_settled = b.settled;
   full->halves.second_trusted = b.converged;
   full->halves.second_begin = half;
   if (chi2 <= s.halves_chi2_limit) return;

@@ -50,8 +50,10 @@ struct WindowSolveInput {
 };
 
 /// The newer half of a window whose two halves disagreed (LidarStereoResult::Halves), solved on
-/// its own with every axis trusted: what the calibration monitor compares when the extrinsic
-/// changed inside the window, which then does not converge as a whole.
+/// its own until its fine stage settled: what the calibration monitor compares when the
+/// extrinsic changed inside the window, which then does not converge as a whole. Its axes need
+/// not all be trusted: the monitor's chi2 weighs each direction by its covariance, so a weak
+/// direction adds little evidence either way.
 struct NewerHalfEstimate {
   std::vector<double> stamps;  ///< its keyframes' stamps
   Eigen::Isometry3d T_cam_lidar = Eigen::Isometry3d::Identity();

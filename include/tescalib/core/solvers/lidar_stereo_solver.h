@@ -249,11 +249,13 @@ struct LidarStereoResult {
     double covariance_scale = 1.0;           ///< applied to the covariances (1: consistent)
     Vector6d difference = Vector6d::Zero();  ///< first half's estimate minus the second's
     double seconds = 0;
-    /// The second (newer) half's own estimate and covariance, and whether that half's solve
-    /// converged with every axis trusted: when the halves disagree because the extrinsic
-    /// changed inside the window, the calibration monitor compares this one.
+    /// The second (newer) half's own estimate and covariance, whether that half's fine stage
+    /// settled, and whether it converged with every axis trusted: when the halves disagree
+    /// because the extrinsic changed inside the window, the calibration monitor compares this
+    /// one.
     Eigen::Isometry3d second_T = Eigen::Isometry3d::Identity();
     Matrix6d second_covariance = Matrix6d::Zero();
+    bool second_settled = false;
     bool second_trusted = false;
     size_t second_begin = 0;  ///< index in the window of the second half's first keyframe
   } halves;
