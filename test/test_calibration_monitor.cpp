@@ -10,6 +10,7 @@
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/online/calibration_monitor.h"
 #include "tescalib/core/online/keyframe_window.h"
+#include "tescalib/core/online/publish_policy.h"
 #include "tescalib/core/uncertainty/trust.h"
 
 using namespace tescalib;
@@ -193,4 +194,29 @@ TEST(CalibrationMonitor, AWeakDirectionOfTheWindowRaisesNoAlarm) {
     }
     EXPECT_EQ(changed, sigma_tz < 0.01) << "sigma_tz " << sigma_tz;
   }
+}
+
+TEST(PublishPolicy, ARecalibrationIsNotHeldToTheChangedEstimatesCovariance) {
+  // Once the monitor declared the published extrinsic changed, that estimate's covariance says how
+  // well the old rig was known: a full window's estimate of the new one is published even when
+  // it is less certain than the old (max_variance_growth would keep the changed one for good).
+  OnlineEstimate old_one, candidate;
+  for (OnlineEstimate* e : {&old_one, &candidate}) {
+    e->converged = true;
+    e->keyframes_used = 10;
+  }
+  old_one.cov_lidar = Matrix6d::Identity() * 1e-8;
+  candidate.cov_lidar = Matrix6d::Identity() * 4e-8;  // variance 4x, above the growth of 2
+  const OnlineSettings s;
+  ASSERT_LT(s.max_variance_growth, 4.0);
+  ASSERT_EQ(s.window_size, 10);
+  const std::optional<OnlineEstimate> published = old_one;
+  EXPECT_NE(publicationRefusal(candidate, published, s, "").find("less certain than the published"),
+            std::string::npos);
+  EXPECT_EQ(publicationRefusal(candidate, published, s, "", true), "");
+  // Still only from a window as full as the published estimate's.
+  candidate.keyframes_used = 4;
+  EXPECT_NE(publicationRefusal(candidate, published, s, "", true)
+                .find("from 4 keyframes, fewer than the published estimate's 10"),
+            std::string::npos);
 }

@@ -217,7 +217,10 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
   OnlineEstimate& e = result.estimate;
   e.solve_id = ++solves_kept_;
   e.chi2_to_published = chi2ToPublished(e, estimate_);
-  std::string refusal = publicationRefusal(e, estimate_, settings_, *msg);
+  const bool recalibrating =
+      monitor_.lidar_to_left.status().state == MonitorState::kRecalibrating ||
+      monitor_.left_to_right.status().state == MonitorState::kRecalibrating;
+  std::string refusal = publicationRefusal(e, estimate_, settings_, *msg, recalibrating);
   const std::string monitor_note = monitorSolve(input, result);
   if (!monitor_note.empty())
     refusal = refusal.empty() ? monitor_note : refusal + "; " + monitor_note;

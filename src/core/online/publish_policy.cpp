@@ -51,7 +51,8 @@ std::string varianceGrowthRefusal(const OnlineEstimate& e, const OnlineEstimate&
 
 /// Why `e` is held back, before the change check; empty when it is published.
 std::string refusalReason(const OnlineEstimate& e, const std::optional<OnlineEstimate>& published,
-                          const OnlineSettings& settings, const std::string& solve_message) {
+                          const OnlineSettings& settings, const std::string& solve_message,
+                          bool recalibrating) {
   if (!e.converged)
     return "not converged (" + solve_message +
            "): " + (published ? "keeping the previous estimate" : "nothing published yet");
@@ -70,6 +71,9 @@ std::string refusalReason(const OnlineEstimate& e, const std::optional<OnlineEst
     return "from " + std::to_string(e.keyframes_used) +
            " keyframes, fewer than the published estimate's " +
            std::to_string(published->keyframes_used) + ": kept it until the window refills";
+  // The monitor found the published extrinsic changed: its covariance says how well the old
+  // rig was known and bounds nothing about the new one.
+  if (recalibrating) return "";
   return varianceGrowthRefusal(e, *published, settings);
 }
 
@@ -84,8 +88,9 @@ double chi2ToPublished(const OnlineEstimate& candidate,
 
 std::string publicationRefusal(const OnlineEstimate& candidate,
                                const std::optional<OnlineEstimate>& published,
-                               const OnlineSettings& settings, const std::string& solve_message) {
-  std::string why = refusalReason(candidate, published, settings, solve_message);
+                               const OnlineSettings& settings, const std::string& solve_message,
+                               bool recalibrating) {
+  std::string why = refusalReason(candidate, published, settings, solve_message, recalibrating);
   if (why.empty()) return why;
   // A converged solve kept back: does it still agree with what is published?
   if (std::isfinite(candidate.chi2_to_published)) {

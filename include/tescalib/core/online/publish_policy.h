@@ -24,9 +24,13 @@ double chi2ToPublished(const OnlineEstimate& candidate,
 /// Why `candidate` is held back instead of replacing `published` (nothing published yet
 /// included); empty when it is published. `solve_message` is the solver's (why it did not
 /// converge). A held-back converged estimate's reason ends with its chi2_to_published and, beyond
-/// changed_chi2, the note that the extrinsic may have changed.
+/// changed_chi2, the note that the extrinsic may have changed. `recalibrating`: the calibration
+/// monitor declared the published extrinsic changed and the window restarted; the candidate is
+/// then not held to the published covariance (max_variance_growth), only to the window's
+/// keyframe count.
 std::string publicationRefusal(const OnlineEstimate& candidate,
                                const std::optional<OnlineEstimate>& published,
-                               const OnlineSettings& settings, const std::string& solve_message);
+                               const OnlineSettings& settings, const std::string& solve_message,
+                               bool recalibrating = false);
 
 }  // namespace tescalib
