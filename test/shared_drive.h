@@ -4,7 +4,9 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <mutex>
+#include <utility>
 
 #include "tescalib/core/sim/simulator.h"
 
@@ -29,5 +31,21 @@ class SharedDrive {
   mutable std::mutex mutex_;
   mutable std::map<int, tescalib::Frame> frames_;
 };
+
+/// The urban drive of `seed` and `frames` frames (its scene depends on both), one per binary.
+inline const SharedDrive& sharedUrbanDrive(uint64_t seed, int frames) {
+  static std::mutex mutex;
+  static std::map<std::pair<uint64_t, int>, std::unique_ptr<SharedDrive>> drives;
+  std::lock_guard<std::mutex> lock(mutex);
+  auto& d = drives[{seed, frames}];
+  if (!d) {
+    tescalib::SimOptions o;
+    o.scenario = tescalib::Scenario::kUrban;
+    o.frames = frames;
+    o.seed = seed;
+    d = std::make_unique<SharedDrive>(o);
+  }
+  return *d;
+}
 
 }  // namespace tescalib_test

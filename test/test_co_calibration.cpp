@@ -51,20 +51,6 @@ CoStart lidarStart(std::mt19937_64& rng) {
   return c;
 }
 
-/// The urban drive of `seed` and `frames` frames (its scene depends on both), shared by the tests.
-const tescalib_test::SharedDrive& generatedDrive(uint64_t seed, int frames) {
-  static std::map<std::pair<uint64_t, int>, std::unique_ptr<tescalib_test::SharedDrive>> drives;
-  auto& d = drives[{seed, frames}];
-  if (!d) {
-    SimOptions o;
-    o.scenario = Scenario::kUrban;
-    o.frames = frames;
-    o.seed = seed;
-    d = std::make_unique<tescalib_test::SharedDrive>(o);
-  }
-  return *d;
-}
-
 /// `n` keyframes 0.5 s apart of a generated urban drive; meshes view-filtered with `T_cl_guess`,
 /// no stereo clouds yet (co-calibration computes them).
 /// `drive_frames` > 0: the keyframes are the first of a drive that long (its scene depends on
@@ -74,7 +60,7 @@ GeneratedWindow generatedWindow(int n, uint64_t seed, const Eigen::Isometry3d* T
                                 int drive_frames = 0,
                                 int sampled_faces = LidarMeshSettings().sampled_faces) {
   const tescalib_test::SharedDrive& drive =
-      generatedDrive(seed, std::max(5 * (n - 1) + 1, drive_frames));
+      tescalib_test::sharedUrbanDrive(seed, std::max(5 * (n - 1) + 1, drive_frames));
   GeneratedWindow w;
   w.rig = drive.sim().rig();
   for (int i = 0; i < 5 * (n - 1) + 1; i += 5) {

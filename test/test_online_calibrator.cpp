@@ -280,15 +280,7 @@ void addKeyframes(OnlineCalibrator& cal, const Simulator& sim, int first, int en
   }
 }
 /// The generated drive of the co-calibration tests: 21 frames, 5 keyframes 0.5 s apart.
-const tescalib_test::SharedDrive& coDrive() {
-  static const tescalib_test::SharedDrive drive([] {
-    SimOptions o;
-    o.frames = 21;
-    o.seed = 4;
-    return o;
-  }());
-  return drive;
-}
+const tescalib_test::SharedDrive& coDrive() { return tescalib_test::sharedUrbanDrive(4, 21); }
 
 /// addKeyframes from a shared drive's frames.
 void addKeyframes(OnlineCalibrator& cal, const tescalib_test::SharedDrive& drive, int first,
@@ -835,15 +827,7 @@ TEST(OnlineCalibratorGenerated, WithoutTheAzimuthModelOnlyCloudsWithPointTimesAr
 }
 
 /// The loop tests' drive: 46 frames (10 keyframes 0.5 s apart), seed 4.
-const tescalib_test::SharedDrive& loopDrive() {
-  static const tescalib_test::SharedDrive drive([] {
-    SimOptions o;
-    o.frames = 46;
-    o.seed = 4;
-    return o;
-  }());
-  return drive;
-}
+const tescalib_test::SharedDrive& loopDrive() { return tescalib_test::sharedUrbanDrive(4, 46); }
 
 /// A calibrator with a 10-keyframe window, started 1 deg / 0.1 m off on `sim`, its estimate
 /// published from all 46 frames of the loop drive.
