@@ -200,18 +200,22 @@ class OnlineEndToEnd(unittest.TestCase):
         rospy.loginfo('e2e: %d estimates; last from %d keyframes: %.4f deg / %.2f cm off the truth',
                       len(self.est['lidar_to_left']), last.keyframes_used, ex.norm(phi) * DEG,
                       100 * ex.norm(tau))
-        self.assertLess(ex.norm(phi) * DEG, 0.2)
-        self.assertLess(ex.norm(tau), 0.03)
+        with self.lock:
+            logs = list(self.estimate_logs)
+        off = '%.4f deg / %.2f cm from %d keyframes; the node\'s estimates: %r' % (
+            ex.norm(phi) * DEG, 100 * ex.norm(tau), last.keyframes_used, logs)
+        self.assertLess(ex.norm(phi) * DEG, 0.2, off)
+        self.assertLess(ex.norm(tau), 0.03, off)
         stereo = self.est['left_to_right'][-1]
         phi_s, tau_s = ex.error(ex.from_msg(stereo.transform), self.truth['T_right_left'])
         self.assertTrue(last.estimated)
         self.assertEqual(stereo.estimated, self.estimate_stereo)
         if self.estimate_stereo:
-            self.assertLess(ex.norm(phi_s) * DEG, 0.2)
-            self.assertLess(ex.norm(tau_s), 0.03)
+            off_s = 'T_right_left %.4f deg / %.2f cm off; %s' % (
+                ex.norm(phi_s) * DEG, 100 * ex.norm(tau_s), off)
+            self.assertLess(ex.norm(phi_s) * DEG, 0.2, off_s)
+            self.assertLess(ex.norm(tau_s), 0.03, off_s)
             # The co-calibrated estimates came from the solve the launch asked for.
-            with self.lock:
-                logs = list(self.estimate_logs)
             kind = 'joint co-calibration' if self.joint else '; co-calibration'
             self.assertTrue(any(kind in m for m in logs), '%r in none of %r' % (kind, logs))
             if not self.joint:
@@ -239,7 +243,10 @@ class OnlineEndToEnd(unittest.TestCase):
         n = ex.nees(phi, tau, list(last.covariance))
         rospy.loginfo('e2e: NEES of the last estimate against the truth %.2f', n)
         self.assertIsNotNone(n)
-        self.assertLess(n, 27.86)
+        self.assertLess(n, 27.86, 'NEES %.2f: %.4f deg / %.2f cm off, sigmas %s deg %s m, '
+                        '%d keyframes' % (n, ex.norm(phi) * DEG, 100 * ex.norm(tau),
+                                          list(last.sigma_rot_deg), list(last.sigma_trans_m),
+                                          last.keyframes_used))
 
     def test_3_tf_carries_the_estimate(self):
         self.assertTrue(self.tf, 'no tf velo_link -> tescalib_left')
