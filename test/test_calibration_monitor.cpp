@@ -160,6 +160,61 @@ TEST(CalibrationMonitor, DetectsAStepWithinTwoFreshWindows) {
   EXPECT_LT(change_after, changed_at);
 }
 
+/// With kUnit covariances: an estimate at `chi2` from the identity along y (a direction of its
+/// own, so it is far from atChi2's along x).
+Eigen::Isometry3d atChi2AlongY(double chi2) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation().y() = std::sqrt(2e-4 * chi2);
+  return T;
+}
+
+TEST(CalibrationMonitor, WindowsThatSawTheOldExtrinsicAreNotAfterTheChange) {
+  // A window at the old extrinsic raises the evidence a little (a false suspicion at 20 s), the
+  // next still agrees with the old extrinsic, then the step: the keyframes up to the newest of
+  // the last window that disagrees with the new estimate are before the change.
+  MonitorSettings s;  // k 22.46, h 60, span 3 s
+  ExtrinsicMonitor m(s);
+  m.published(10, kI, kUnit);
+  EXPECT_FALSE(m.observe(window(15), atChi2(5), kUnit));  // agrees: calibrated
+  EXPECT_TRUE(m.observe(window(20), atChi2(40), kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kSuspect);
+  EXPECT_DOUBLE_EQ(m.status().change_after, 20);
+  EXPECT_FALSE(m.observe(window(25), atChi2(15), kUnit));  // evidence 17.5 - 7.5: still > 0
+  EXPECT_EQ(m.status().state, MonitorState::kSuspect);
+  EXPECT_TRUE(m.observe(window(30), atChi2AlongY(400), kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kChanged);
+  EXPECT_DOUBLE_EQ(m.status().change_after, 25);
+  // The same run whose windows all agree with the declaring estimate (they saw the new
+  // extrinsic): the first window that raised the evidence bounds the change.
+  ExtrinsicMonitor all_after(s);
+  all_after.published(10, kI, kUnit);
+  all_after.observe(window(20), atChi2AlongY(50), kUnit);
+  all_after.observe(window(25), atChi2AlongY(51), kUnit);
+  all_after.observe(window(30), atChi2AlongY(52), kUnit);
+  EXPECT_EQ(all_after.status().state, MonitorState::kChanged);
+  EXPECT_DOUBLE_EQ(all_after.status().change_after, 20);
+}
+
+TEST(CalibrationMonitor, ANewerHalfThatDeclaresTheChangeLeavesItsOlderHalfBehind) {
+  MonitorSettings s;
+  ExtrinsicMonitor m(s);
+  m.published(10, kI, kUnit);
+  EXPECT_TRUE(m.observe(window(20), atChi2(100), kUnit));
+  // A straddling window's newer half (its last 5 keyframes, 27.5-29.5 s): the keyframes before
+  // it go, even though the first suspect window's newest is older.
+  const std::vector<double> half = {27.5, 28.0, 28.5, 29.0, 29.5};
+  EXPECT_TRUE(m.observe(half, atChi2(100), kUnit, true));
+  EXPECT_EQ(m.status().state, MonitorState::kChanged);
+  EXPECT_LT(m.status().change_after, 27.5);
+  EXPECT_GT(m.status().change_after, 27.4999);
+  // The same estimate from a whole window says nothing of which of its keyframes came after.
+  ExtrinsicMonitor whole(s);
+  whole.published(10, kI, kUnit);
+  whole.observe(window(20), atChi2(100), kUnit);
+  whole.observe(half, atChi2(100), kUnit);
+  EXPECT_DOUBLE_EQ(whole.status().change_after, 20);
+}
+
 TEST(CalibrationMonitor, ARestartedWindowKeepsOnlyTheKeyframesAfterTheChange) {
   for (const char* selection : {"fifo", "information"}) {
     KeyframeWindow w(10, selection);

@@ -32,7 +32,7 @@ bool ExtrinsicMonitor::setState(MonitorState state, double stamp) {
 }
 
 bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, const Eigen::Isometry3d& T,
-                               const Matrix6d& cov) {
+                               const Matrix6d& cov, bool newer_half) {
   const MonitorState s = status_.state;
   if (stamps.empty() || !cov.allFinite()) return false;
   // Only a calibrated or suspect extrinsic is checked; `changed` holds until recalibrated or
@@ -43,12 +43,18 @@ bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, const Eigen::I
   if (fresh < settings_.fresh_fraction * static_cast<double>(stamps.size())) return false;
   const double chi2 = nees(poseError(T, reference_), cov + reference_cov_);
   if (!std::isfinite(chi2)) return false;  // the summed covariance is not positive definite
-  const double newest = *std::max_element(stamps.begin(), stamps.end());
+  const auto [oldest_it, newest_it] = std::minmax_element(stamps.begin(), stamps.end());
+  const double newest = *newest_it;
   last_newest_ = newest;
   ++status_.fresh_windows;
   status_.last_chi2 = chi2;
   status_.evidence = std::max(0.0, status_.evidence + chi2 - settings_.cusum_k);
-  if (status_.evidence <= 0) return setState(MonitorState::kCalibrated, newest);
+  if (status_.evidence <= 0) {
+    run_.clear();
+    return setState(MonitorState::kCalibrated, newest);
+  }
+  if (s == MonitorState::kCalibrated) run_.clear();
+  run_.push_back({*oldest_it, newest, newer_half, T, cov});
   if (s == MonitorState::kCalibrated) {
     status_.change_after = newest;
     return setState(MonitorState::kSuspect, newest);
@@ -57,9 +63,22 @@ bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, const Eigen::I
       newest - status_.since >= settings_.change_span_s - 1e-9) {
     ++status_.changes;
     status_.changed_at = newest;
+    status_.change_after = changeAfter();
     return setState(MonitorState::kChanged, newest);
   }
   return false;
+}
+
+double ExtrinsicMonitor::changeAfter() const {
+  // A window of the run is "before or straddling" when its estimate is farther than cusum_k
+  // (chi2, both covariances) from the declaring window's: keyframes up to its newest go.
+  const Counted& last = run_.back();
+  double after = run_.front().newest;
+  for (size_t i = 0; i + 1 < run_.size(); ++i) {
+    const double chi2 = nees(poseError(run_[i].T, last.T), run_[i].cov + last.cov);
+    if (!(chi2 <= settings_.cusum_k)) after = std::max(after, run_[i].newest);
+  }
+  return last.newer_half ? std::max(after, std::nextafter(last.oldest, -HUGE_VAL)) : after;
 }
 
 void ExtrinsicMonitor::published(double newest, const Eigen::Isometry3d& T, const Matrix6d& cov) {

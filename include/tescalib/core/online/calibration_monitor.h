@@ -34,9 +34,11 @@ struct MonitorStatus {
   int fresh_windows = 0;  ///< fresh windows counted since the first estimate
   int changes = 0;        ///< how often the extrinsic was declared changed
   double changed_at = 0;  ///< stamp of the window that declared the last change
-  /// Keyframes newer than this stamp come after the change (the newest keyframe of the first
-  /// window that raised the evidence: that window may straddle the change). Valid once
-  /// `changed`.
+  /// Keyframes newer than this stamp come after the change. Valid once `changed`: the newest
+  /// keyframe of the first window that raised the evidence (it may straddle the change), or
+  /// later: of a later window of the run whose estimate disagrees with the declaring window's
+  /// (it saw the extrinsic before the change), and, when a window's newer half declares, no
+  /// keyframe of its older half.
   double change_after = 0;
 };
 
@@ -47,8 +49,10 @@ class ExtrinsicMonitor {
 
   /// A solve's estimate `T` (covariance `cov`) from a window with keyframe `stamps`; counted
   /// when the window is fresh (its chi2 against the reference). A covariance that is not finite
-  /// is not compared. Returns true when the state changed.
-  bool observe(const std::vector<double>& stamps, const Eigen::Isometry3d& T, const Matrix6d& cov);
+  /// is not compared. `newer_half`: the estimate is of a window's newer half (`stamps`), whose
+  /// older half disagreed with it. Returns true when the state changed.
+  bool observe(const std::vector<double>& stamps, const Eigen::Isometry3d& T, const Matrix6d& cov,
+               bool newer_half = false);
   /// An estimate `T` (`cov`) from a window whose newest keyframe is `newest` was published. The
   /// first one, and the first after a recalibration, becomes the reference (`calibrated`); later
   /// ones only when they come from the last fresh window counted, which agreed with it.
@@ -62,16 +66,28 @@ class ExtrinsicMonitor {
   void reset() {
     status_ = MonitorStatus();
     last_newest_ = -1e300;
+    run_.clear();
   }
 
   const MonitorStatus& status() const { return status_; }
 
  private:
   bool setState(MonitorState state, double stamp);
+  /// change_after from the windows counted since the evidence last was 0 (MonitorStatus).
+  double changeAfter() const;
+
+  /// A fresh window counted: its oldest and newest keyframes and its estimate.
+  struct Counted {
+    double oldest = 0, newest = 0;
+    bool newer_half = false;
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    Matrix6d cov = Matrix6d::Zero();
+  };
 
   MonitorSettings settings_;
   MonitorStatus status_;
   double last_newest_ = -1e300;  ///< newest keyframe of the last window counted
+  std::vector<Counted> run_;     ///< the windows counted since the evidence last was 0
   Eigen::Isometry3d reference_ = Eigen::Isometry3d::Identity();
   Matrix6d reference_cov_ = Matrix6d::Zero();
 };
