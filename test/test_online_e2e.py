@@ -49,6 +49,10 @@ class OnlineEndToEnd(unittest.TestCase):
         # The bag laid out as kitti2bag's raw mode writes it (kitti_to_bag --like-kitti2bag 1):
         # imu_link in /tf_static, bgr8 images, x y z i clouds without ring.
         cls.like_kitti2bag = rospy.get_param('~like_kitti2bag', False)
+        # The bag's play rate: co-calibration's solves take 2-3 s each here, and the drive has 8
+        # keyframes; the co-calibration tests play at half rate so that a slower machine still
+        # co-calibrates before the drive ends.
+        cls.rate = rospy.get_param('~rate', 1.0)
         cls.lock = threading.Lock()
         cls.est = {'lidar_to_left': [], 'left_to_right': [], 'candidate': []}
         cls.tf = []
@@ -89,7 +93,8 @@ class OnlineEndToEnd(unittest.TestCase):
         while time.time() < deadline and not cls.subscribed():
             time.sleep(0.2)
         t0 = time.time()
-        subprocess.run(['rosbag', 'play', '--clock', '-d', '1', '--quiet', cls.bag], check=True)
+        subprocess.run(['rosbag', 'play', '--clock', '-d', '1', '-r', str(cls.rate), '--quiet',
+                        cls.bag], check=True)
         cls.play_seconds = time.time() - t0
         # Wait until the node is idle (no solve running, nothing pending, same solve count in two
         # diagnostics, which come once per wall second) or 30 s.
