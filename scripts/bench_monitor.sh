@@ -4,9 +4,12 @@
 # node does (monitor defaults) and scored by tescalib_eval --score-estimates against the truth of
 # each estimate's moment. A drive is one frame per keyframe (tescalib_simulate --every 5); its
 # images and scans are deleted once calibrated (the truth and the estimates stay).
-#   RUNS   runs per step row (default 20); SEED0 the first seed (default 7000)
+#   RUNS   runs per step row (default 20); HIGHWAY_RUNS runs of the highway rows (default 5);
+#          SEED0 the first seed (default 7000)
 #   ROWS   which rows (default all): a space-separated subset of
 #          urban_lidar residential_lidar urban_stereo_co urban_small_long urban_none_long highway_none
+#          urban_then_highway (30 s of town, then 120 s of highway: the weak directions of a rig the
+#          monitor watches)
 #   LONG_S the length of the long drives in seconds (default 600)
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -14,9 +17,10 @@ export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
 source "$ROOT/build/devel/setup.bash"
 OUT=${MONITOR_OUT:-$ROOT/build/bench/monitor}
 RUNS=${RUNS:-20}
+HIGHWAY_RUNS=${HIGHWAY_RUNS:-5}
 SEED0=${SEED0:-7000}
 LONG_S=${LONG_S:-600}
-ROWS=${ROWS:-urban_lidar residential_lidar urban_stereo_co urban_small_long urban_none_long highway_none}
+ROWS=${ROWS:-urban_lidar residential_lidar urban_stereo_co urban_small_long urban_none_long highway_none urban_then_highway}
 mkdir -p "$OUT"
 
 # One run: name scenario seconds seed mode step ("" for none). Leaves estimates.json,
@@ -34,13 +38,19 @@ run_one() {
 }
 
 # Generates the drive and calibrates it (the arguments of run_one); the images and scans go.
+# scenario "urban+highway": 30 s of urban (drive/), then `seconds` of highway (drive_2/), one rig.
 calibrate_one() {
   local name=$1 scenario=$2 seconds=$3 seed=$4 mode=$5 step=$6
-  local dir="$OUT/$name/$seed"
-  rosrun tescalib tescalib_simulate --scenario "$scenario" --frames $((seconds * 10)) \
-    --seed "$seed" --every 5 ${step:+--extrinsic-step "$step"} --out "$dir/drive" > /dev/null ||
-    { echo "[bench] $name $seed: tescalib_simulate failed" >&2; return 1; }
-  rosrun tescalib tescalib_calibrate --sequences "$dir/drive" --mode "$mode" \
+  local dir="$OUT/$name/$seed" sequences="$dir/drive"
+  if [ "$scenario" = urban+highway ]; then
+    simulate "$dir/drive" urban 30 "$seed" "" && simulate "$dir/drive_2" highway "$seconds" \
+      "$seed" "" || { echo "[bench] $name $seed: tescalib_simulate failed" >&2; return 1; }
+    sequences="$dir/drive,$dir/drive_2"
+  else
+    simulate "$dir/drive" "$scenario" "$seconds" "$seed" "$step" ||
+      { echo "[bench] $name $seed: tescalib_simulate failed" >&2; return 1; }
+  fi
+  rosrun tescalib tescalib_calibrate --sequences "$sequences" --mode "$mode" \
     --json "$dir/estimates.json" > "$dir/calibrate.log" 2>&1 &
   local pid=$! start=$SECONDS  # rosrun execs the tool: $pid is the calibrator
   : > "$dir/memory.txt"
@@ -50,7 +60,13 @@ calibrate_one() {
     sleep 10
   done
   wait "$pid" || { echo "[bench] $name $seed: tescalib_calibrate failed" >&2; return 1; }
-  rm -rf "$dir/drive/image_2" "$dir/drive/image_3" "$dir/drive/velodyne"
+  rm -rf "$dir"/drive*/image_2 "$dir"/drive*/image_3 "$dir"/drive*/velodyne
+}
+
+# simulate OUT SCENARIO SECONDS SEED STEP: one frame per keyframe (--every 5).
+simulate() {
+  rosrun tescalib tescalib_simulate --scenario "$2" --frames $(($3 * 10)) --seed "$4" --every 5 \
+    ${5:+--extrinsic-step "$5"} --out "$1" > /dev/null
 }
 
 # A row: name scenario seconds first-seed runs mode step.
@@ -69,7 +85,8 @@ for r in $ROWS; do
     urban_stereo_co) row "$r" urban 60 $((SEED0 + 201)) "$RUNS" co 30,0.2,0.005,stereo ;;
     urban_small_long) row "$r" urban "$LONG_S" $((SEED0 + 301)) 1 lidar_stereo 30,0.05,0.005,lidar ;;
     urban_none_long) row "$r" urban "$LONG_S" $((SEED0 + 401)) 1 lidar_stereo "" ;;
-    highway_none) row "$r" highway 120 $((SEED0 + 501)) 5 lidar_stereo "" ;;
+    highway_none) row "$r" highway 120 $((SEED0 + 501)) "$HIGHWAY_RUNS" lidar_stereo "" ;;
+    urban_then_highway) row "$r" urban+highway 120 $((SEED0 + 601)) "$HIGHWAY_RUNS" lidar_stereo "" ;;
     *) echo "[bench] unknown monitor row $r" >&2; exit 2 ;;
   esac
 done
