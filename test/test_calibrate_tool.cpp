@@ -692,9 +692,9 @@ TEST(EvalTool, ASolveWithoutACovarianceIsLeftOutOfTheNees) {
 }
 
 TEST(EvalTool, ACoTrialDoesNotDependOnTheTrialsBeforeIt) {
-  // Co-calibration keeps its SGBM matches in the keyframes; the tool shared the keyframes
-  // between trials, so trial 1 re-triangulated trial 0's matches (0 matched again instead of 2;
-  // 12.8 cm apart with --rematch-deg 10) and --first-trial 1 did not reproduce it.
+  // Co-calibration keeps its SGBM matches in the keyframes; each trial starts from keyframes of
+  // its own, so that trial 1 does not re-triangulate trial 0's matches and --first-trial 1
+  // reproduces it.
   TempDir tmp;
   SimOptions o;
   o.frames = 6;
