@@ -1,7 +1,6 @@
-// A generated drive shared by the tests of one binary (a fixture): each frame is fetched once, the
-// first time a test asks for it, from the frame cache of frame_cache.h (rendered when no binary has
-// stored it yet). Rendering is most of a generated test's set-up time, and the scene generator is
-// deterministic, so a shared frame is the frame a test would render itself.
+// A generated drive shared by the tests of one binary (a fixture): each frame is rendered once,
+// the first time a test asks for it. Rendering is most of a generated test's set-up time, and the
+// scene generator is deterministic, so a shared frame is the frame a test would render itself.
 #pragma once
 
 #include <map>
@@ -9,7 +8,6 @@
 #include <mutex>
 #include <utility>
 
-#include "frame_cache.h"
 #include "tescalib/core/sim/simulator.h"
 
 namespace tescalib_test {
@@ -24,7 +22,7 @@ class SharedDrive {
   const tescalib::Frame& frame(int i) const {
     std::lock_guard<std::mutex> lock(mutex_);
     auto it = frames_.find(i);
-    if (it == frames_.end()) it = frames_.emplace(i, cachedFrame(sim_, i)).first;
+    if (it == frames_.end()) it = frames_.emplace(i, sim_.renderFrame(i)).first;
     return it->second;
   }
 

@@ -19,7 +19,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "frame_cache.h"
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/io/calibration_io.h"
@@ -69,7 +68,7 @@ std::unique_ptr<Simulator> writeDrive(const TempDir& tmp, int frames, uint64_t s
   o.seed = seed;
   o.write_every = frames >= 5 ? 5 : 1;
   auto sim = std::make_unique<Simulator>(o);
-  tescalib_test::writeCachedSequence(*sim, tmp.str() + "/drive");
+  sim->writeSequence(tmp.str() + "/drive");
   return sim;
 }
 
@@ -700,7 +699,7 @@ TEST(EvalTool, ACoTrialDoesNotDependOnTheTrialsBeforeIt) {
   o.frames = 6;
   o.seed = 3;
   o.width = 640, o.height = 300;
-  tescalib_test::writeCachedSequence(Simulator(o), tmp.str() + "/drive");
+  Simulator(o).writeSequence(tmp.str() + "/drive");
   const std::string common =
       "--sequences " + tmp.str() + "/drive --mode co --window 2 --rematch-deg 10 --seed 1 --json ";
   const ToolRun both = runTool(TESCALIB_EVAL_BIN, common + tmp.str() + "/both.json --trials 2");
@@ -815,7 +814,7 @@ TEST(CalibrateTool, TheMonitorHoldsBackEstimatesOnceALidarBumpIsSuspected) {
   o.step.rot_deg = 0.5;
   o.step.trans_m = 0.03;
   const Simulator sim(o);
-  tescalib_test::writeCachedSequence(sim, tmp.str() + "/drive");
+  sim.writeSequence(tmp.str() + "/drive");
   const Eigen::Isometry3d after =
       rigFromOdometryCalib(readKittiOdometryCalib(tmp.str() + "/drive/calib_after_step.txt"))
           .T_cam_lidar;

@@ -15,7 +15,6 @@
 
 #include <gtest/gtest.h>
 
-#include "frame_cache.h"
 #include "shared_drive.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/sim/simulator.h"
@@ -387,8 +386,7 @@ TEST(CoCalibration, ASecondOpinionCatchesAnEstimateFarFromTheGuessInAnotherMinim
   const Eigen::Isometry3d T_init = perturb(truth, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
   std::vector<Keyframe> kfs;  // 6 keyframes with their stereo clouds
   for (int i = 0; i < o.frames; i += 5)
-    kfs.push_back(makeKeyframe(tescalib_test::cachedFrame(sim, i), sim.rig(), T_init,
-                               sim.rig().T_right_left));
+    kfs.push_back(makeKeyframe(sim.renderFrame(i), sim.rig(), T_init, sim.rig().T_right_left));
   std::vector<const Keyframe*> window;
   for (const Keyframe& kf : kfs) window.push_back(&kf);
   const LidarStereoSettings ls;
@@ -428,8 +426,7 @@ TEST(CoCalibration, TheLidarEstimatesSensitivityToTheStereoPairIsWhatAPerturbedP
   const StereoRig& rig = sim.rig();
   std::vector<Keyframe> kfs;  // 6 keyframes with their stereo clouds
   for (int i = 0; i < o.frames; i += 5)
-    kfs.push_back(
-        makeKeyframe(tescalib_test::cachedFrame(sim, i), rig, rig.T_cam_lidar, rig.T_right_left));
+    kfs.push_back(makeKeyframe(sim.renderFrame(i), rig, rig.T_cam_lidar, rig.T_right_left));
   std::vector<Keyframe*> window;
   for (Keyframe& kf : kfs) window.push_back(&kf);
   const std::vector<const Keyframe*> cwin(window.begin(), window.end());

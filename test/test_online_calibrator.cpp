@@ -13,7 +13,6 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "frame_cache.h"
 #include "shared_drive.h"
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
@@ -229,8 +228,8 @@ TEST(OnlineCalibratorGenerated, HighwayKeyframesDoNotPushOutTownKeyframes) {
   highway.scenario = Scenario::kHighway;
   const Simulator town_sim(town), highway_sim(highway);
   std::vector<Frame> frames;
-  for (int i = 0; i < 16; i += 5) frames.push_back(tescalib_test::cachedFrame(town_sim, i));
-  for (int i = 0; i < 16; i += 5) frames.push_back(tescalib_test::cachedFrame(highway_sim, i));
+  for (int i = 0; i < 16; i += 5) frames.push_back(town_sim.renderFrame(i));
+  for (int i = 0; i < 16; i += 5) frames.push_back(highway_sim.renderFrame(i));
   for (size_t k = 0; k < frames.size(); ++k) frames[k].stamp = 10.0 + 0.5 * k;
   const double first_highway_stamp = frames[4].stamp;
   std::map<std::string, int> town_left;
@@ -276,7 +275,7 @@ void expectCoAccuracy(const OnlineEstimate& e, const StereoRig& truth, const cha
 void addKeyframes(OnlineCalibrator& cal, const Simulator& sim, int first, int end) {
   std::string msg;
   for (int i = first; i < end; i += 5) {
-    const Frame f = tescalib_test::cachedFrame(sim, i);
+    const Frame f = sim.renderFrame(i);
     ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
   }
 }
@@ -318,8 +317,8 @@ TEST(OnlineCalibratorGenerated, AfterAnUnconvergedSolveTheWarmStartRunsTheCoarse
   const StereoRig far = perturbedRig(sim, 5, 6.0, 0.6);
   WindowSolveInput in;
   for (int i = 0; i < o.frames; i += 5)
-    in.keyframes.push_back(std::make_shared<Keyframe>(makeKeyframe(
-        tescalib_test::cachedFrame(sim, i), sim.rig(), far.T_cam_lidar, sim.rig().T_right_left)));
+    in.keyframes.push_back(std::make_shared<Keyframe>(
+        makeKeyframe(sim.renderFrame(i), sim.rig(), far.T_cam_lidar, sim.rig().T_right_left)));
   OnlineEstimate published;
   published.T_cam_lidar = in.T_cam_lidar = far.T_cam_lidar;
   published.T_right_left = in.T_right_left = sim.rig().T_right_left;
@@ -357,7 +356,7 @@ TEST(OnlineCalibratorGenerated, WarnsWhenTheRightImageRowsDisagreeWithTheCalibra
   OnlineSettings settings;
   settings.estimate_stereo = false;
   std::string msg;
-  Frame f0 = tescalib_test::cachedFrame(sim, 0), f5 = tescalib_test::cachedFrame(sim, 5);
+  Frame f0 = sim.renderFrame(0), f5 = sim.renderFrame(5);
   OnlineCalibrator exact(sim.rig(), settings);
   ASSERT_EQ(exact.addFrame(f0, f0.stamp, &msg), FrameResult::kKeyframe) << msg;
   EXPECT_TRUE(msg.empty()) << msg;
@@ -776,8 +775,8 @@ TEST(OnlineCalibratorGenerated, DeskewsKeyframeScansWithThePreviousScansMotion) 
   OnlineCalibrator cal(sim.rig(), deskewing());
   std::string msg;
   std::shared_ptr<const Keyframe> kf;
-  const Frame f0 = tescalib_test::cachedFrame(sim, 0), f1 = tescalib_test::cachedFrame(sim, 1),
-              f8 = tescalib_test::cachedFrame(sim, 8), f9 = tescalib_test::cachedFrame(sim, 9);
+  const Frame f0 = sim.renderFrame(0), f1 = sim.renderFrame(1), f8 = sim.renderFrame(8),
+              f9 = sim.renderFrame(9);
   EXPECT_EQ(cal.addFrame(f0, f0.stamp, &msg), FrameResult::kRejected);
   EXPECT_NE(msg.find("no previous scan"), std::string::npos) << msg;
   ASSERT_EQ(cal.addFrame(f1, f1.stamp, &msg, &kf), FrameResult::kKeyframe) << msg;
@@ -806,7 +805,7 @@ TEST(OnlineCalibratorGenerated, WithoutTheAzimuthModelOnlyCloudsWithPointTimesAr
   s.sweep.by_azimuth = false;
   std::string msg;
   std::shared_ptr<const Keyframe> kf;
-  Frame f0 = tescalib_test::cachedFrame(sim, 0), f1 = tescalib_test::cachedFrame(sim, 1);
+  Frame f0 = sim.renderFrame(0), f1 = sim.renderFrame(1);
   ASSERT_FALSE(hasPointTimes(f1.scan));
   {
     OnlineCalibrator cal(sim.rig(), s);
@@ -942,12 +941,12 @@ TEST(OnlineCalibratorGenerated, AKeyframeWithoutAStereoCloudIsRejected) {
   settings.image_quality.min_contrast = 0;
   settings.image_quality.min_sharpness_ratio = 0;
   OnlineCalibrator cal(sim.rig(), settings);
-  Frame f = tescalib_test::cachedFrame(sim, 0);
+  Frame f = sim.renderFrame(0);
   f.right.setTo(cv::Scalar::all(0));
   std::string msg;
   EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kRejected);
   EXPECT_NE(msg.find("its stereo cloud has only 0 points"), std::string::npos) << msg;
-  f = tescalib_test::cachedFrame(sim, 0);  // the same frame with its right image is a keyframe
+  f = sim.renderFrame(0);  // the same frame with its right image is a keyframe
   EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
 }
 
@@ -965,7 +964,7 @@ TEST(OnlineCalibratorGenerated, AnInitialGuessInABodyFrameIsNamedNotCalledARingP
   rig.T_cam_lidar.linear() = body_from_optical * rig.T_cam_lidar.linear();
   rig.T_cam_lidar.translation() = body_from_optical * rig.T_cam_lidar.translation();
   OnlineCalibrator cal(rig, coCalibrating());
-  const Frame f = tescalib_test::cachedFrame(sim, 0);
+  const Frame f = sim.renderFrame(0);
   std::string msg;
   EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kRejected);
   EXPECT_NE(msg.find("points are in the left image under the current T_cam_lidar (the initial "
@@ -1025,7 +1024,7 @@ TEST(OnlineCalibratorGenerated, RejectsDarkBlindedAndBlurredImagesWithTheReason)
   std::map<std::string, bool> equalized;
   int i = 0;
   for (const Case& c : cases) {
-    Frame f = tescalib_test::cachedFrame(sim, i++);
+    Frame f = sim.renderFrame(i++);
     c.left(&f.left);
     c.right(&f.right);
     ImageQuality left, right;

@@ -10,7 +10,6 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "frame_cache.h"
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/eval/lidar_stereo_agreement.h"
@@ -40,8 +39,8 @@ struct SmallWindow {
     o.seed = 4;
     sim = std::make_unique<Simulator>(o);
     for (int i : {0, 5, 10})
-      keyframes.push_back(makeKeyframe(tescalib_test::cachedFrame(*sim, i), sim->rig(),
-                                       sim->rig().T_cam_lidar, sim->rig().T_right_left));
+      keyframes.push_back(makeKeyframe(sim->renderFrame(i), sim->rig(), sim->rig().T_cam_lidar,
+                                       sim->rig().T_right_left));
     for (auto& k : keyframes) window.push_back(&k), mutable_window.push_back(&k);
   }
 };
@@ -231,7 +230,7 @@ TEST(Robustness, StereoCloudsRefuseWhatSgbmCannotUse) {
   const StereoRig& rig = sim.rig();
   const cv::Mat tiny(20, 60, CV_8UC3, cv::Scalar(100, 100, 100));  // std::terminate in SGBM
   EXPECT_THROW(computeStereoCloud(tiny, tiny, rig, rig.T_right_left), DataError);
-  const Frame f = tescalib_test::cachedFrame(sim, 0);
+  const Frame f = sim.renderFrame(0);
   cv::Mat grey;
   cv::extractChannel(f.left, grey, 0);
   EXPECT_THROW(computeStereoCloud(grey, grey, rig, rig.T_right_left), DataError);
@@ -258,7 +257,7 @@ TEST(Robustness, TheOnlineCalibratorRejectsWhatItCannotUseAndGoesOn) {
   OnlineCalibrator cal(sim.rig(), s);
   std::string msg;
   EXPECT_FALSE(cal.solve(&msg));
-  Frame f0 = tescalib_test::cachedFrame(sim, 0), f1 = tescalib_test::cachedFrame(sim, 1);
+  Frame f0 = sim.renderFrame(0), f1 = sim.renderFrame(1);
   Frame nan_stamp = f0;
   nan_stamp.stamp = std::nan("");
   EXPECT_EQ(cal.addFrame(nan_stamp, nan_stamp.stamp, &msg), FrameResult::kRejected);

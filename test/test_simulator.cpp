@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -17,7 +16,6 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "frame_cache.h"
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/eval/lidar_stereo_agreement.h"
@@ -519,58 +517,6 @@ TEST(Simulator, SameSeedSameBytesAnyThreadCount) {
         p.x != q.x || p.y != q.y || p.z != q.z || p.intensity != q.intensity || p.ring != q.ring;
   }
   EXPECT_EQ(differing, 0);
-}
-
-/// Both frames hold the same bytes: index, stamp, every point's fields and both images.
-void expectSameFrame(const Frame& a, const Frame& b) {
-  EXPECT_EQ(a.index, b.index);
-  EXPECT_EQ(std::memcmp(&a.stamp, &b.stamp, sizeof(a.stamp)), 0);
-  ASSERT_EQ(a.scan.size(), b.scan.size());
-  int differing = 0;
-  for (size_t k = 0; k < a.scan.size(); ++k) {
-    const LidarPoint &p = a.scan[k], &q = b.scan[k];
-    differing += std::memcmp(&p.x, &q.x, sizeof(float)) != 0 ||
-                 std::memcmp(&p.y, &q.y, sizeof(float)) != 0 ||
-                 std::memcmp(&p.z, &q.z, sizeof(float)) != 0 ||
-                 std::memcmp(&p.intensity, &q.intensity, sizeof(float)) != 0 || p.ring != q.ring ||
-                 std::memcmp(&p.time, &q.time, sizeof(float)) != 0;
-  }
-  EXPECT_EQ(differing, 0);
-  for (const auto& [m, n] : {std::make_pair(a.left, b.left), std::make_pair(a.right, b.right)}) {
-    ASSERT_EQ(m.type(), CV_8UC3);
-    ASSERT_EQ(m.type(), n.type());
-    ASSERT_EQ(m.size(), n.size());
-    EXPECT_EQ(cv::norm(m, n, cv::NORM_INF), 0.0);
-  }
-}
-
-TEST(FrameCache, AStoredFrameReadsBackAsTheRenderedOne) {
-  // The gtests' frame cache (test/frame_cache.h) serves stored frames in place of rendered ones:
-  // a stored frame reads back bit for bit, another drive's options store another file, and a
-  // damaged file is not served.
-  SimOptions o = options(Scenario::kUrban, 6, 4);
-  o.lidar_sweep = true;
-  const Simulator sim(o);
-  const std::string path = tescalib_test::cachedFramePath(o, 5);
-  ASSERT_FALSE(path.empty()) << "no devel space for the frame cache";
-  std::filesystem::remove(path);
-  const Frame rendered = sim.renderFrame(5);
-  expectSameFrame(rendered, tescalib_test::cachedFrame(sim, 5));  // rendered and stored
-  ASSERT_TRUE(std::filesystem::exists(path));
-  Frame read;
-  ASSERT_TRUE(tescalib_test::frame_cache_detail::readFrame(path, &read));
-  expectSameFrame(rendered, read);
-  expectSameFrame(rendered, tescalib_test::cachedFrame(sim, 5));  // served from the file
-  SimOptions seed5 = o, unswept = o, stepped = o;
-  seed5.seed = 5;
-  unswept.lidar_sweep = false;
-  stepped.step.at_s = 0.3;
-  for (const SimOptions& other : {seed5, unswept, stepped})
-    EXPECT_NE(tescalib_test::cachedFramePath(other, 5), path);
-  EXPECT_NE(tescalib_test::cachedFramePath(o, 4), path);
-  std::filesystem::resize_file(path, std::filesystem::file_size(path) / 2);
-  EXPECT_FALSE(tescalib_test::frame_cache_detail::readFrame(path, &read));
-  expectSameFrame(rendered, tescalib_test::cachedFrame(sim, 5));  // rendered again
 }
 
 TEST(Simulator, EveryKthFrameIsTheSameDriveAtAKeyframeRate) {

@@ -11,7 +11,6 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "frame_cache.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/sim/simulator.h"
@@ -48,7 +47,7 @@ GreyWindow generatedWindow() {
   const Simulator sim(o);
   GreyWindow w;
   w.rig = sim.rig();
-  for (int i = 0; i < o.frames; i += 5) w.add(tescalib_test::cachedFrame(sim, i));
+  for (int i = 0; i < o.frames; i += 5) w.add(sim.renderFrame(i));
   return w;
 }
 

@@ -12,7 +12,6 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "frame_cache.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/lidar/mesh_depth.h"
 #include "tescalib/core/sim/simulator.h"
@@ -52,7 +51,7 @@ double medianRoadDisparityError(const Simulator& sim, int i, const StereoCloud& 
 }
 
 double medianRoadDisparityError(const Simulator& sim, int i, const StereoSettings& settings) {
-  const Frame f = tescalib_test::cachedFrame(sim, i);
+  const Frame f = sim.renderFrame(i);
   return medianRoadDisparityError(
       sim, i, computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left, settings));
 }
@@ -77,8 +76,8 @@ std::vector<Keyframe> generatedWindow(Scenario scenario, int keyframes, uint64_t
   if (rig) *rig = sim.rig();
   std::vector<Keyframe> kfs;
   for (int i = 0; i < o.frames; i += 5)
-    kfs.push_back(makeKeyframe(tescalib_test::cachedFrame(sim, i), sim.rig(), sim.rig().T_cam_lidar,
-                               sim.rig().T_right_left));
+    kfs.push_back(
+        makeKeyframe(sim.renderFrame(i), sim.rig(), sim.rig().T_cam_lidar, sim.rig().T_right_left));
   return kfs;
 }
 
@@ -117,7 +116,7 @@ TEST(StereoGenerated, RefinementRemovesTheRoadDisparityBias) {
 // StereoSettings::equalize_exposure_ratio is not touched.
 TEST(StereoGenerated, ACameraExposedDifferentlyIsEqualisedBeforeMatching) {
   const Simulator sim = noiseFreeFrame();
-  const Frame f = tescalib_test::cachedFrame(sim, 0);
+  const Frame f = sim.renderFrame(0);
   const StereoRig& rig = sim.rig();
   const StereoSettings on;
   StereoSettings off;
@@ -178,7 +177,7 @@ TEST(StereoGenerated, RefinementDoesNotDependOnWhatItRefinedBefore) {
   // refinement must give the same bits whatever the thread refined before, also a pair of
   // another size, and on a fresh thread.
   const Simulator sim = noiseFreeFrame();
-  const Frame f = tescalib_test::cachedFrame(sim, 0);
+  const Frame f = sim.renderFrame(0);
   const StereoRig& rig = sim.rig();
   cv::Mat left, right;
   cv::cvtColor(f.left, left, cv::COLOR_BGR2GRAY);
@@ -405,7 +404,7 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
   const double delta_px = 0.3, delta_m = 0.03;
   std::vector<Keyframe> plain, shifted, longer;
   for (int i = 0; i < o.frames; i += 5) {
-    Frame f = tescalib_test::cachedFrame(sim, i);
+    Frame f = sim.renderFrame(i);
     plain.push_back(makeKeyframe(f, rig, rig.T_cam_lidar, rig.T_right_left));
     shifted.push_back(withDisparityOffset(plain.back(), delta_px));
     for (LidarPoint& p : f.scan) {
@@ -487,8 +486,7 @@ TEST(LidarStereoGenerated, WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow) {
   const StereoRig& rig = sim.rig();
   std::vector<Keyframe> plain, mixed;
   for (int i = 0; i < o.frames; i += 5) {
-    plain.push_back(
-        makeKeyframe(tescalib_test::cachedFrame(sim, i), rig, rig.T_cam_lidar, rig.T_right_left));
+    plain.push_back(makeKeyframe(sim.renderFrame(i), rig, rig.T_cam_lidar, rig.T_right_left));
     mixed.push_back(plain.size() <= 4 ? plain.back() : withDisparityOffset(plain.back(), 0.6));
   }
   // The split-window check alone: the measured disparity offset (on by default) would flag the
@@ -546,8 +544,7 @@ TEST(LidarStereoGenerated, AWindowStraddlingALidarBumpSolvesItsNewerHalfToTheNew
   const StereoRig& rig = sim.rig();
   std::vector<Keyframe> kfs;
   for (int i = 0; i < o.frames; i += 5)
-    kfs.push_back(
-        makeKeyframe(tescalib_test::cachedFrame(sim, i), rig, rig.T_cam_lidar, rig.T_right_left));
+    kfs.push_back(makeKeyframe(sim.renderFrame(i), rig, rig.T_cam_lidar, rig.T_right_left));
   std::vector<const Keyframe*> window;
   for (const auto& kf : kfs) window.push_back(&kf);
   const LidarStereoResult r = solveLidarStereo(window, rig.T_cam_lidar, LidarStereoSettings());
@@ -623,8 +620,8 @@ TEST(PhotometricGenerated, RecoversThePairAndTheExposureDifference) {
   const Simulator sim(o);
   std::vector<Keyframe> kfs;
   for (int i = 0; i < o.frames; i += 5)
-    kfs.push_back(makeKeyframe(tescalib_test::cachedFrame(sim, i), sim.rig(), sim.rig().T_cam_lidar,
-                               sim.rig().T_right_left));
+    kfs.push_back(
+        makeKeyframe(sim.renderFrame(i), sim.rig(), sim.rig().T_cam_lidar, sim.rig().T_right_left));
   std::vector<const Keyframe*> window;
   for (const auto& kf : kfs) window.push_back(&kf);
   std::mt19937_64 rng(8);
@@ -724,8 +721,8 @@ TEST(PhotometricGenerated, FullResolutionKeyPointsLieOnSmoothLidarDepth) {
   o.frames = 1;
   o.seed = 4;
   const Simulator sim(o);
-  const Keyframe kf = makeKeyframe(tescalib_test::cachedFrame(sim, 0), sim.rig(),
-                                   sim.rig().T_cam_lidar, sim.rig().T_right_left);
+  const Keyframe kf =
+      makeKeyframe(sim.renderFrame(0), sim.rig(), sim.rig().T_cam_lidar, sim.rig().T_right_left);
   PhotometricSettings s;
   s.smooth_depth_radius_px = 8;
   const MeshDepth md = renderMeshDepth(kf.mesh, sim.rig().T_cam_lidar, sim.rig().left);
@@ -749,7 +746,7 @@ TEST(StereoGenerated, RetriangulationMatchesMatchingAgain) {
   // exact road plane predicts it, as matching again with the true estimate does.
   const Simulator sim = noiseFreeFrame();
   const StereoRig& rig = sim.rig();
-  const Frame f = tescalib_test::cachedFrame(sim, 0);
+  const Frame f = sim.renderFrame(0);
   Vector6d d;
   // A yaw and a forward turn of the baseline within co-calibration's `rematch_direction_deg`
   // (0.085 deg). Measured: the yaw alone is followed to 0.005 px; the turn adds ~0.02 px, the
@@ -796,7 +793,7 @@ WrongLidarWindow wrongLidarWindow(int n, const Vector6d& lidar_off) {
   WrongLidarWindow w{sim.rig(), perturb(sim.rig().T_cam_lidar, lidar_off), {}};
   for (int i = 0; i < o.frames; i += 5)
     w.keyframes.push_back(
-        makeKeyframe(tescalib_test::cachedFrame(sim, i), w.rig, w.T_cl_wrong, w.rig.T_right_left));
+        makeKeyframe(sim.renderFrame(i), w.rig, w.T_cl_wrong, w.rig.T_right_left));
   return w;
 }
 
@@ -896,7 +893,7 @@ TEST(StereoGenerated, MeshAndWindowCloudsDoNotDependOnTheThreadCount) {
   EXPECT_GT(fitted, a.sample.size() / 20);
 
   const StereoRig& rig = sim.rig();
-  const Frame f = tescalib_test::cachedFrame(sim, 0);
+  const Frame f = sim.renderFrame(0);
   Vector6d d;
   d << 0.05 / kDegPerRad, 0.02 / kDegPerRad, 0, 0, 0, 0;  // beyond the re-matching tolerance
   const Eigen::Isometry3d T_rl = perturb(rig.T_right_left, d);

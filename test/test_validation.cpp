@@ -8,7 +8,6 @@
 
 #include <gtest/gtest.h>
 
-#include "frame_cache.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/eval/lidar_stereo_agreement.h"
 #include "tescalib/core/io/kitti_reader.h"
@@ -154,7 +153,7 @@ class ValidationGenerated : public ::testing::Test {
     o.frames = 26;
     o.seed = 7;
     sim_ = std::make_unique<Simulator>(o);
-    for (int i = 0; i < 26; i += 5) frames_.push_back(tescalib_test::cachedFrame(*sim_, i));
+    for (int i = 0; i < 26; i += 5) frames_.push_back(sim_->renderFrame(i));
     set_ = std::make_unique<ValidationSet>(frames_, sim_->rig());
   }
   static void TearDownTestSuite() {
