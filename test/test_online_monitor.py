@@ -21,8 +21,10 @@ from sensor_msgs.msg import CameraInfo
 from tescalib.msg import CalibrationStatus
 from tf2_msgs.msg import TFMessage
 
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path('tescalib'), 'scripts'))
+_PKG = rospkg.RosPack().get_path('tescalib')
+sys.path[:0] = [os.path.join(_PKG, 'scripts'), os.path.join(_PKG, 'test')]
 import extrinsics as ex  # noqa: E402
+from generated_drive import generated_drive  # noqa: E402
 
 DEG = 57.29577951308232
 SECONDS, STEP_S, SEED = 30, 8.0, 31
@@ -40,11 +42,10 @@ class OnlineMonitor(unittest.TestCase):
         rospy.Subscriber('/tf_static', TFMessage, cls.on_tf)
         rospy.Subscriber('/diagnostics', DiagnosticArray, cls.on_diag)
         cls.tmp = tempfile.mkdtemp(prefix='tescalib_monitor_')
-        drive, bag = os.path.join(cls.tmp, 'drive'), os.path.join(cls.tmp, 'drive.bag')
-        subprocess.run(['rosrun', 'tescalib', 'tescalib_simulate', '--scenario', 'urban',
-                        '--frames', str(SECONDS * 10), '--every', '5', '--seed', str(SEED),
-                        '--extrinsic-step', '%g,0.5,0.03,lidar' % STEP_S, '--out', drive],
-                       check=True, stdout=subprocess.DEVNULL)
+        bag = os.path.join(cls.tmp, 'drive.bag')
+        drive = generated_drive(['--scenario', 'urban', '--frames', str(SECONDS * 10), '--every',
+                                 '5', '--seed', str(SEED), '--extrinsic-step',
+                                 '%g,0.5,0.03,lidar' % STEP_S])
         subprocess.run(['rosrun', 'tescalib', 'kitti_to_bag', '--in', drive, '--out', bag],
                        check=True, stdout=subprocess.DEVNULL)
         cls.truth = ex.read_sim_info(os.path.join(drive, 'sim_info.txt'))
