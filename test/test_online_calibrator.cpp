@@ -238,9 +238,6 @@ TEST(OnlineCalibratorGenerated, HighwayKeyframesDoNotPushOutTownKeyframes) {
     settings.estimate_stereo = false;
     settings.window_size = 4;
     settings.keyframe_selection = selection;
-    // The selection alone: the monitor, off here, makes the window oldest-first while it
-    // suspects a change, which a highway window of four keyframes can raise.
-    settings.monitor.action = "off";
     OnlineCalibrator cal(town_sim.rig(), settings);
     std::string msg;
     for (const Frame& f : frames) {
