@@ -1,11 +1,11 @@
 #!/usr/bin/env python3
 """Counts passed/failed/skipped test cases in the JUnit XML files of a catkin test_results dir.
-Prints the failed cases with the end of their message and one summary line; exits non-zero when anything failed or nothing ran."""
+Prints the failed cases with the end of their message and one summary line; exits non-zero when
+anything failed or nothing ran."""
 import glob
 import os
 import sys
 import xml.etree.ElementTree as ET
-
 
 
 def why(element):
