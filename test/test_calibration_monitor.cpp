@@ -230,6 +230,29 @@ TEST(CalibrationMonitor, ARestartedWindowKeepsOnlyTheKeyframesAfterTheChange) {
   }
 }
 
+TEST(CalibrationMonitor, WhileSuspectTheOldestKeyframeLeavesTheWindow) {
+  // A town keyframe (informative in every direction) and highway keyframes (nothing along z):
+  // by information the town keyframe stays and a highway one leaves; oldest-first (while a
+  // change is suspected) lets the town keyframe go, so new windows become fresh.
+  auto keyframe = [](double stamp) {
+    auto k = std::make_shared<Keyframe>();
+    k->stamp = stamp;
+    return k;
+  };
+  Matrix6d town = Matrix6d::Identity() * 1e6, highway = Matrix6d::Identity() * 1e6;
+  highway(5, 5) = 1.0;
+  for (bool oldest_first : {false, true}) {
+    KeyframeWindow w(3, "information");
+    std::vector<std::shared_ptr<Keyframe>> ks = {keyframe(0), keyframe(0.5), keyframe(1.0)};
+    for (const auto& k : ks) w.add(k);
+    w.storeInformation(ks, {town, highway, highway});
+    w.setOldestFirst(oldest_first);
+    w.add(keyframe(1.5));
+    EXPECT_EQ(w.stamps(), oldest_first ? (std::vector<double>{0.5, 1.0, 1.5})
+                                       : (std::vector<double>{0.0, 1.0, 1.5}));
+  }
+}
+
 TEST(CalibrationMonitor, AWeakDirectionOfTheWindowRaisesNoAlarm) {
   // Highway windows hardly constrain t_z (sigma 10 cm here): their estimates wander 5 cm along it
   // from window to window, and the chi2 against both covariances stays small. The same wander

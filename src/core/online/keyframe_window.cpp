@@ -35,6 +35,7 @@ void KeyframeWindow::add(std::shared_ptr<Keyframe> keyframe) {
 void KeyframeWindow::clear() {
   keyframes_.clear();
   information_.clear();
+  oldest_first_ = false;
 }
 
 size_t KeyframeWindow::dropUpTo(double stamp) {
@@ -66,7 +67,7 @@ void KeyframeWindow::adoptRecomputedClouds(const std::vector<std::shared_ptr<Key
 }
 
 size_t KeyframeWindow::keyframeToDrop() const {
-  if (!by_information_) return 0;
+  if (!by_information_ || oldest_first_) return 0;
   // Candidates: every keyframe but the newest that a solve has measured; the newest stays until
   // a solve has seen what it adds.
   std::vector<size_t> measured;

@@ -267,6 +267,10 @@ std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input,
                   s->last_chi2);
     note += buf;
   }
+  // While suspect, new keyframes push out the oldest, so that fresh windows come to confirm or
+  // clear the suspicion (by information, a town's keyframes can stay for minutes on a highway).
+  window_.setOldestFirst(monitor_.lidar_to_left.status().state == MonitorState::kSuspect ||
+                         monitor_.left_to_right.status().state == MonitorState::kSuspect);
   // With "flag" the monitor only reports: publication goes on as without it.
   if (m.action != "recalibrate") return "";
   if (changed) {

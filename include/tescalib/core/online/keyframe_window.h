@@ -31,8 +31,11 @@ class KeyframeWindow {
 
   /// Appends `keyframe`, then drops keyframes while the window is over-full.
   void add(std::shared_ptr<Keyframe> keyframe);
-  /// Removes every keyframe and what was measured of them.
+  /// Removes every keyframe and what was measured of them (and oldest-first).
   void clear();
+  /// While on, the oldest keyframe leaves a full window whatever the selection (a suspected
+  /// change: the monitor needs windows of new keyframes).
+  void setOldestFirst(bool on) { oldest_first_ = on; }
   /// Removes the keyframes stamped at or before `stamp` (a window restarted after a change of
   /// the extrinsic); returns how many are left.
   size_t dropUpTo(double stamp);
@@ -51,6 +54,7 @@ class KeyframeWindow {
 
   int size_;
   bool by_information_;
+  bool oldest_first_ = false;
   std::deque<std::shared_ptr<Keyframe>> keyframes_;
   /// Per-keyframe LiDAR-stereo information from the last solve that used it, by stamp.
   std::map<double, Matrix6d> information_;
