@@ -253,6 +253,8 @@ std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input,
     monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar);
   else if (const auto& half = result.newer_half)
     monitor_.lidar_to_left.observe(half->stamps, half->T_cam_lidar, half->covariance, true);
+  else if (result.settled_unconstrained)
+    monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar);
   if (e.converged && e.stereo_estimated && e.cov_stereo_known && estimate_->stereo_estimated)
     monitor_.left_to_right.observe(stamps, e.T_right_left, e.cov_stereo);
   const MonitorStatus* changed = nullptr;

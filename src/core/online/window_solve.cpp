@@ -140,6 +140,8 @@ WindowSolveResult solveLidarStereoWindow(const WindowSolveInput& in, const Onlin
   WindowSolveResult out;
   out.searched = r.search_starts > 1;
   out.newer_half = newerHalf(r, ls, in.keyframes);
+  out.settled_unconstrained = r.only_unconstrained && r.covariance_known &&
+                              !(r.halves.tested && r.halves.chi2 > ls.halves_chi2_limit);
   out.solver_cancelled = r.message == "cancelled";
   out.keyframe_information = r.keyframe_information;
   OnlineEstimate& e = out.estimate;

@@ -132,7 +132,7 @@ void judgeConvergence(const Eigen::Isometry3d& T_init, const LidarStereoSettings
   const Vector6d correction = poseError(res->T_cam_lidar, T_init);
   const bool diverged = correction.head<3>().norm() * kDegPerRad > s.max_correction_rot_deg ||
                         correction.tail<3>().norm() > s.max_correction_trans_m;
-  res->converged = false;
+  res->converged = res->only_unconstrained = false;
   if (res->fine_inliers < s.min_inliers && s.run_fine)
     res->message = "too few LiDAR-stereo associations (" + std::to_string(res->fine_inliers) + ")";
   else if (diverged)
@@ -142,9 +142,10 @@ void judgeConvergence(const Eigen::Isometry3d& T_init, const LidarStereoSettings
   else if (drifting)
     res->message = "the fine stage keeps moving: the window does not hold the estimate" +
                    scaleClause(*res, s) + weakestClause(res->weak_directions);
-  else if (!all_observable)
+  else if (!all_observable) {
     res->message = unconstrainedMessage(*res, s);
-  else if (!settled)
+    res->only_unconstrained = settled;
+  } else if (!settled)
     res->message = "the fine stage did not settle within its iteration budget";
   else
     res->converged = true;

@@ -69,6 +69,10 @@ struct WindowSolveResult {
   /// A stable full co-calibration's LiDAR sensitivity to the pair (the next input's, once this
   /// estimate is published).
   std::optional<Matrix6d> lidar_sensitivity;
+  /// A LiDAR-stereo window that settled and whose halves agree, not converged only because some
+  /// axis is not constrained (LidarStereoResult::only_unconstrained): its estimate is evidence
+  /// for the calibration monitor, whose chi2 weighs each direction by the covariance.
+  bool settled_unconstrained = false;
   /// The input keyframes' stereo clouds were recomputed (co-calibration): the window takes them
   /// when the estimate is published (KeyframeWindow::adoptRecomputedClouds).
   bool clouds_recomputed = false;

@@ -172,6 +172,9 @@ struct LidarStereoResult {
   Eigen::Isometry3d T_after_coarse = Eigen::Isometry3d::Identity();
   bool converged = false;  ///< fine stage settled, enough inliers, every axis constrained
   bool settled = false;    ///< the fine stage settled (its updates fell below fine_settle_*)
+  /// Not converged only because some axis is not constrained (a degenerate scene, a highway):
+  /// settled, enough associations, not diverged, no nuisance on its bound, not drifting.
+  bool only_unconstrained = false;
   int iterations = 0;      ///< re-associations, coarse + fine
   double final_cost = 0;   ///< mean squared normalised fine residual (Huber-weighted)
   int coarse_inliers = 0;  ///< associations in the last coarse solve
