@@ -250,6 +250,38 @@ TEST(CalibrationMonitor, WhileSuspectTheOldestKeyframeLeavesTheWindow) {
     w.add(keyframe(1.5));
     EXPECT_EQ(w.stamps(), oldest_first ? (std::vector<double>{0.5, 1.0, 1.5})
                                        : (std::vector<double>{0.0, 1.0, 1.5}));
+    EXPECT_EQ(w.setAside(), oldest_first ? 1u : 0u);
+  }
+}
+
+TEST(CalibrationMonitor, KeyframesSetAsideWhileSuspectComeBackUnlessBeforeTheChange) {
+  // While suspect the town keyframe (stamp 0) leaves a window of three for a highway one; when
+  // the suspicion clears it comes back and, by information, a highway keyframe leaves instead.
+  // After a change the window drops what came before it, the set-aside keyframes included.
+  auto keyframe = [](double stamp) {
+    auto k = std::make_shared<Keyframe>();
+    k->stamp = stamp;
+    return k;
+  };
+  Matrix6d town = Matrix6d::Identity() * 1e6, highway = Matrix6d::Identity() * 1e6;
+  highway(5, 5) = 1.0;
+  for (bool changed : {false, true}) {
+    KeyframeWindow w(3, "information");
+    std::vector<std::shared_ptr<Keyframe>> ks = {keyframe(0), keyframe(0.5), keyframe(1.0)};
+    for (const auto& k : ks) w.add(k);
+    w.storeInformation(ks, {town, highway, highway});
+    w.setOldestFirst(true);
+    ks.push_back(keyframe(1.5));
+    w.add(ks.back());
+    w.storeInformation({ks[1], ks[2], ks[3]}, {highway, highway, highway});
+    EXPECT_EQ(w.stamps(), (std::vector<double>{0.5, 1.0, 1.5}));
+    if (changed) {
+      EXPECT_EQ(w.dropUpTo(0.5), 2u);
+    }
+    w.setOldestFirst(false);
+    EXPECT_EQ(w.setAside(), 0u);
+    EXPECT_EQ(w.stamps(),
+              changed ? (std::vector<double>{1.0, 1.5}) : (std::vector<double>{0.0, 1.0, 1.5}));
   }
 }
 

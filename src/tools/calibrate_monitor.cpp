@@ -68,7 +68,8 @@ void MonitorLog::printSummary() const {
     std::printf("monitor: no change of an extrinsic found\n");
     return;
   }
-  std::printf("monitor: %zu change(s) found:\n", changes_.size());
+  // The lines hold the changes and the recalibrations after them.
+  std::printf("monitor: %d change(s) found:\n", lidar_changes_ + stereo_changes_);
   for (const std::string& c : changes_) std::printf("  %s\n", c.c_str());
 }
 

@@ -17,7 +17,8 @@ class MonitorLog {
  public:
   /// After a solve of `calibrator`; `published`: its estimate replaced the published one.
   void afterSolve(const OnlineCalibrator& calibrator, bool published);
-  /// The changes found (one line each), or that none was.
+  /// How many changes were found, then each change and each recalibration after one (a line
+  /// each), or that none was.
   void printSummary() const;
   /// {"estimates": [{"time", "extrinsic", "published", "T" [16], "covariance" [36],
   /// "monitor"}, ...]}; false with `error` when the file cannot be written.
@@ -32,7 +33,7 @@ class MonitorLog {
   uint64_t last_solve_id_ = 0;
   MonitorState lidar_ = MonitorState::kCalibrating, stereo_ = MonitorState::kCalibrating;
   int lidar_changes_ = 0, stereo_changes_ = 0;
-  std::vector<std::string> changes_;
+  std::vector<std::string> changes_;  ///< the lines: changes and recalibrations
   nlohmann::json estimates_ = nlohmann::json::array();
 };
 

@@ -25,26 +25,52 @@ std::vector<std::shared_ptr<Keyframe>> KeyframeWindow::snapshot(bool deep_copies
 
 void KeyframeWindow::add(std::shared_ptr<Keyframe> keyframe) {
   keyframes_.push_back(std::move(keyframe));
-  while (static_cast<int>(keyframes_.size()) > std::max(1, size_)) {
-    const size_t drop = keyframeToDrop();
-    information_.erase(keyframes_[drop]->stamp);
-    keyframes_.erase(keyframes_.begin() + static_cast<long>(drop));
+  if (!oldest_first_) {
+    trim(&keyframes_);
+    return;
   }
+  while (static_cast<int>(keyframes_.size()) > std::max(1, size_)) {
+    set_aside_.push_back(keyframes_.front());
+    keyframes_.pop_front();
+  }
+  trim(&set_aside_);
+}
+
+void KeyframeWindow::trim(std::deque<std::shared_ptr<Keyframe>>* keyframes) {
+  while (static_cast<int>(keyframes->size()) > std::max(1, size_)) {
+    const size_t drop = keyframeToDrop(*keyframes);
+    information_.erase((*keyframes)[drop]->stamp);
+    keyframes->erase(keyframes->begin() + static_cast<long>(drop));
+  }
+}
+
+void KeyframeWindow::setOldestFirst(bool on) {
+  if (oldest_first_ && !on && !set_aside_.empty()) {
+    keyframes_.insert(keyframes_.end(), set_aside_.begin(), set_aside_.end());
+    std::stable_sort(keyframes_.begin(), keyframes_.end(),
+                     [](const auto& a, const auto& b) { return a->stamp < b->stamp; });
+    set_aside_.clear();
+    trim(&keyframes_);
+  }
+  oldest_first_ = on;
 }
 
 void KeyframeWindow::clear() {
   keyframes_.clear();
+  set_aside_.clear();
   information_.clear();
   oldest_first_ = false;
 }
 
 size_t KeyframeWindow::dropUpTo(double stamp) {
-  for (auto it = keyframes_.begin(); it != keyframes_.end();) {
-    if ((*it)->stamp <= stamp) {
-      information_.erase((*it)->stamp);
-      it = keyframes_.erase(it);
-    } else {
-      ++it;
+  for (auto* keyframes : {&keyframes_, &set_aside_}) {
+    for (auto it = keyframes->begin(); it != keyframes->end();) {
+      if ((*it)->stamp <= stamp) {
+        information_.erase((*it)->stamp);
+        it = keyframes->erase(it);
+      } else {
+        ++it;
+      }
     }
   }
   return keyframes_.size();
@@ -53,9 +79,11 @@ size_t KeyframeWindow::dropUpTo(double stamp) {
 void KeyframeWindow::storeInformation(const std::vector<std::shared_ptr<Keyframe>>& solved,
                                       const std::vector<Matrix6d>& information) {
   if (information.size() != solved.size()) return;
+  // A keyframe set aside during the solve keeps what it measured, for when it comes back.
   for (size_t i = 0; i < solved.size(); ++i)
-    for (const auto& k : keyframes_)
-      if (k->stamp == solved[i]->stamp) information_[k->stamp] = information[i];
+    for (const auto* keyframes : {&keyframes_, &set_aside_})
+      for (const auto& k : *keyframes)
+        if (k->stamp == solved[i]->stamp) information_[k->stamp] = information[i];
 }
 
 void KeyframeWindow::adoptRecomputedClouds(const std::vector<std::shared_ptr<Keyframe>>& solved) {
@@ -66,14 +94,15 @@ void KeyframeWindow::adoptRecomputedClouds(const std::vector<std::shared_ptr<Key
       if (w->stamp == k->stamp && !w->T_right_left_used.isApprox(k->T_right_left_used)) w = k;
 }
 
-size_t KeyframeWindow::keyframeToDrop() const {
-  if (!by_information_ || oldest_first_) return 0;
+size_t KeyframeWindow::keyframeToDrop(
+    const std::deque<std::shared_ptr<Keyframe>>& keyframes) const {
+  if (!by_information_) return 0;
   // Candidates: every keyframe but the newest that a solve has measured; the newest stays until
   // a solve has seen what it adds.
   std::vector<size_t> measured;
   Matrix6d total = Matrix6d::Zero();
-  for (size_t i = 0; i + 1 < keyframes_.size(); ++i) {
-    const auto it = information_.find(keyframes_[i]->stamp);
+  for (size_t i = 0; i + 1 < keyframes.size(); ++i) {
+    const auto it = information_.find(keyframes[i]->stamp);
     if (it == information_.end()) continue;
     measured.push_back(i);
     total += it->second;
@@ -90,7 +119,7 @@ size_t KeyframeWindow::keyframeToDrop() const {
   double best = -1;
   std::vector<double> remaining(measured.size());
   for (size_t c = 0; c < measured.size(); ++c) {
-    remaining[c] = weakest(total - information_.at(keyframes_[measured[c]]->stamp));
+    remaining[c] = weakest(total - information_.at(keyframes[measured[c]]->stamp));
     best = std::max(best, remaining[c]);
   }
   // The oldest keyframe whose loss keeps at least 95 % of the best achievable weakest-direction

@@ -31,14 +31,18 @@ class KeyframeWindow {
 
   /// Appends `keyframe`, then drops keyframes while the window is over-full.
   void add(std::shared_ptr<Keyframe> keyframe);
-  /// Removes every keyframe and what was measured of them (and oldest-first).
+  /// Removes every keyframe, the set-aside ones and what was measured of them (and oldest-first).
   void clear();
   /// While on, the oldest keyframe leaves a full window whatever the selection (a suspected
-  /// change: the monitor needs windows of new keyframes).
-  void setOldestFirst(bool on) { oldest_first_ = on; }
-  /// Removes the keyframes stamped at or before `stamp` (a window restarted after a change of
-  /// the extrinsic); returns how many are left.
+  /// change: the monitor needs windows of new keyframes); it is set aside (at most the window's
+  /// size of them, by information). Turning it off takes the set-aside keyframes back and selects
+  /// again, so a suspicion that clears costs the window nothing.
+  void setOldestFirst(bool on);
+  /// Removes the keyframes, in the window and set aside, stamped at or before `stamp` (a window
+  /// restarted after a change of the extrinsic); returns how many are left in the window.
   size_t dropUpTo(double stamp);
+  /// How many keyframes are set aside.
+  size_t setAside() const { return set_aside_.size(); }
 
   /// A solve's per-keyframe LiDAR-stereo information (one per keyframe of `solved`, else
   /// ignored), kept for the keyframes still in the window (it slides during a solve).
@@ -49,14 +53,20 @@ class KeyframeWindow {
   void adoptRecomputedClouds(const std::vector<std::shared_ptr<Keyframe>>& solved);
 
  private:
-  /// Index of the keyframe to drop from an over-full window.
-  size_t keyframeToDrop() const;
+  /// Index of the keyframe to drop from over-full `keyframes` (oldest first), by the selection.
+  size_t keyframeToDrop(const std::deque<std::shared_ptr<Keyframe>>& keyframes) const;
+  /// Drops from `keyframes` (the window's or the set-aside ones), by the selection, while they
+  /// are more than the window's size; what leaves is forgotten.
+  void trim(std::deque<std::shared_ptr<Keyframe>>* keyframes);
 
   int size_;
   bool by_information_;
   bool oldest_first_ = false;
   std::deque<std::shared_ptr<Keyframe>> keyframes_;
-  /// Per-keyframe LiDAR-stereo information from the last solve that used it, by stamp.
+  /// Keyframes that left the window while oldest-first, oldest first.
+  std::deque<std::shared_ptr<Keyframe>> set_aside_;
+  /// Per-keyframe LiDAR-stereo information from the last solve that used it, by stamp (of the
+  /// window's and the set-aside keyframes).
   std::map<double, Matrix6d> information_;
 };
 
