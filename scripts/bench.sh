@@ -139,7 +139,7 @@ if [ "$BENCH" != kitti ]; then
         --search-deg $search
     done
   done
-  # The same with the clouds' scale and yaw as nuisances (doc/benchmarks.md).
+  # The same with the clouds' scale and yaw as nuisances.
   urban_lidar_stereo tescalib 3 0.3 1 _scale_yaw --stereo-scale 1 --stereo-yaw 1
   urban_lidar_stereo tescalib 10 1.0 2 _scale_yaw --stereo-scale 1 --stereo-yaw 1
   # The offline tool on the same drive, from its folder and from its bag (doc/offline.md): the
@@ -150,15 +150,15 @@ if [ "$BENCH" != kitti ]; then
   [ -f "$OUT/sim_urban_s1.bag" ] || rosrun tescalib kitti_to_bag --in "$URBAN" --out "$OUT/sim_urban_s1.bag" > /dev/null
   rosrun tescalib tescalib_calibrate --bag "$OUT/sim_urban_s1.bag" --perturb-rot-deg 3 --perturb-trans-m 0.3 |
     grep -E '^[0-9]+ keyframes|^error against' || STATUS=1
-  # Both extrinsics with the offline tool, alternation and joint problem (doc/limitations.md,
-  # joint mode): the last estimate and the per-update solve times.
+  # Both extrinsics with the offline tool, alternation and joint problem: the last estimate and
+  # the per-update solve times.
   for m in co joint; do
     echo "=== tescalib_calibrate --mode $m, LiDAR 2 deg / 0.2 m"
     rosrun tescalib tescalib_calibrate --sequences "$URBAN" --mode $m --perturb-rot-deg 2 \
       --perturb-trans-m 0.2 --seed 1 | grep -E '^[0-9]+ keyframes|^NEES of|against' || STATUS=1
   done
   # Raw swept scans (the same drive, each scan swept over its revolution): de-skewed (the
-  # default for such data) and as they are (doc/method.md).
+  # default for such data) and as they are.
   SWEPT=$(simulate_swept urban 1 100)
   run "sim_urban_swept_tescalib_3deg_deskew" --sequences "$SWEPT" --mode lidar_stereo \
     --trials "$SIM_TRIALS" --init-rot-deg 3 --init-trans-m 0.3 --seed 1 --window 20
@@ -185,8 +185,7 @@ if [ "$BENCH" != kitti ]; then
   run "sim_urban_nees" --sequences "$NEES_SEQS" --mode lidar_stereo --trials 60 \
     --init-rot-deg 3 --init-trans-m 0.3 --seed 21 --window 10 --windows disjoint
   # Co-calibration: the 6 windows of three drives from 30 starts, and the co covariance
-  # over 54 starts on 18 held-out windows (its model error is fitted on s1, s11-s16, s21-s24;
-  # doc/method.md).
+  # over 54 starts on 18 held-out windows (its model error is fitted on s1, s11-s16, s21-s24).
   CO_SEQS=$URBAN,$(simulate urban 11 100),$(simulate urban 12 100)
   urban_both co
   # From the LiDAR 10 deg / 1 m off: round 1's stereo pair from feature matches, LiDAR first
@@ -200,12 +199,12 @@ if [ "$BENCH" != kitti ]; then
     --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
     --seed 61 --window 10 --windows disjoint
   # The joint problem (--mode joint) on the same starts: its model error is fitted on the first
-  # run's converged starts, the second is held out (doc/method.md).
+  # run's converged starts, the second is held out.
   urban_both joint
   run "sim_urban_joint_nees_held_out" --sequences "$CO_HELD_OUT" --mode joint --trials 54 \
     --init-rot-deg 3 --init-trans-m 0.3 --init-stereo-rot-deg 1 --init-stereo-trans-m 0.1 \
     --seed 61 --window 10 --windows disjoint
-  # The LiDAR-stereo model error by scene type (doc/method.md): one start per window on the
+  # The LiDAR-stereo model error by scene type (doc/benchmarks.md): one start per window on the
   # windows it was fitted on (urban: 20 drives, residential 41-46, highway 1-5), then held out.
   nees_scene() {  # name scenario seed-list seed
     local seqs="" s

@@ -9,7 +9,7 @@
 #  3. Only when ../shared/data/kitti_odometry_mini exists: the same on real KITTI frames
 #     (2011_09_30, sequences 04-07), played once, errors against KITTI's calibration.
 # LiDAR-stereo only by default: online co-calibration (DEMO_STEREO=1, estimate_stereo:=true) gives
-# its first estimate only after about 7 s here, and its updates take about 1 s (doc/online.md).
+# its first estimate only after about 7 s here, and its updates take about 1 s.
 # RVIZ=1 opens rviz on part 2 and keeps it open.
 # Settings: DEMO_FRAMES (100), DEMO_SEED (1), DEMO_SCENARIO (urban), DEMO_NOISE (default),
 # DEMO_STEREO (0: LiDAR-stereo only; 1: co-calibration, both extrinsics; joint: co-calibration by

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Sums up one row of scripts/bench_monitor.sh: the score.json (tescalib_eval --score-estimates)
-of every run in ROW_DIR/SEED/, as the Markdown row doc/online.md's monitoring table shows, and
-one line per run. Usage: monitor_summary.py ROW_DIR"""
+of every run in ROW_DIR/SEED/: a summary line with the figures doc/limitations.md's monitoring
+paragraph shows, and one line per run. Usage: monitor_summary.py ROW_DIR"""
 import json
 import math
 import os

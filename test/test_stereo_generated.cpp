@@ -715,8 +715,8 @@ TEST(PhotometricGenerated, LidarSensitivityPredictsHowALidarErrorMovesTheEstimat
 TEST(PhotometricGenerated, FullResolutionKeyPointsLieOnSmoothLidarDepth) {
   // With a wrong LiDAR extrinsic a key point at a depth edge takes the depth of the wrong surface:
   // the full-resolution key points are chosen where the mesh depth is smooth around them.
-  // (The benefit with a wrong LiDAR extrinsic is a benchmark figure: `make bench`,
-  // doc/benchmarks.md.)
+  // (The benefit with a wrong LiDAR extrinsic is measured by `make bench`: scripts/bench.sh's
+  // `_lidar_off_smooth8` row.)
   SimOptions o;
   o.frames = 1;
   o.seed = 4;

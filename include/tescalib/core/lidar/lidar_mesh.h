@@ -28,10 +28,9 @@ struct LidarMeshSettings {
   /// Folds (a face spanning the corner between two surfaces, e.g. from the road under a car up
   /// its back) are dropped in scans of fewer rings than this (0: never; counted up to the
   /// highest ring with a return: a 64-ring scan under open sky shows 63). At 16 and 32 rings they
-  /// sit 10-35 cm off both surfaces and pulled the estimate by 0.05 deg; at 64 they are four times
-  /// smaller, and the covariances' model error was calibrated with them, so they stay. (Not by ring
+  /// sit 10-35 cm off both surfaces and pull the estimate by 0.05 deg; at 64 they are four times
+  /// smaller, and the covariances' model error is calibrated with them, so they stay. (Not by ring
   /// gap: KITTI's HDL-64E has gaps of 0.66 deg, every 2nd ring of the generated one 0.67 deg.)
-  /// doc/method.md.
   int fold_below_rings = 48;
   /// Face normals are fitted (PCA) to the points within +-smooth_cols azimuth bins and rings
   /// -1..+2 that lie near the face's plane, and kept when within `smooth_max_angle_deg` of the

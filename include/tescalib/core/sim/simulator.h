@@ -1,7 +1,7 @@
 // tescalib_simulate's library: generates a driving sequence with exact ground truth (a LiDAR and
 // a rectified stereo pair in a procedurally generated street) and writes it in the KITTI odometry
 // layout that KittiSequence, tescalib_eval and kitti_to_bag read:
-//   DIR/calib.txt     P0..P3 and Tr: the ground truth (T_cam_lidar, T_right_left; doc/method.md)
+//   DIR/calib.txt     P0..P3 and Tr: the ground truth (T_cam_lidar, T_right_left; doc/offline.md)
 //   DIR/times.txt     10 Hz stamps
 //   DIR/image_2/, DIR/image_3/   NNNNNN.png, 8-bit RGB, left and right
 //   DIR/velodyne/     NNNNNN.bin, float32 x y z intensity, KITTI ring order

@@ -59,9 +59,9 @@ struct CoCalibrationSettings {
   double rerectify_direction_deg = 0.05;
   /// The LiDAR-stereo solves estimate the right camera's yaw relative to the clouds'
   /// rectification as a nuisance (LidarStereoSettings::estimate_stereo_yaw): the photometric yaw
-  /// of round 1, taken with the LiDAR still degrees off, is 0.1-0.5 deg wrong, and without it the
-  /// LiDAR absorbed that disparity offset along the optical axis and often stayed in a wrong
-  /// basin with the baseline length (doc/method.md).
+  /// of round 1, taken with the LiDAR still degrees off, is 0.1-0.5 deg wrong, and without the
+  /// nuisance the LiDAR absorbs that disparity offset along the optical axis and often stays in a
+  /// wrong basin with the baseline length.
   bool lidar_estimates_stereo_yaw = true;
   /// When two successive LiDAR-stereo solves find the clouds' yaw more than this far from the
   /// photometric one (the nuisance above) and the gap did not shrink, the photometric yaw sits in
@@ -98,14 +98,15 @@ struct CoCalibrationSettings {
   /// right from round 1, but the yaw is not (only the LiDAR depth fixes it), and clouds rectified
   /// with a yaw 0.3 deg off can keep the warm LiDAR-stereo solves from moving. A round that
   /// settles with free depth is repeated with the LiDAR depth; the final rounds always use it.
-  /// Off by default (0): measured in doc/method.md, faster on most generated
-  /// starts, slower on some, and on KITTI one start in ten ran away.
+  /// Off by default (0): it is faster on most generated starts, slower on some, and on KITTI one
+  /// start in ten runs away.
   int free_depth_rounds = 0;
   double free_depth_prior_sigma = 0.05;
   /// Per-axis model error added to the final covariances (camera axes, 1 sigma): each solve's
   /// covariance is conditional on the other extrinsic being exact, and in the alternation the
-  /// stereo baseline length and yaw follow the LiDAR depth. Calibrated like the solvers' own terms
-  /// (doc/method.md); the observability flags do not use it (they stay the solvers').
+  /// stereo baseline length and yaw follow the LiDAR depth. Calibrated like the solvers' own terms,
+  /// on generated windows (the held-out check: doc/benchmarks.md); the observability flags do not
+  /// use it (they stay the solvers').
   /// The stereo terms are what remains beyond the stereo scale's variance and the LiDAR
   /// covariance propagated through the key points' depth (the rotation needs none). The LiDAR
   /// terms are fitted with the stereo pair's uncertainty propagated (propagate_stereo_into_lidar),
@@ -120,9 +121,8 @@ struct CoCalibrationSettings {
   /// LiDAR estimate, too. Its sensitivity (lidarSensitivityToStereo: central differences of the
   /// fine stage, clouds re-triangulated with the pair perturbed by these steps) carries the
   /// left-right covariance into the LiDAR one, S P S^T, with the fixed point's gain (I - S L)^-1
-  /// of the alternation (L: the left-right solve's sensitivity to the LiDAR). On the benchmark one
-  /// window of six held the LiDAR 3 sigma off about the optical axis through it
-  /// (doc/method.md).
+  /// of the alternation (L: the left-right solve's sensitivity to the LiDAR). On one of the co
+  /// benchmark's six windows the pair's error holds the LiDAR 3 sigma off about the optical axis.
   bool propagate_stereo_into_lidar = true;
   /// A warm update (one round, OnlineSettings::warm_co_rounds, which cannot be called stable)
   /// propagates the pair's uncertainty with this sensitivity of an earlier full run's

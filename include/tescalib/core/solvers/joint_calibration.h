@@ -35,7 +35,7 @@ struct JointCalibrationSettings {
   /// co-calibration covariances evaluated at it: the joint estimate is less accurate than the
   /// alternation's (in the joint problem each residual set also pulls the other extrinsic, with
   /// the model errors of its own). Fitted by the method of moments on the converged of the co
-  /// benchmark's 30 starts (doc/method.md); the model_sigma_* below.
+  /// benchmark's 30 starts (the held-out check: doc/benchmarks.md); the model_sigma_* below.
   /// The co-calibration LiDAR model error these were fitted on top of: the one of a
   /// co-calibration that does not propagate the stereo pair's uncertainty into the LiDAR
   /// covariance, as the joint covariance solves do not; used instead of

@@ -97,8 +97,8 @@ struct LidarStereoSettings {
   // point, one range offset for every LiDAR point), propagated through this window's geometry
   // (LidarStereoResult::bias_sensitivity), so a scene that constrains an axis weakly also lets
   // such a bias move it further; plus a 1-sigma floor per camera axis. Calibrated on independent
-  // generated urban, residential and highway windows (doc/method.md); real data may need
-  // larger values.
+  // generated urban, residential and highway windows (NEES by scene: doc/benchmarks.md); real
+  // data may need larger values.
   int cov_cells_x = 8;
   int cov_cells_y = 3;
   double model_sigma_disparity_px = 0.05;

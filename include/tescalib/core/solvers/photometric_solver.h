@@ -34,7 +34,7 @@ struct PhotometricSettings {
   /// moves the mesh in the image (1 deg is 12 px at KITTI's focal length); at a depth edge a key
   /// point then takes the depth of the wrong surface, on a smooth surface nearly the right one.
   /// The coarser pyramid levels keep every key point (edges widen the basin). 0 (default): off.
-  /// Measured (doc/method.md): 8 px helps with the LiDAR 1 deg / 10 cm off on generated
+  /// Measured: 8 px helps with the LiDAR 1 deg / 10 cm off on generated
   /// 20-keyframe windows, but costs accuracy on real KITTI and inside co-calibration.
   int smooth_depth_radius_px = 0;
   double smooth_depth_tolerance = 0.1;
@@ -42,7 +42,7 @@ struct PhotometricSettings {
   double max_sigma_rot_deg = 0.05;  ///< an axis looser than this (1 sigma) is unconstrained
   double max_sigma_trans_m = 0.01;
   /// 1-sigma model error per camera axis added to the covariance (calibrated so that mean NEES
-  /// is 6 over 30 independent generated urban windows of 10 keyframes; doc/method.md).
+  /// is 6 over 30 independent generated urban windows of 10 keyframes).
   std::array<double, 3> model_sigma_rot_deg = {0.0023, 0.0004, 0.0022};
   std::array<double, 3> model_sigma_trans_m = {0.00016, 0.00028, 0.00018};
   /// Photo-consistency: a solve is declared converged only when its median key point pattern

@@ -25,7 +25,7 @@ struct DisparityRefinementSettings {
   /// one round with the exact gradient corrects SGBM's short disparity on the near road only
   /// partly (the Gauss-Newton step falls short where the texture is fine and weak); a smoothed
   /// first round gets most of the way and an exact second one keeps the precision (the default:
-  /// 2 rounds, the first smoothed; doc/benchmarks.md).
+  /// 2 rounds, the first smoothed).
   int smoothed_gradient_rounds = 1;
   double smoothed_gradient_sigma = 1.0;  ///< px; <= 0: every round takes the exact gradient
 };
