@@ -83,6 +83,13 @@ TEST(CalibrationMonitor, StatesFollowTheEvidence) {
   m.published(29.5, atChi2(900), kUnit);
   EXPECT_EQ(m.status().state, MonitorState::kCalibrated);
   EXPECT_EQ(m.status().evidence, 0);
+  // A second change (back to the identity) is bounded by its own windows, not the first run's.
+  EXPECT_TRUE(m.observe(window(34.5), kI, kUnit));
+  EXPECT_FALSE(m.observe(window(39.5), kI, kUnit));
+  EXPECT_TRUE(m.observe(window(44.5), kI, kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kChanged);
+  EXPECT_EQ(m.status().changes, 2);
+  EXPECT_DOUBLE_EQ(m.status().change_after, 34.5);
   m.reset();
   EXPECT_EQ(m.status().state, MonitorState::kCalibrating);
 }

@@ -53,8 +53,7 @@ bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, const Eigen::I
     run_.clear();
     return setState(MonitorState::kCalibrated, newest);
   }
-  if (s == MonitorState::kCalibrated) run_.clear();
-  run_.push_back({*oldest_it, newest, newer_half, T, cov});
+  run_.push_back({*oldest_it, newest, newer_half, T, cov});  // empty while calibrated
   if (s == MonitorState::kCalibrated) {
     status_.change_after = newest;
     return setState(MonitorState::kSuspect, newest);
@@ -90,6 +89,7 @@ void ExtrinsicMonitor::published(double newest, const Eigen::Isometry3d& T, cons
   if (first) {
     setState(MonitorState::kCalibrated, newest);
     status_.evidence = 0;
+    run_.clear();  // the windows before a recalibration
     last_newest_ = std::max(last_newest_, newest);
   }
   reference_ = T;
