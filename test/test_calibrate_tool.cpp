@@ -465,7 +465,7 @@ TEST(CalibrateTool, WritesNothingItDoesNotTrust) {
 TEST(CalibrateToolReal, RefusesTheKittiWindowItCannotTrust) {
   SKIP_WITHOUT_KITTI();
   // 2011_09_30's window: the solver measures a +0.2 px disparity offset between KITTI's stereo and
-  // LiDAR that leaves the optical axis unconstrained (doc/limitations.md): no estimate written.
+  // LiDAR that leaves the optical axis unconstrained: no estimate written.
   TempDir tmp;
   const std::string k = tescalib_test::kittiDir() + "/sequences/";
   const ToolRun r =
@@ -490,7 +490,7 @@ TEST(CalibrateToolReal, CoCalibratesARecordingShorterThanTheWindowAtItsEnd) {
   // --mode co on 2011_09_30: 8 keyframes never fill the window of 10 and the LiDAR-first solves
   // are never trusted, so no co-calibration runs before the end of the input: the 8 keyframes
   // are co-calibrated once at the end; the pair's yaw is the +0.035 deg the photometric solver
-  // finds on these frames (doc/limitations.md).
+  // finds on these frames.
   const std::string k = tescalib_test::kittiDir() + "/sequences/";
   const ToolRun r =
       runCalibrate("--sequences " + k + "04," + k + "05," + k + "06," + k + "07 --mode co");

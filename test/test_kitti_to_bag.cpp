@@ -310,7 +310,7 @@ TEST(Conversions, ReadsKitti2bagClouds) {
 TEST(KittiToBag, RealKittiCameraInfosGiveTheSequencesBaseline) {
   SKIP_WITHOUT_KITTI();
   // KITTI's rectified pair is not rectified along x alone: 2011_09_30's right camera sits 3.3 mm
-  // off vertically (doc/limitations.md). Through the bag it must be what the folder gives.
+  // off vertically (its P3). Through the bag it must be what the folder gives.
   TempDir tmp;
   const KittiSequence seq(tescalib_test::kittiDir() + "/sequences/04");
   KittiBagOptions o;

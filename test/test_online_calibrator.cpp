@@ -149,7 +149,7 @@ TEST(OnlineCalibratorReal, PublishesOnlyTrustworthyEstimates) {
     EXPECT_LT(off.tail<3>().norm(), 0.15);
     EXPECT_GT(poseError(candidate->T_cam_lidar, rig.T_cam_lidar).tail<3>().norm(), 0.1);
   };
-  // The clouds' disparity is short by about 0.17 px against the LiDAR (doc/limitations.md):
+  // The clouds' disparity is short by about 0.17 px against the LiDAR on these frames:
   // the solver measures that offset in its residuals, and with it the window does not constrain
   // tz. Nothing is published.
   publishesNothing(settings, "disparity offset");
