@@ -51,6 +51,26 @@ Eigen::Isometry3d atChi2(double chi2) {
 }
 const Eigen::Isometry3d kI = Eigen::Isometry3d::Identity();
 
+/// A keyframe stamped `stamp`, with nothing else.
+std::shared_ptr<Keyframe> keyframe(double stamp) {
+  auto k = std::make_shared<Keyframe>();
+  k->stamp = stamp;
+  return k;
+}
+
+/// Information of a town keyframe (every direction) and of a highway one (nothing along z).
+const Matrix6d kTown = Matrix6d::Identity() * 1e6;
+const Matrix6d kHighway = (Vector6d() << 1e6, 1e6, 1e6, 1e6, 1e6, 1.0).finished().asDiagonal();
+
+/// Fills `w` with a town keyframe (stamp 0) and two highway ones (0.5, 1.0), measured; returns
+/// them.
+std::vector<std::shared_ptr<Keyframe>> townThenHighway(KeyframeWindow* w) {
+  std::vector<std::shared_ptr<Keyframe>> ks = {keyframe(0), keyframe(0.5), keyframe(1.0)};
+  for (const auto& k : ks) w->add(k);
+  w->storeInformation(ks, {kTown, kHighway, kHighway});
+  return ks;
+}
+
 }  // namespace
 
 TEST(CalibrationMonitor, StatesFollowTheEvidence) {
@@ -241,18 +261,9 @@ TEST(CalibrationMonitor, WhileSuspectTheOldestKeyframeLeavesTheWindow) {
   // A town keyframe (informative in every direction) and highway keyframes (nothing along z):
   // by information the town keyframe stays and a highway one leaves; oldest-first (while a
   // change is suspected) lets the town keyframe go, so new windows become fresh.
-  auto keyframe = [](double stamp) {
-    auto k = std::make_shared<Keyframe>();
-    k->stamp = stamp;
-    return k;
-  };
-  Matrix6d town = Matrix6d::Identity() * 1e6, highway = Matrix6d::Identity() * 1e6;
-  highway(5, 5) = 1.0;
   for (bool oldest_first : {false, true}) {
     KeyframeWindow w(3, "information");
-    std::vector<std::shared_ptr<Keyframe>> ks = {keyframe(0), keyframe(0.5), keyframe(1.0)};
-    for (const auto& k : ks) w.add(k);
-    w.storeInformation(ks, {town, highway, highway});
+    townThenHighway(&w);
     w.setOldestFirst(oldest_first);
     w.add(keyframe(1.5));
     EXPECT_EQ(w.stamps(), oldest_first ? (std::vector<double>{0.5, 1.0, 1.5})
@@ -265,22 +276,13 @@ TEST(CalibrationMonitor, KeyframesSetAsideWhileSuspectComeBackUnlessBeforeTheCha
   // While suspect the town keyframe (stamp 0) leaves a window of three for a highway one; when
   // the suspicion clears it comes back and, by information, a highway keyframe leaves instead.
   // After a change the window drops what came before it, the set-aside keyframes included.
-  auto keyframe = [](double stamp) {
-    auto k = std::make_shared<Keyframe>();
-    k->stamp = stamp;
-    return k;
-  };
-  Matrix6d town = Matrix6d::Identity() * 1e6, highway = Matrix6d::Identity() * 1e6;
-  highway(5, 5) = 1.0;
   for (bool changed : {false, true}) {
     KeyframeWindow w(3, "information");
-    std::vector<std::shared_ptr<Keyframe>> ks = {keyframe(0), keyframe(0.5), keyframe(1.0)};
-    for (const auto& k : ks) w.add(k);
-    w.storeInformation(ks, {town, highway, highway});
+    std::vector<std::shared_ptr<Keyframe>> ks = townThenHighway(&w);
     w.setOldestFirst(true);
     ks.push_back(keyframe(1.5));
     w.add(ks.back());
-    w.storeInformation({ks[1], ks[2], ks[3]}, {highway, highway, highway});
+    w.storeInformation({ks[1], ks[2], ks[3]}, {kHighway, kHighway, kHighway});
     EXPECT_EQ(w.stamps(), (std::vector<double>{0.5, 1.0, 1.5}));
     if (changed) {
       EXPECT_EQ(w.dropUpTo(0.5), 2u);
