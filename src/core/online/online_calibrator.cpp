@@ -269,12 +269,8 @@ std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input,
                   s->last_chi2);
     note += buf;
   }
-  // With "flag" the monitor only reports: publication goes on as without it.
-  if (m.action != "recalibrate") {
-    setOldestFirstWhileSuspect();
-    return "";
-  }
-  if (changed) {
+  const bool recalibrate = m.action == "recalibrate";
+  if (recalibrate && changed) {
     const size_t left = window_.dropUpTo(changed->change_after);
     monitor_.lidar_to_left.restarted();
     monitor_.left_to_right.restarted();
@@ -284,16 +280,13 @@ std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input,
                   changed->change_after);
     note += buf;
   }
-  setOldestFirstWhileSuspect();
-  return note;
-}
-
-void OnlineCalibrator::setOldestFirstWhileSuspect() {
   // While suspect, new keyframes push out the oldest, so that fresh windows come to confirm or
   // clear the suspicion (by information, a town's keyframes can stay for minutes on a highway);
   // those pushed out come back when it clears, or, after a change, the ones after it.
   window_.setOldestFirst(monitor_.lidar_to_left.status().state == MonitorState::kSuspect ||
                          monitor_.left_to_right.status().state == MonitorState::kSuspect);
+  // With "flag" the monitor only reports: publication goes on as without it.
+  return recalibrate ? note : "";
 }
 
 MonitorReport OnlineCalibrator::monitorReport() const {

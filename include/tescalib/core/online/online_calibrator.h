@@ -137,12 +137,10 @@ class OnlineCalibrator {
   /// whose halves disagreed, when that half is trusted: a window straddling a change of the
   /// LiDAR's extrinsic does not converge as a whole; else a settled window that only leaves some
   /// axis unconstrained); returns why the monitor holds it back
-  /// (empty: it does not), and restarts the window on `changed` with MonitorSettings::action
-  /// recalibrate.
+  /// (empty: it does not), restarts the window on `changed` with MonitorSettings::action
+  /// recalibrate, and keeps the window oldest-first while either extrinsic is suspect.
   std::string monitorSolve(const WindowSolveInput& input,
                            const WindowSolveResult& result);  ///< REQUIRES(mutex_)
-  /// The window is oldest-first while either extrinsic is suspect (KeyframeWindow::setOldestFirst).
-  void setOldestFirstWhileSuspect();  ///< REQUIRES(mutex_)
   /// Records a solve's result and publishes it when the publish policy lets it.
   bool concludeSolve(const WindowSolveInput& input, uint64_t generation, WindowSolveResult result,
                      std::string* msg, OnlineEstimate* published);
