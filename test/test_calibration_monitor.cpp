@@ -114,6 +114,27 @@ TEST(CalibrationMonitor, StatesFollowTheEvidence) {
   EXPECT_EQ(m.status().state, MonitorState::kCalibrating);
 }
 
+TEST(CalibrationMonitor, AReferenceFromAFewKeyframesIsReplacedUntilAFullWindowIsPublished) {
+  MonitorSettings s;  // k 22.46, h 60, fresh 0.8
+  s.change_span_s = 0;
+  ExtrinsicMonitor m(s);
+  // The first estimate, from 3 keyframes, is off by chi2 500 from the rig's truth (the identity).
+  m.published(1.0, atChi2(500), kUnit, false);
+  EXPECT_EQ(m.status().state, MonitorState::kCalibrated);
+  EXPECT_FALSE(m.observe(window(6), kI, kUnit));  // not checked against a provisional reference
+  EXPECT_EQ(m.status().fresh_windows, 0);
+  m.published(6, kI, kUnit, true);  // the full window's estimate becomes the reference
+  for (double t : {11.0, 16.0, 21.0}) EXPECT_FALSE(m.observe(window(t), kI, kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kCalibrated);
+  EXPECT_EQ(m.status().fresh_windows, 3);
+  // With the first estimate taken as the reference the same windows declare a change.
+  ExtrinsicMonitor first(s);
+  first.published(1.0, atChi2(500), kUnit);
+  first.published(6, kI, kUnit);  // not from a fresh window counted: the reference stays
+  for (double t : {11.0, 16.0}) first.observe(window(t), kI, kUnit);
+  EXPECT_EQ(first.status().state, MonitorState::kChanged);
+}
+
 TEST(CalibrationMonitor, TheCusumAccumulatesOnlyFreshWindowsAndDrainsBack) {
   MonitorSettings s;
   s.cusum_k = 20;

@@ -38,6 +38,7 @@ bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, const Eigen::I
   // Only a calibrated or suspect extrinsic is checked; `changed` holds until recalibrated or
   // reset, and the other states have no estimate to check against.
   if (s != MonitorState::kCalibrated && s != MonitorState::kSuspect) return false;
+  if (provisional_) return false;
   const long fresh =
       std::count_if(stamps.begin(), stamps.end(), [this](double t) { return t > last_newest_; });
   if (fresh < settings_.fresh_fraction * static_cast<double>(stamps.size())) return false;
@@ -80,18 +81,21 @@ double ExtrinsicMonitor::changeAfter() const {
   return last.newer_half ? std::max(after, std::nextafter(last.oldest, -HUGE_VAL)) : after;
 }
 
-void ExtrinsicMonitor::published(double newest, const Eigen::Isometry3d& T, const Matrix6d& cov) {
+void ExtrinsicMonitor::published(double newest, const Eigen::Isometry3d& T, const Matrix6d& cov,
+                                 bool full) {
   const MonitorState s = status_.state;
   const bool first = s == MonitorState::kCalibrating || s == MonitorState::kRecalibrating;
   // Otherwise only the estimate of the fresh window just counted, which agreed with the
   // reference: one from a window overlapping the next fresh one would hide a change from it.
-  if (!first && !(s == MonitorState::kCalibrated && newest == last_newest_)) return;
+  if (!first && !provisional_ && !(s == MonitorState::kCalibrated && newest == last_newest_))
+    return;
   if (first) {
     setState(MonitorState::kCalibrated, newest);
     status_.evidence = 0;
     run_.clear();  // the windows before a recalibration
-    last_newest_ = std::max(last_newest_, newest);
   }
+  if (first || provisional_) last_newest_ = std::max(last_newest_, newest);
+  provisional_ = !full;
   reference_ = T;
   reference_cov_ = cov;
 }

@@ -231,8 +231,10 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
     return false;
   }
   estimate_ = last_solve_ = e;
-  monitor_.lidar_to_left.published(e.stamp, e.T_cam_lidar, e.cov_lidar);
-  if (e.stereo_estimated) monitor_.left_to_right.published(e.stamp, e.T_right_left, e.cov_stereo);
+  const bool full = e.keyframes_used >= settings_.window_size;
+  monitor_.lidar_to_left.published(e.stamp, e.T_cam_lidar, e.cov_lidar, full);
+  if (e.stereo_estimated)
+    monitor_.left_to_right.published(e.stamp, e.T_right_left, e.cov_stereo, full);
   if (result.lidar_sensitivity) co_sensitivity_ = result.lidar_sensitivity;
   // Keep the co-calibration's re-rectified or rescaled clouds. Only with the estimate they were
   // rectified for: an unpublished one's would leave the window on a stereo extrinsic nothing else

@@ -55,8 +55,12 @@ class ExtrinsicMonitor {
                bool newer_half = false);
   /// An estimate `T` (`cov`) from a window whose newest keyframe is `newest` was published. The
   /// first one, and the first after a recalibration, becomes the reference (`calibrated`); later
-  /// ones only when they come from the last fresh window counted, which agreed with it.
-  void published(double newest, const Eigen::Isometry3d& T, const Matrix6d& cov);
+  /// ones only when they come from the last fresh window counted, which agreed with it. `full`:
+  /// the window held its full count of keyframes. Until a full window's estimate is published
+  /// the reference is provisional: each published estimate replaces it and no window is
+  /// checked (a few keyframes' covariance hardly shows how few they are).
+  void published(double newest, const Eigen::Isometry3d& T, const Matrix6d& cov,
+                 bool full = true);
   /// The window restarted from the keyframes after the change: `recalibrating`.
   void restarted();
   /// The window was cleared with the estimate kept (time went backwards): the next window is
@@ -66,6 +70,7 @@ class ExtrinsicMonitor {
   void reset() {
     status_ = MonitorStatus();
     last_newest_ = -1e300;
+    provisional_ = false;
     run_.clear();
   }
 
@@ -87,6 +92,7 @@ class ExtrinsicMonitor {
   MonitorSettings settings_;
   MonitorStatus status_;
   double last_newest_ = -1e300;  ///< newest keyframe of the last window counted
+  bool provisional_ = false;     ///< the reference is not from a full window yet
   std::vector<Counted> run_;     ///< the windows counted since the evidence last was 0
   Eigen::Isometry3d reference_ = Eigen::Isometry3d::Identity();
   Matrix6d reference_cov_ = Matrix6d::Zero();
