@@ -33,7 +33,14 @@ fi
 # shellcheck disable=SC1091
 source "$BUILD/devel/setup.bash"
 start=$(date +%s)
-make --no-print-directory -C "$BUILD" -j1 run_tests 2>&1 | tee "$BUILD/run_tests.log" | grep -E '^\[ *(RUN|  +OK|  FAILED|  SKIPPED|  PASSED) |^\[ROSTEST\]|SKIP|Skipped|FAILURE|ERROR' || true
+# The gtest binaries run two at a time (TEST_JOBS; each binary's output stays whole in its own
+# log), the rostests one at a time (each starts a ROS master on the same port).
+shown='^\[ *(RUN|  +OK|  FAILED|  SKIPPED|  PASSED) |^\[ROSTEST\]|SKIP|Skipped|FAILURE|ERROR'
+{
+  make --no-print-directory -C "$BUILD" -j"${TEST_JOBS:-2}" -O run_tests_tescalib_gtest 2>&1
+  make --no-print-directory -C "$BUILD" -j1 run_tests_tescalib_rostest \
+    run_tests_tescalib_roslaunch-check 2>&1
+} | tee "$BUILD/run_tests.log" | grep -E "$shown" || true
 /usr/bin/python3 "$ROOT/scripts/test_summary.py" "$BUILD/test_results"
 rc=$?
 echo "[test] took $(( $(date +%s) - start )) s"
