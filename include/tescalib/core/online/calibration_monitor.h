@@ -59,8 +59,7 @@ class ExtrinsicMonitor {
   /// the window held its full count of keyframes. Until a full window's estimate is published
   /// the reference is provisional: each published estimate replaces it and no window is
   /// checked (a few keyframes' covariance hardly shows how few they are).
-  void published(double newest, const Eigen::Isometry3d& T, const Matrix6d& cov,
-                 bool full = true);
+  void published(double newest, const Eigen::Isometry3d& T, const Matrix6d& cov, bool full = true);
   /// The window restarted from the keyframes after the change: `recalibrating`.
   void restarted();
   /// The window was cleared with the estimate kept (time went backwards): the next window is
