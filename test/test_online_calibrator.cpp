@@ -20,6 +20,7 @@
 #include "tescalib/core/online/online_calibrator.h"
 #include "tescalib/core/online/window_solve.h"
 #include "tescalib/core/sim/simulator.h"
+#include "tescalib/core/uncertainty/trust.h"
 #include "test_util.h"
 
 using namespace tescalib;
@@ -348,6 +349,45 @@ TEST(OnlineCalibratorGenerated, AfterAnUnconvergedSolveTheWarmStartRunsTheCoarse
   ASSERT_TRUE(r[false].estimate.converged) << r[false].message;
   EXPECT_LT(off(r[false]).first, 0.1);
   EXPECT_LT(off(r[false]).second, 0.015);
+}
+
+TEST(OnlineCalibratorGenerated, AWarmUpdateGivesTheMonitorAChangedPairsEstimate) {
+  // The right camera moved 0.2 deg / 5 mm before the window (a stereo bump), the keyframes'
+  // clouds are rectified for the old pair and the published co-calibration is the old truth:
+  // the warm update's left-right solve, from the published T_cam_lidar, finds the new pair and
+  // says it settled whatever its LiDAR-stereo solve did on the clouds of the old pair, so the
+  // calibration monitor has its evidence.
+  SimOptions o;
+  o.frames = 26;
+  o.seed = 14;
+  o.step.at_s = 0;
+  o.step.rot_deg = 0.2, o.step.trans_m = 0.005, o.step.stereo = true;
+  const Simulator sim(o);
+  const StereoRig& before = sim.rig();
+  const StereoRig& after = sim.rigAfterStep();
+  WindowSolveInput in;
+  in.co = true;
+  for (int i = 0; i < o.frames; i += 5)
+    in.keyframes.push_back(std::make_shared<Keyframe>(
+        makeKeyframe(sim.renderFrame(i), before, before.T_cam_lidar, before.T_right_left)));
+  OnlineEstimate published;
+  published.T_cam_lidar = in.T_cam_lidar = before.T_cam_lidar;
+  published.T_right_left = in.T_right_left = before.T_right_left;
+  published.converged = published.stereo_estimated = true;
+  in.published = published;
+  const WindowSolveResult r = solveWindow(in, before, coCalibrating(), nullptr);
+  const OnlineEstimate& e = r.estimate;
+  const Vector6d to_new = poseError(e.T_right_left, after.T_right_left);
+  const double chi2_to_old = nees(poseError(e.T_right_left, before.T_right_left), e.cov_stereo);
+  std::cout << "[ stereo   ] warm update: converged " << e.converged << " (" << r.message
+            << "), left-right " << to_new.head<3>().norm() * kDegPerRad << " deg / "
+            << to_new.tail<3>().norm() * 1000 << " mm off the new pair, chi2 " << chi2_to_old
+            << " from the old one\n";
+  EXPECT_EQ(e.co_rounds, coCalibrating().warm_co_rounds);
+  ASSERT_TRUE(r.stereo_settled) << r.message;
+  EXPECT_TRUE(e.cov_stereo_known);
+  EXPECT_LT(to_new.head<3>().norm() * kDegPerRad, 0.05);
+  EXPECT_GT(chi2_to_old, MonitorSettings().cusum_k);
 }
 
 // A pair whose right image sits a pixel lower than camera_info says: the first keyframe is taken

@@ -257,7 +257,8 @@ std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input,
     monitor_.lidar_to_left.observe(half->stamps, half->T_cam_lidar, half->covariance, true);
   else if (result.settled_unconstrained)
     monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar);
-  if (e.converged && e.stereo_estimated && e.cov_stereo_known && estimate_->stereo_estimated)
+  if ((e.converged || result.stereo_settled) && e.stereo_estimated && e.cov_stereo_known &&
+      estimate_->stereo_estimated)
     monitor_.left_to_right.observe(stamps, e.T_right_left, e.cov_stereo);
   const MonitorStatus* changed = nullptr;
   std::string note;
@@ -284,9 +285,11 @@ std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input,
   }
   // While suspect, new keyframes push out the oldest, so that fresh windows come to confirm or
   // clear the suspicion (by information, a town's keyframes can stay for minutes on a highway);
-  // those pushed out come back when it clears, or, after a change, the ones after it.
+  // those pushed out come back when it clears, or, after a change, the ones after it. The same
+  // while a co-calibration's halves disagree: the left-right estimate has no halves of its own.
   window_.setOldestFirst(monitor_.lidar_to_left.status().state == MonitorState::kSuspect ||
-                         monitor_.left_to_right.status().state == MonitorState::kSuspect);
+                         monitor_.left_to_right.status().state == MonitorState::kSuspect ||
+                         (result.co_halves_disagree && estimate_->stereo_estimated));
   // With "flag" the monitor only reports: publication goes on as without it.
   return recalibrate ? note : "";
 }

@@ -113,6 +113,9 @@ WindowSolveResult coCalibrateWindow(const WindowSolveInput& in, const StereoRig&
   out.newer_half = newerHalf(r.lidar, cs.lidar, in.keyframes);
   out.keyframe_information = r.lidar.keyframe_information;
   out.estimate = coEstimate(r, warm);
+  out.stereo_settled = r.stereo.converged && r.stereo.covariance_known;
+  out.co_halves_disagree =
+      r.lidar.halves.tested && r.lidar.halves.chi2 > cs.lidar.halves_chi2_limit;
   if (!warm)
     out.message = r.message;
   else if (!r.stereo.converged)

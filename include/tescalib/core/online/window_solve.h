@@ -73,6 +73,16 @@ struct WindowSolveResult {
   /// axis is not constrained (LidarStereoResult::only_unconstrained): its estimate is evidence
   /// for the calibration monitor, whose chi2 weighs each direction by the covariance.
   bool settled_unconstrained = false;
+  /// A co-calibration whose left-right solve converged with a known covariance, whatever its
+  /// LiDAR-stereo solve did: its T_right_left is evidence for the calibration monitor even when
+  /// a changed pair leaves the LiDAR-stereo solve unsettled (the clouds are rectified for the
+  /// old pair, and the halves of a window that straddles the change disagree).
+  bool stereo_settled = false;
+  /// A co-calibration whose LiDAR-stereo halves disagreed (LidarStereoResult::Halves): with a
+  /// changed pair the newer half's clouds are rectified for the old pair, while a window that
+  /// keeps its keyframes by information can hold mostly keyframes from before the change, whose
+  /// left-right estimate does not show it. The calibrator then keeps the newest keyframes.
+  bool co_halves_disagree = false;
   /// The input keyframes' stereo clouds were recomputed (co-calibration): the window takes them
   /// when the estimate is published (KeyframeWindow::adoptRecomputedClouds).
   bool clouds_recomputed = false;
