@@ -74,13 +74,17 @@ OnlineEstimate coEstimate(const CoCalibrationResult& r, bool warm) {
   return e;
 }
 
+/// Whether `r`'s window was split in halves and they disagreed (LidarStereoResult::Halves).
+bool halvesDisagree(const LidarStereoResult& r, const LidarStereoSettings& settings) {
+  return r.halves.tested && r.halves.chi2 > settings.halves_chi2_limit;
+}
+
 /// The newer half of `r`'s window (`keyframes`) when its halves disagreed and it settled.
 std::optional<NewerHalfEstimate> newerHalf(
     const LidarStereoResult& r, const LidarStereoSettings& settings,
     const std::vector<std::shared_ptr<Keyframe>>& keyframes) {
   const LidarStereoResult::Halves& h = r.halves;
-  if (!h.tested || h.chi2 <= settings.halves_chi2_limit || !h.second_settled ||
-      h.second_begin >= keyframes.size())
+  if (!halvesDisagree(r, settings) || !h.second_settled || h.second_begin >= keyframes.size())
     return std::nullopt;
   NewerHalfEstimate half;
   for (size_t i = h.second_begin; i < keyframes.size(); ++i)
@@ -114,8 +118,7 @@ WindowSolveResult coCalibrateWindow(const WindowSolveInput& in, const StereoRig&
   out.keyframe_information = r.lidar.keyframe_information;
   out.estimate = coEstimate(r, warm);
   out.stereo_settled = r.stereo.converged && r.stereo.covariance_known;
-  out.co_halves_disagree =
-      r.lidar.halves.tested && r.lidar.halves.chi2 > cs.lidar.halves_chi2_limit;
+  out.co_halves_disagree = halvesDisagree(r.lidar, cs.lidar);
   if (!warm)
     out.message = r.message;
   else if (!r.stereo.converged)
@@ -143,8 +146,7 @@ WindowSolveResult solveLidarStereoWindow(const WindowSolveInput& in, const Onlin
   WindowSolveResult out;
   out.searched = r.search_starts > 1;
   out.newer_half = newerHalf(r, ls, in.keyframes);
-  out.settled_unconstrained = r.only_unconstrained && r.covariance_known &&
-                              !(r.halves.tested && r.halves.chi2 > ls.halves_chi2_limit);
+  out.settled_unconstrained = r.only_unconstrained && r.covariance_known && !halvesDisagree(r, ls);
   out.solver_cancelled = r.message == "cancelled";
   out.keyframe_information = r.keyframe_information;
   OnlineEstimate& e = out.estimate;
