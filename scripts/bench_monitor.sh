@@ -9,7 +9,8 @@
 #   ROWS   which rows (default all): a space-separated subset of
 #          urban_lidar residential_lidar urban_stereo_co urban_small_long urban_none_long highway_none
 #          urban_then_highway (30 s of town, then 120 s of highway: the weak directions of a rig the
-#          monitor watches)
+#          monitor watches), and urban_lidar_co (a LiDAR bump under co-calibration: the pair, checked
+#          through the LiDAR's depth, must not be declared changed; not in the default rows)
 #   LONG_S the length of the long drives in seconds (default 600)
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -83,6 +84,7 @@ for r in $ROWS; do
     urban_lidar) row "$r" urban 60 $((SEED0 + 1)) "$RUNS" lidar_stereo 30,0.5,0.03,lidar ;;
     residential_lidar) row "$r" residential 60 $((SEED0 + 101)) "$RUNS" lidar_stereo 30,0.5,0.03,lidar ;;
     urban_stereo_co) row "$r" urban 60 $((SEED0 + 201)) "$RUNS" co 30,0.2,0.005,stereo ;;
+    urban_lidar_co) row "$r" urban 60 $((SEED0 + 701)) "$RUNS" co 30,0.5,0.03,lidar ;;
     urban_small_long) row "$r" urban "$LONG_S" $((SEED0 + 301)) 1 lidar_stereo 30,0.05,0.005,lidar ;;
     urban_none_long) row "$r" urban "$LONG_S" $((SEED0 + 401)) 1 lidar_stereo "" ;;
     highway_none) row "$r" highway 120 $((SEED0 + 501)) "$HIGHWAY_RUNS" lidar_stereo "" ;;

@@ -114,6 +114,35 @@ TEST(CalibrationMonitor, StatesFollowTheEvidence) {
   EXPECT_EQ(m.status().state, MonitorState::kCalibrating);
 }
 
+TEST(CalibrationMonitor, ASuspicionMeasuredThroughTheOtherExtrinsicIsDropped) {
+  MonitorSettings s;  // k 22.46, h 60
+  s.change_span_s = 0;
+  ExtrinsicMonitor m(s);
+  EXPECT_FALSE(m.isNew(1.0));  // nothing published: nothing is checked
+  m.published(5, kI, kUnit);
+  EXPECT_FALSE(m.isNew(5.0));
+  EXPECT_TRUE(m.isNew(5.5));
+  EXPECT_TRUE(m.observe(window(9.5), atChi2(40), kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kSuspect);
+  EXPECT_FALSE(m.isNew(9.5));
+  EXPECT_TRUE(m.isNew(10.0));
+  m.dropSuspicion();  // the other extrinsic was declared changed
+  EXPECT_EQ(m.status().state, MonitorState::kCalibrated);
+  EXPECT_EQ(m.status().evidence, 0);
+  // The dropped window's evidence is gone: one more such window is a suspicion, not a change.
+  EXPECT_TRUE(m.observe(window(14.5), atChi2(40), kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kSuspect);
+  EXPECT_NEAR(m.status().evidence, 40 - 22.46, 1e-9);
+  EXPECT_DOUBLE_EQ(m.status().change_after, 14.5);
+  // A change declared is not dropped.
+  EXPECT_TRUE(m.observe(window(19.5), atChi2(500), kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kChanged);
+  m.dropSuspicion();
+  EXPECT_EQ(m.status().state, MonitorState::kChanged);
+  EXPECT_TRUE(holdsChange(m.status()));
+  EXPECT_FALSE(m.isNew(30.0));  // a changed extrinsic is not checked
+}
+
 TEST(CalibrationMonitor, AReferenceFromAFewKeyframesIsReplacedUntilAFullWindowIsPublished) {
   MonitorSettings s;  // k 22.46, h 60, fresh 0.8
   s.change_span_s = 0;

@@ -18,6 +18,7 @@
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/online/online_calibrator.h"
+#include "tescalib/core/online/pair_check.h"
 #include "tescalib/core/online/window_solve.h"
 #include "tescalib/core/sim/simulator.h"
 #include "tescalib/core/uncertainty/trust.h"
@@ -388,6 +389,48 @@ TEST(OnlineCalibratorGenerated, AWarmUpdateGivesTheMonitorAChangedPairsEstimate)
   EXPECT_TRUE(e.cov_stereo_known);
   EXPECT_LT(to_new.head<3>().norm() * kDegPerRad, 0.05);
   EXPECT_GT(chi2_to_old, MonitorSettings().cusum_k);
+}
+
+// The pair checked on four keyframes alone (pair_check.h), with the published LiDAR extrinsic
+// exact and its covariance that of a co-calibrated window: after a stereo bump of 0.2 deg / 5 mm
+// it finds the new pair and lies far beyond the monitor's reference value from the old one;
+// without the bump it stays within it.
+TEST(OnlineCalibratorGenerated, APairCheckOnTheNewestKeyframesFindsAChangedPair) {
+  for (const bool bumped : {true, false}) {
+    SimOptions o;
+    o.frames = 16;
+    o.seed = 15;
+    if (bumped) o.step.at_s = 0, o.step.rot_deg = 0.2, o.step.trans_m = 0.005, o.step.stereo = true;
+    const Simulator sim(o);
+    const StereoRig& before = sim.rig();
+    const StereoRig& now = bumped ? sim.rigAfterStep() : sim.rig();
+    std::vector<std::shared_ptr<const Keyframe>> keyframes;
+    for (int i = 0; i < o.frames; i += 5)
+      keyframes.push_back(std::make_shared<Keyframe>(
+          makeKeyframe(sim.renderFrame(i), before, before.T_cam_lidar, before.T_right_left)));
+    OnlineEstimate published;
+    published.T_cam_lidar = before.T_cam_lidar;
+    published.T_right_left = before.T_right_left;
+    published.converged = published.stereo_estimated = true;
+    published.cov_lidar_given_stereo = Matrix6d::Zero();
+    addAxisVariances(&published.cov_lidar_given_stereo, {0.01, 0.01, 0.01}, {0.003, 0.003, 0.003});
+    const std::optional<PairCheck> check =
+        checkStereoPair(keyframes, before, published, coCalibrating());
+    ASSERT_TRUE(check.has_value()) << (bumped ? "bumped" : "unchanged");
+    const Vector6d to_now = poseError(check->T_right_left, now.T_right_left);
+    const double chi2_to_old =
+        nees(poseError(check->T_right_left, before.T_right_left), check->covariance);
+    std::cout << "[ stereo   ] pair check, " << (bumped ? "bumped" : "unchanged") << ": "
+              << to_now.head<3>().norm() * kDegPerRad << " deg / " << to_now.tail<3>().norm() * 1000
+              << " mm off the pair, chi2 " << chi2_to_old << " from the published one, "
+              << check->seconds << " s\n";
+    EXPECT_EQ(check->stamps.size(), keyframes.size());
+    EXPECT_LT(to_now.head<3>().norm() * kDegPerRad, 0.03);
+    if (bumped)
+      EXPECT_GT(chi2_to_old, 10 * MonitorSettings().cusum_k);
+    else
+      EXPECT_LT(chi2_to_old, MonitorSettings().cusum_k);
+  }
 }
 
 // A pair whose right image sits a pixel lower than camera_info says: the first keyframe is taken

@@ -159,6 +159,7 @@ void readMonitor(Visit& get, NodeParams* p) {
   get("monitor/cusum_h", &p->online.monitor.cusum_h);
   get("monitor/change_span_s", &p->online.monitor.change_span_s);
   get("monitor/fresh_fraction", &p->online.monitor.fresh_fraction);
+  get("monitor/pair_check_keyframes", &p->online.monitor.pair_check_keyframes);
 }
 
 template <typename Visit>
@@ -413,6 +414,8 @@ void checkMonitor(const MonitorSettings& m, std::ostringstream& e) {
     e << "monitor/change_span_s must be >= 0 s (got " << m.change_span_s << "); ";
   if (!(m.fresh_fraction > 0 && m.fresh_fraction <= 1))
     e << "monitor/fresh_fraction must be in (0, 1] (got " << m.fresh_fraction << "); ";
+  if (m.pair_check_keyframes < 0)
+    e << "monitor/pair_check_keyframes must be >= 0 (got " << m.pair_check_keyframes << "); ";
 }
 
 bool validateNodeParams(const NodeParams& p, std::string* error) {

@@ -105,4 +105,11 @@ void ExtrinsicMonitor::restarted() {
   status_.state = MonitorState::kRecalibrating;  // since: kept from `changed`
 }
 
+void ExtrinsicMonitor::dropSuspicion() {
+  if (status_.state != MonitorState::kSuspect) return;
+  status_.evidence = 0;
+  run_.clear();
+  setState(MonitorState::kCalibrated, status_.since);
+}
+
 }  // namespace tescalib

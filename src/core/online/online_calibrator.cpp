@@ -100,6 +100,9 @@ FrameResult OnlineCalibrator::admitKeyframe(std::shared_ptr<Keyframe> keyframe, 
     return FrameResult::kRejected;
   }
   if (built) *built = keyframe;
+  recent_.push_back(keyframe);
+  while (static_cast<int>(recent_.size()) > 2 * settings_.monitor.pair_check_keyframes)
+    recent_.pop_front();
   window_.add(std::move(keyframe));
   ++new_keyframes_;
   return FrameResult::kKeyframe;
@@ -107,6 +110,7 @@ FrameResult OnlineCalibrator::admitKeyframe(std::shared_ptr<Keyframe> keyframe, 
 
 void OnlineCalibrator::clearWindow() {
   window_.clear();
+  recent_.clear();
   previous_scan_.reset();
   last_solve_.reset();  // it described the window just cleared
   last_keyframe_stamp_ = -1e300;
@@ -160,6 +164,8 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
   // fails this solve, not the node: the published estimate stays.
   try {
     result = solveWindow(input, rig_, settings_, &cancel_);
+    if (!input.pair_check.empty() && !cancel_)
+      result.pair_check = checkStereoPair(input.pair_check, rig_, *input.published, settings_);
   } catch (const std::exception& ex) {
     *msg = std::string("the solve failed: ") + ex.what() +
            (input.published ? " (keeping the previous estimate)" : " (nothing published yet)");
@@ -194,7 +200,22 @@ bool OnlineCalibrator::startSolve(bool recording_ended, WindowSolveInput* input,
   input->T_right_left = estimate_ ? estimate_->T_right_left : rig_.T_right_left;
   input->search_start = next_search_start_;
   input->last_converged = !last_solve_ || last_solve_->converged;
+  input->recalibrating = monitor_.lidar_to_left.status().state == MonitorState::kRecalibrating ||
+                         monitor_.left_to_right.status().state == MonitorState::kRecalibrating;
+  input->pair_check = pairCheckKeyframes();
   return true;
+}
+
+std::vector<std::shared_ptr<const Keyframe>> OnlineCalibrator::pairCheckKeyframes() const {
+  const MonitorSettings& m = settings_.monitor;
+  if (m.pair_check_keyframes <= 0 || m.action == "off" || !estimate_ ||
+      !estimate_->stereo_estimated || holdsChange(monitor_.lidar_to_left.status()))
+    return {};
+  std::vector<std::shared_ptr<const Keyframe>> fresh;
+  for (const auto& k : recent_)
+    if (monitor_.left_to_right.isNew(k->stamp)) fresh.push_back(k);
+  if (static_cast<int>(fresh.size()) < m.pair_check_keyframes) return {};
+  return fresh;
 }
 
 bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t generation,
@@ -244,11 +265,9 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
   return true;
 }
 
-std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input,
-                                           const WindowSolveResult& result) {
-  const MonitorSettings& m = settings_.monitor;
+void OnlineCalibrator::observeLidar(const WindowSolveInput& input,
+                                    const WindowSolveResult& result) {
   const OnlineEstimate& e = result.estimate;
-  if (m.action == "off" || !estimate_) return "";
   std::vector<double> stamps;
   for (const auto& k : input.keyframes) stamps.push_back(k->stamp);
   if (e.converged && e.cov_lidar_known)
@@ -257,9 +276,36 @@ std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input,
     monitor_.lidar_to_left.observe(half->stamps, half->T_cam_lidar, half->covariance, true);
   else if (result.settled_unconstrained)
     monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar);
+}
+
+void OnlineCalibrator::observePair(const WindowSolveInput& input, const WindowSolveResult& result) {
+  const OnlineEstimate& e = result.estimate;
+  // The pair check first: the window's own left-right estimate then counts only when it is
+  // fresh beside it.
+  if (const auto& check = result.pair_check)
+    monitor_.left_to_right.observe(check->stamps, check->T_right_left, check->covariance);
   if ((e.converged || result.stereo_settled) && e.stereo_estimated && e.cov_stereo_known &&
-      estimate_->stereo_estimated)
+      estimate_->stereo_estimated) {
+    std::vector<double> stamps;
+    for (const auto& k : input.keyframes) stamps.push_back(k->stamp);
     monitor_.left_to_right.observe(stamps, e.T_right_left, e.cov_stereo);
+  }
+}
+
+std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input,
+                                           const WindowSolveResult& result) {
+  const MonitorSettings& m = settings_.monitor;
+  if (m.action == "off" || !estimate_) return "";
+  ExtrinsicMonitor &lidar = monitor_.lidar_to_left, &pair = monitor_.left_to_right;
+  // Each extrinsic's evidence is measured through the other (the stereo clouds are rectified for
+  // the published pair, the pair check's depths come from the published LiDAR extrinsic): while
+  // one holds a change, the other is not checked, and a change declared drops the other's
+  // suspicion.
+  const bool lidar_held = holdsChange(lidar.status()), pair_held = holdsChange(pair.status());
+  if (!pair_held) observeLidar(input, result);
+  if (!lidar_held) observePair(input, result);
+  if (lidar.status().state == MonitorState::kChanged) pair.dropSuspicion();
+  if (pair.status().state == MonitorState::kChanged) lidar.dropSuspicion();
   const MonitorStatus* changed = nullptr;
   std::string note;
   for (const auto* s : {&monitor_.lidar_to_left.status(), &monitor_.left_to_right.status()}) {

@@ -32,8 +32,8 @@ CoCalibrationSettings coSettings(const WindowSolveInput& in, const OnlineSetting
   // (generated windows: 0.03-0.07 deg off; real KITTI 0.13-0.15 deg).
   if (current) cs.stereo_from_features = false;
   // Warm only from a co-calibration: a LiDAR-first estimate has the stereo pair at its start.
-  const bool from_co =
-      current && current->stereo_estimated && s.warm_start_fine_only && in.last_converged;
+  const bool from_co = current && current->stereo_estimated && s.warm_start_fine_only &&
+                       in.last_converged && !in.recalibrating;
   // The joint solve has no warm rounds: it starts from the estimate (see OnlineSettings), and
   // its initial round's LiDAR-stereo solve runs the fine stage alone, as a warm LiDAR-stereo
   // update does.

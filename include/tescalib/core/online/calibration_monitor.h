@@ -62,6 +62,9 @@ class ExtrinsicMonitor {
   void published(double newest, const Eigen::Isometry3d& T, const Matrix6d& cov, bool full = true);
   /// The window restarted from the keyframes after the change: `recalibrating`.
   void restarted();
+  /// The other extrinsic was declared changed, and this one's evidence was measured through it:
+  /// a suspicion is dropped (back to `calibrated`, no evidence); other states stay.
+  void dropSuspicion();
   /// The window was cleared with the estimate kept (time went backwards): the next window is
   /// fresh whatever its stamps.
   void forgetStamps() { last_newest_ = -1e300; }
@@ -74,6 +77,14 @@ class ExtrinsicMonitor {
   }
 
   const MonitorStatus& status() const { return status_; }
+  /// Whether a keyframe at `stamp` is new evidence: the extrinsic is checked (calibrated or
+  /// suspect, against a full window's reference) and the keyframe is newer than every keyframe
+  /// of the last window counted.
+  bool isNew(double stamp) const {
+    return (status_.state == MonitorState::kCalibrated ||
+            status_.state == MonitorState::kSuspect) &&
+           !provisional_ && stamp > last_newest_;
+  }
 
  private:
   bool setState(MonitorState state, double stamp);
@@ -96,6 +107,11 @@ class ExtrinsicMonitor {
   Eigen::Isometry3d reference_ = Eigen::Isometry3d::Identity();
   Matrix6d reference_cov_ = Matrix6d::Zero();
 };
+
+/// Whether `status` holds a change (`changed` or `recalibrating`).
+inline bool holdsChange(const MonitorStatus& status) {
+  return status.state == MonitorState::kChanged || status.state == MonitorState::kRecalibrating;
+}
 
 /// Both extrinsics' monitors.
 struct CalibrationMonitor {

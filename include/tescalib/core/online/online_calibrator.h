@@ -133,14 +133,23 @@ class OnlineCalibrator {
   /// window holds too few keyframes.
   bool startSolve(bool recording_ended, WindowSolveInput* input, uint64_t* generation,
                   std::string* msg);
-  /// Feeds a solve's estimate to the monitor (a converged one; else the newer half of a window
-  /// whose halves disagreed, when that half is trusted: a window straddling a change of the
-  /// LiDAR's extrinsic does not converge as a whole; else a settled window that only leaves some
-  /// axis unconstrained); returns why the monitor holds it back
+  /// Feeds a solve's estimates to the monitors (observeLidar, observePair; neither while the
+  /// other extrinsic holds a change); returns why the monitor holds it back
   /// (empty: it does not), restarts the window on `changed` with MonitorSettings::action
   /// recalibrate, and keeps the window oldest-first while either extrinsic is suspect.
   std::string monitorSolve(const WindowSolveInput& input,
                            const WindowSolveResult& result);  ///< REQUIRES(mutex_)
+  /// A solve's evidence for the lidar_to_left monitor (monitorSolve).
+  void observeLidar(const WindowSolveInput& input,
+                    const WindowSolveResult& result);  ///< REQUIRES(mutex_)
+  /// A solve's evidence for the left_to_right monitor: its pair check, then its window's
+  /// left-right estimate (monitorSolve).
+  void observePair(const WindowSolveInput& input,
+                   const WindowSolveResult& result);  ///< REQUIRES(mutex_)
+  /// The keyframes due for a pair check (pair_check.h): those of `recent_` new to the
+  /// left_to_right monitor, when they are MonitorSettings::pair_check_keyframes or more and a
+  /// co-calibrated pair is published; else none.
+  std::vector<std::shared_ptr<const Keyframe>> pairCheckKeyframes() const;  ///< REQUIRES(mutex_)
   /// Records a solve's result and publishes it when the publish policy lets it.
   bool concludeSolve(const WindowSolveInput& input, uint64_t generation, WindowSolveResult result,
                      std::string* msg, OnlineEstimate* published);
@@ -169,6 +178,9 @@ class OnlineCalibrator {
   /// the warm updates after it (CoCalibrationSettings::reuse_lidar_sensitivity).
   std::optional<Matrix6d> co_sensitivity_;
   CalibrationMonitor monitor_;  ///< GUARDED_BY(mutex_)
+  /// GUARDED_BY(mutex_): the newest keyframes admitted, whether the window keeps them or not
+  /// (at most twice MonitorSettings::pair_check_keyframes), for the pair check.
+  std::deque<std::shared_ptr<const Keyframe>> recent_;
 };
 
 }  // namespace tescalib

@@ -32,6 +32,10 @@ struct MonitorSettings {
   /// A solve's window counts as fresh evidence when at least this fraction of its keyframes is
   /// newer than every keyframe of the last window counted (non-overlapping windows).
   double fresh_fraction = 0.6;
+  /// With co-calibration: once this many keyframes are newer than the left_to_right monitor's
+  /// last fresh window, the pair is solved on them alone (pair_check.h) and that is its fresh
+  /// window. 0: only the window's solves are evidence.
+  int pair_check_keyframes = 4;
 };
 
 struct OnlineSettings {

@@ -15,6 +15,7 @@
 #include "tescalib/core/common/types.h"
 #include "tescalib/core/online/online_estimate.h"
 #include "tescalib/core/online/online_settings.h"
+#include "tescalib/core/online/pair_check.h"
 #include "tescalib/core/solvers/keyframe.h"
 
 namespace tescalib {
@@ -47,6 +48,11 @@ struct WindowSolveInput {
   /// failure, an extrinsic that changed by more than the fine stage's basin among the causes,
   /// the coarse stage brings the start in.
   bool last_converged = true;
+  /// An extrinsic is recalibrating (MonitorState::kRecalibrating): the published estimate is of
+  /// the rig before the change, so a co-calibration runs in full, not as warm rounds from it.
+  bool recalibrating = false;
+  /// The newest keyframes, for a pair check (pair_check.h) after the solve; empty: none due.
+  std::vector<std::shared_ptr<const Keyframe>> pair_check;
 };
 
 /// The newer half of a window whose two halves disagreed (LidarStereoResult::Halves), solved on
@@ -94,6 +100,8 @@ struct WindowSolveResult {
   bool searched = false;
   /// Set when the LiDAR-stereo solve's halves disagreed and the newer one is trusted.
   std::optional<NewerHalfEstimate> newer_half;
+  /// The pair check of the input's `pair_check` keyframes, when it converged.
+  std::optional<PairCheck> pair_check;
 };
 
 /// Solves the window. Throws what the solvers throw (a DataError on an estimate gone far off,
