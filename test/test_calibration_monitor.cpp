@@ -84,7 +84,7 @@ TEST(CalibrationMonitor, StatesFollowTheEvidence) {
   EXPECT_TRUE(m.observe(window(9.5), atChi2(500), kUnit));  // 9 of 10 keyframes after 5 s: fresh
   EXPECT_EQ(m.status().state, MonitorState::kSuspect);
   EXPECT_DOUBLE_EQ(m.status().change_after, 9.5);
-  EXPECT_NEAR(m.status().evidence, 500 - 22.46, 1e-9);
+  EXPECT_NEAR(m.status().evidence, 40, 1e-9);  // 500 - 22.46, at most two thirds of h
   // Far beyond cusum_h, but 5 s of driving since `suspect` are less than the span's 8 s.
   EXPECT_FALSE(m.observe(window(14.5), atChi2(500), kUnit));
   EXPECT_EQ(m.status().state, MonitorState::kSuspect);
@@ -114,6 +114,26 @@ TEST(CalibrationMonitor, StatesFollowTheEvidence) {
   EXPECT_EQ(m.status().state, MonitorState::kCalibrating);
 }
 
+TEST(CalibrationMonitor, OneWindowFarOffDeclaresNothing) {
+  // One window at chi2 900 (a solve gone astray), then windows that agree: the evidence it
+  // raised drains, and no change is declared however long the span.
+  MonitorSettings s;  // k 22.46, h 60, span 3 s
+  ExtrinsicMonitor m(s);
+  m.published(5, kI, kUnit);
+  EXPECT_TRUE(m.observe(window(10), atChi2(900), kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kSuspect);
+  EXPECT_NEAR(m.status().evidence, 40, 1e-9);
+  for (double t = 15; t <= 40; t += 5) {
+    m.observe(window(t), atChi2(3), kUnit);
+    EXPECT_NE(m.status().state, MonitorState::kChanged) << t;
+  }
+  EXPECT_EQ(m.status().state, MonitorState::kCalibrated);
+  // Two such windows are a change.
+  EXPECT_TRUE(m.observe(window(45), atChi2(900), kUnit));
+  EXPECT_TRUE(m.observe(window(50), atChi2(900), kUnit));
+  EXPECT_EQ(m.status().state, MonitorState::kChanged);
+}
+
 TEST(CalibrationMonitor, ASuspicionMeasuredThroughTheOtherExtrinsicIsDropped) {
   MonitorSettings s;  // k 22.46, h 60
   s.change_span_s = 0;
@@ -135,7 +155,8 @@ TEST(CalibrationMonitor, ASuspicionMeasuredThroughTheOtherExtrinsicIsDropped) {
   EXPECT_NEAR(m.status().evidence, 40 - 22.46, 1e-9);
   EXPECT_DOUBLE_EQ(m.status().change_after, 14.5);
   // A change declared is not dropped.
-  EXPECT_TRUE(m.observe(window(19.5), atChi2(500), kUnit));
+  EXPECT_FALSE(m.observe(window(19.5), atChi2(500), kUnit));  // 17.5 + 40 at most
+  EXPECT_TRUE(m.observe(window(24.5), atChi2(500), kUnit));
   EXPECT_EQ(m.status().state, MonitorState::kChanged);
   m.dropSuspicion();
   EXPECT_EQ(m.status().state, MonitorState::kChanged);
@@ -258,7 +279,8 @@ TEST(CalibrationMonitor, WindowsThatSawTheOldExtrinsicAreNotAfterTheChange) {
   EXPECT_DOUBLE_EQ(m.status().change_after, 20);
   EXPECT_FALSE(m.observe(window(25), atChi2(15), kUnit));  // evidence 17.5 - 7.5: still > 0
   EXPECT_EQ(m.status().state, MonitorState::kSuspect);
-  EXPECT_TRUE(m.observe(window(30), atChi2AlongY(400), kUnit));
+  EXPECT_FALSE(m.observe(window(30), atChi2AlongY(400), kUnit));  // + 40 at most: 50.1
+  EXPECT_TRUE(m.observe(window(35), atChi2AlongY(400), kUnit));
   EXPECT_EQ(m.status().state, MonitorState::kChanged);
   EXPECT_DOUBLE_EQ(m.status().change_after, 25);
   // The same run whose windows all agree with the declaring estimate (they saw the new

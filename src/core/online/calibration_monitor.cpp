@@ -49,7 +49,10 @@ bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, const Eigen::I
   last_newest_ = newest;
   ++status_.fresh_windows;
   status_.last_chi2 = chi2;
-  status_.evidence = std::max(0.0, status_.evidence + chi2 - settings_.cusum_k);
+  // A window adds at most two thirds of cusum_h: however far off, one alone declares nothing,
+  // and its weight drains with the next agreeing windows.
+  const double excess = std::min(chi2 - settings_.cusum_k, 2.0 / 3.0 * settings_.cusum_h);
+  status_.evidence = std::max(0.0, status_.evidence + excess);
   if (status_.evidence <= 0) {
     run_.clear();
     return setState(MonitorState::kCalibrated, newest);

@@ -1,7 +1,8 @@
 // The calibration monitor: after the first trusted estimate, each fresh window's estimate of an
 // extrinsic is compared with a reference, a published estimate from a window it does not overlap
 // (chi2 with both covariances, 6 DoF), and a CUSUM accumulates the excess over
-// MonitorSettings::cusum_k across these non-overlapping windows. The reference moves on only to
+// MonitorSettings::cusum_k (at most two thirds of cusum_h per window) across these
+// non-overlapping windows. The reference moves on only to
 // the estimate of a fresh window that agreed with it: estimates published in between (each
 // solve's window slides by one keyframe) cannot carry it along a change. States per
 // extrinsic: calibrating -> calibrated -> suspect (evidence above 0) -> changed (evidence above

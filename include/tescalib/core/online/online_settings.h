@@ -22,12 +22,13 @@ struct MonitorSettings {
   /// `recalibrating` the old extrinsic stays published (and on the node's /tf_static).
   std::string action = "recalibrate";
   /// The CUSUM's reference value: each fresh window adds chi2 - cusum_k to the evidence (never
-  /// below 0). 22.46 is chi2's 99.9 % quantile with 6 DoF.
+  /// below 0), at most two thirds of cusum_h (one window alone, however far off, declares
+  /// nothing). 22.46 is chi2's 99.9 % quantile with 6 DoF.
   double cusum_k = 22.46;
   /// Evidence at which the extrinsic counts as changed (with change_span_s of driving).
   double cusum_h = 60.0;
   /// s of driving from the first window that raised the evidence (`suspect`) to the one that
-  /// declares `changed`: a single window, however far off, is never enough.
+  /// declares `changed`.
   double change_span_s = 3.0;
   /// A solve's window counts as fresh evidence when at least this fraction of its keyframes is
   /// newer than every keyframe of the last window counted (non-overlapping windows).
