@@ -160,6 +160,8 @@ void readMonitor(Visit& get, NodeParams* p) {
   get("monitor/change_span_s", &p->online.monitor.change_span_s);
   get("monitor/fresh_fraction", &p->online.monitor.fresh_fraction);
   get("monitor/pair_check_keyframes", &p->online.monitor.pair_check_keyframes);
+  get("monitor/pair_check_lidar_change_deg", &p->online.monitor.pair_check_lidar_change_deg);
+  get("monitor/pair_check_lidar_change_m", &p->online.monitor.pair_check_lidar_change_m);
 }
 
 template <typename Visit>
@@ -416,6 +418,8 @@ void checkMonitor(const MonitorSettings& m, std::ostringstream& e) {
     e << "monitor/fresh_fraction must be in (0, 1] (got " << m.fresh_fraction << "); ";
   if (m.pair_check_keyframes < 0)
     e << "monitor/pair_check_keyframes must be >= 0 (got " << m.pair_check_keyframes << "); ";
+  if (!nonNegative(m.pair_check_lidar_change_deg) || !nonNegative(m.pair_check_lidar_change_m))
+    e << "monitor/pair_check_lidar_change_deg and _m must be >= 0; ";
 }
 
 bool validateNodeParams(const NodeParams& p, std::string* error) {

@@ -5,6 +5,7 @@
 #include "tescalib/core/common/timing.h"
 #include "tescalib/core/solvers/co_calibration.h"
 #include "tescalib/core/solvers/co_calibration_covariance.h"
+#include "tescalib/core/uncertainty/trust.h"
 
 namespace tescalib {
 
@@ -25,6 +26,14 @@ std::optional<PairCheck> checkStereoPair(
   LidarStereoResult no_scale;
   no_scale.stereo_scale_variance = 0;
   coStereoCovariance(no_scale, settings.co, &r, published.cov_lidar_given_stereo);
+  // A LiDAR change since the last check moves the depths, and through them the pair.
+  Matrix6d lidar_change = Matrix6d::Zero();
+  const MonitorSettings& m = settings.monitor;
+  addAxisVariances(
+      &lidar_change,
+      {m.pair_check_lidar_change_deg, m.pair_check_lidar_change_deg, m.pair_check_lidar_change_deg},
+      {m.pair_check_lidar_change_m, m.pair_check_lidar_change_m, m.pair_check_lidar_change_m});
+  r.covariance += r.lidar_sensitivity * lidar_change * r.lidar_sensitivity.transpose();
   if (!r.covariance.allFinite()) return std::nullopt;
   PairCheck check;
   for (const auto& k : keyframes) check.stamps.push_back(k->stamp);

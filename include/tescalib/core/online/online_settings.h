@@ -37,6 +37,12 @@ struct MonitorSettings {
   /// last fresh window, the pair is solved on them alone (pair_check.h) and that is its fresh
   /// window. 0: only the window's solves are evidence.
   int pair_check_keyframes = 4;
+  /// The pair check takes its depth from the published LiDAR extrinsic, which may itself have
+  /// changed since its last check: its covariance allows a LiDAR change of this size (1 sigma per
+  /// axis, through the check's LiDAR sensitivity), so that a LiDAR bump is not taken for a change
+  /// of the pair; directions of the pair a LiDAR change does not move keep their precision.
+  double pair_check_lidar_change_deg = 0.5;
+  double pair_check_lidar_change_m = 0.05;
 };
 
 struct OnlineSettings {

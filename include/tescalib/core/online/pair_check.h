@@ -26,7 +26,8 @@ struct PairCheck {
   std::vector<double> stamps;  ///< its keyframes' stamps
   Eigen::Isometry3d T_right_left = Eigen::Isometry3d::Identity();
   /// With the published LiDAR extrinsic's uncertainty and the left-right model error, as a
-  /// co-calibration's (coStereoCovariance); the baseline length stays the published one.
+  /// co-calibration's (coStereoCovariance), and a LiDAR change of MonitorSettings::
+  /// pair_check_lidar_change_*; the baseline length stays the published one.
   Matrix6d covariance = Matrix6d::Zero();
   double seconds = 0;
 };
