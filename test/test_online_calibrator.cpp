@@ -429,6 +429,9 @@ TEST(OnlineCalibratorGenerated, APairCheckOnTheNewestKeyframesFindsAChangedPair)
               << to_now.tail<3>().norm() * 1000 << " mm off the pair, chi2 " << chi2_to_old
               << " from the published one, " << check->seconds << " s\n";
     EXPECT_EQ(check->stamps.size(), keyframes.size());
+    // A keyframe without images or LiDAR is no check, not an exception.
+    EXPECT_FALSE(checkStereoPair({std::make_shared<Keyframe>()}, before, published, coCalibrating())
+                     .has_value());
     if (std::string(bump) == "stereo") {
       EXPECT_LT(to_now.head<3>().norm() * kDegPerRad, 0.03);
       EXPECT_GT(chi2_to_old, 10 * MonitorSettings().cusum_k);

@@ -1,6 +1,7 @@
 #include "tescalib/core/online/pair_check.h"
 
 #include <chrono>
+#include <exception>
 
 #include "tescalib/core/common/timing.h"
 #include "tescalib/core/solvers/co_calibration.h"
@@ -18,8 +19,12 @@ std::optional<PairCheck> checkStereoPair(
   if (window.empty()) return std::nullopt;
   // The cold solve's pyramid: a changed pair can be pixels away from the published one.
   const PhotometricSettings ps = coPhotometricSettings(settings.co, false);
-  PhotometricResult r =
-      solvePhotometric(window, rig, published.T_cam_lidar, published.T_right_left, ps);
+  PhotometricResult r;
+  try {
+    r = solvePhotometric(window, rig, published.T_cam_lidar, published.T_right_left, ps);
+  } catch (const std::exception&) {
+    return std::nullopt;  // no check: the window's own solve is the evidence
+  }
   if (!r.converged || !r.covariance_known) return std::nullopt;
   // The length is the published one, held: no variance of its own (the reference's covariance
   // holds the published length's).

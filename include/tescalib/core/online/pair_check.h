@@ -33,8 +33,8 @@ struct PairCheck {
 };
 
 /// Solves the pair on `keyframes` (the newest ones) from `published`; nullopt when the solve does
-/// not converge with a known covariance (too little texture, a change beyond its basin: then
-/// the window's own solves are the evidence).
+/// not converge with a known covariance or throws (too little texture, a change beyond its basin,
+/// data it cannot use: then the window's own solves are the evidence).
 std::optional<PairCheck> checkStereoPair(
     const std::vector<std::shared_ptr<const Keyframe>>& keyframes, const StereoRig& rig,
     const OnlineEstimate& published, const OnlineSettings& settings);
