@@ -35,10 +35,7 @@ bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, const Eigen::I
                                const Matrix6d& cov, bool newer_half) {
   const MonitorState s = status_.state;
   if (stamps.empty() || !cov.allFinite()) return false;
-  // Only a calibrated or suspect extrinsic is checked; `changed` holds until recalibrated or
-  // reset, and the other states have no estimate to check against.
-  if (s != MonitorState::kCalibrated && s != MonitorState::kSuspect) return false;
-  if (provisional_) return false;
+  if (!checked()) return false;
   const long fresh =
       std::count_if(stamps.begin(), stamps.end(), [this](double t) { return t > last_newest_; });
   if (fresh < settings_.fresh_fraction * static_cast<double>(stamps.size())) return false;

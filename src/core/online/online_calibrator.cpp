@@ -200,8 +200,7 @@ bool OnlineCalibrator::startSolve(bool recording_ended, WindowSolveInput* input,
   input->T_right_left = estimate_ ? estimate_->T_right_left : rig_.T_right_left;
   input->search_start = next_search_start_;
   input->last_converged = !last_solve_ || last_solve_->converged;
-  input->recalibrating = monitor_.lidar_to_left.status().state == MonitorState::kRecalibrating ||
-                         monitor_.left_to_right.status().state == MonitorState::kRecalibrating;
+  input->recalibrating = recalibrating();
   input->pair_check = pairCheckKeyframes();
   return true;
 }
@@ -238,10 +237,7 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
   OnlineEstimate& e = result.estimate;
   e.solve_id = ++solves_kept_;
   e.chi2_to_published = chi2ToPublished(e, estimate_);
-  const bool recalibrating =
-      monitor_.lidar_to_left.status().state == MonitorState::kRecalibrating ||
-      monitor_.left_to_right.status().state == MonitorState::kRecalibrating;
-  std::string refusal = publicationRefusal(e, estimate_, settings_, *msg, recalibrating);
+  std::string refusal = publicationRefusal(e, estimate_, settings_, *msg, recalibrating());
   const std::string monitor_note = monitorSolve(input, result);
   if (!monitor_note.empty())
     refusal = refusal.empty() ? monitor_note : refusal + "; " + monitor_note;
@@ -265,11 +261,25 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
   return true;
 }
 
+namespace {
+
+std::vector<double> stampsOf(const std::vector<std::shared_ptr<Keyframe>>& keyframes) {
+  std::vector<double> stamps;
+  for (const auto& k : keyframes) stamps.push_back(k->stamp);
+  return stamps;
+}
+
+}  // namespace
+
+bool OnlineCalibrator::recalibrating() const {
+  return monitor_.lidar_to_left.status().state == MonitorState::kRecalibrating ||
+         monitor_.left_to_right.status().state == MonitorState::kRecalibrating;
+}
+
 void OnlineCalibrator::observeLidar(const WindowSolveInput& input,
                                     const WindowSolveResult& result) {
   const OnlineEstimate& e = result.estimate;
-  std::vector<double> stamps;
-  for (const auto& k : input.keyframes) stamps.push_back(k->stamp);
+  const std::vector<double> stamps = stampsOf(input.keyframes);
   if (e.converged && e.cov_lidar_known)
     monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar);
   else if (const auto& half = result.newer_half)
@@ -285,11 +295,8 @@ void OnlineCalibrator::observePair(const WindowSolveInput& input, const WindowSo
   if (const auto& check = result.pair_check)
     monitor_.left_to_right.observe(check->stamps, check->T_right_left, check->covariance);
   if ((e.converged || result.stereo_settled) && e.stereo_estimated && e.cov_stereo_known &&
-      estimate_->stereo_estimated) {
-    std::vector<double> stamps;
-    for (const auto& k : input.keyframes) stamps.push_back(k->stamp);
-    monitor_.left_to_right.observe(stamps, e.T_right_left, e.cov_stereo);
-  }
+      estimate_->stereo_estimated)
+    monitor_.left_to_right.observe(stampsOf(input.keyframes), e.T_right_left, e.cov_stereo);
 }
 
 std::string OnlineCalibrator::monitorSolve(const WindowSolveInput& input,

@@ -81,14 +81,18 @@ class ExtrinsicMonitor {
   /// Whether a keyframe at `stamp` is new evidence: the extrinsic is checked (calibrated or
   /// suspect, against a full window's reference) and the keyframe is newer than every keyframe
   /// of the last window counted.
-  bool isNew(double stamp) const {
-    return (status_.state == MonitorState::kCalibrated ||
-            status_.state == MonitorState::kSuspect) &&
-           !provisional_ && stamp > last_newest_;
-  }
+  bool isNew(double stamp) const { return checked() && stamp > last_newest_; }
 
  private:
   bool setState(MonitorState state, double stamp);
+  /// Whether windows are checked: calibrated or suspect (`changed` holds until recalibrated or
+  /// reset, and the other states have no estimate to check against), with a full window's
+  /// reference.
+  bool checked() const {
+    return (status_.state == MonitorState::kCalibrated ||
+            status_.state == MonitorState::kSuspect) &&
+           !provisional_;
+  }
   /// change_after from the windows counted since the evidence last was 0 (MonitorStatus).
   double changeAfter() const;
 

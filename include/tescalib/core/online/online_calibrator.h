@@ -139,6 +139,8 @@ class OnlineCalibrator {
   /// recalibrate, and keeps the window oldest-first while either extrinsic is suspect.
   std::string monitorSolve(const WindowSolveInput& input,
                            const WindowSolveResult& result);  ///< REQUIRES(mutex_)
+  /// Whether an extrinsic is recalibrating (MonitorState::kRecalibrating).
+  bool recalibrating() const;  ///< REQUIRES(mutex_)
   /// A solve's evidence for the lidar_to_left monitor (monitorSolve).
   void observeLidar(const WindowSolveInput& input,
                     const WindowSolveResult& result);  ///< REQUIRES(mutex_)

@@ -7,7 +7,6 @@
 // the old pair.
 #pragma once
 
-#include <atomic>
 #include <memory>
 #include <optional>
 #include <vector>
