@@ -88,6 +88,7 @@ OnlineEstimate someEstimate() {
   e.converged = true;
   e.stereo_estimated = true;
   e.keyframes_used = 7;
+  e.windows_averaged = 3;
   e.stamp = 1317384000.123456789;
   return e;
 }
@@ -118,6 +119,7 @@ TEST(CalibrationIo, FilesReadBackAsTheEstimate) {
   const std::string yaml = readAll(base + ".yaml");
   EXPECT_NE(yaml.find("converged: true"), std::string::npos);
   EXPECT_NE(yaml.find("keyframes_used: 7"), std::string::npos);
+  EXPECT_NE(yaml.find("windows_averaged: 3"), std::string::npos);
   EXPECT_NE(yaml.find("stamp: 1317384000.123456"), std::string::npos) << yaml;  // not 1.3e9
   EXPECT_NE(yaml.find("child_frame: my_lidar"), std::string::npos);
   EXPECT_NE(yaml.find("sigma_trans_m: [0.001, 0.001, 0.02]"), std::string::npos) << yaml;
@@ -807,7 +809,7 @@ TEST(CalibrateTool, TheMonitorHoldsBackEstimatesOnceALidarBumpIsSuspected) {
   // the monitor's state.
   TempDir tmp;
   SimOptions o;
-  o.frames = 90;
+  o.frames = 100;
   o.seed = 21;
   o.write_every = 5;
   o.step.at_s = 4.0;

@@ -1154,3 +1154,43 @@ TEST(OnlineCalibratorGenerated, RejectsDarkBlindedAndBlurredImagesWithTheReason)
   EXPECT_GT(points["right exposed 2x"], 0.8 * points["as rendered"]);
   EXPECT_THROW(imageQuality(cv::Mat(10, 10, CV_16UC1, cv::Scalar(1000))), DataError);
 }
+
+TEST(OnlineCalibratorGenerated, OnceCalibratedThePublishedEstimateAveragesFreshWindows) {
+  // Twenty keyframes, a solve after each, LiDAR-stereo, window 10. Once a full window's estimate
+  // is published, the solves whose windows overlap the last counted one are held (as routine,
+  // not as a problem) and the next counted window that agrees is published as the mean of the
+  // two windows, within the end-to-end test's accuracy of the truth.
+  const tescalib_test::SharedDrive& drive = tescalib_test::sharedUrbanDrive(7, 96);
+  OnlineSettings settings;
+  settings.estimate_stereo = false;
+  OnlineCalibrator cal(perturbedRig(drive.sim(), 5, 1.0, 0.1), settings);
+  std::string msg;
+  int held = 0, averaged = 0, before_full = 0;
+  for (int i = 0; i < 96; i += 5) {
+    const Frame& f = drive.frame(i);
+    ASSERT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+    if (!cal.readyToSolve()) continue;
+    OnlineEstimate published;
+    if (cal.solve(&msg, &published)) {
+      if (published.windows_averaged > 1) {
+        ++averaged;
+        const Vector6d e = poseError(published.T_cam_lidar, drive.sim().rig().T_cam_lidar);
+        std::cout << "[ average  ] mean of " << published.windows_averaged << " windows at "
+                  << published.stamp << " s: " << e.head<3>().norm() * kDegPerRad << " deg / "
+                  << e.tail<3>().norm() * 100 << " cm\n";
+        EXPECT_LT(e.head<3>().norm() * kDegPerRad, 0.2);
+        EXPECT_LT(e.tail<3>().norm(), 0.03);
+      } else {
+        before_full += averaged == 0;
+      }
+    } else if (cal.lastSolve() && cal.lastSolve()->held_between_windows) {
+      ++held;
+      EXPECT_NE(msg.find("held: the published estimate is the mean of"), std::string::npos) << msg;
+    }
+  }
+  std::cout << "[ average  ] " << before_full << " published before averaging, " << held
+            << " held, " << averaged << " averaged\n";
+  EXPECT_GE(before_full, 1);
+  EXPECT_GE(held, 3);
+  EXPECT_GE(averaged, 1);
+}

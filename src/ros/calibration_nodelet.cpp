@@ -423,11 +423,12 @@ void CalibrationNodelet::solveLoop() {
       publishEstimateMsgs(*c, h, candidate_lidar_pub_, candidate_stereo_pub_);
       publishStatus();
     }
-    if (updated) {
+    if (updated)
       publishSolved(*e, latency);
-    } else {
+    else if (c && c->held_between_windows)
+      NODELET_DEBUG("tescalib: %s", msg.c_str());
+    else
       NODELET_WARN_THROTTLE(5.0, "tescalib: %s", msg.c_str());
-    }
   }
 }
 
@@ -455,6 +456,8 @@ void CalibrationNodelet::publishSolved(const OnlineEstimate& e, double latency) 
     kind = "joint co-calibration, " + std::to_string(e.co_rounds) + " outer iteration(s)";
   else if (e.co_rounds > 0)
     kind = "co-calibration, " + std::to_string(e.co_rounds) + " round(s)";
+  if (e.windows_averaged > 1)
+    kind += ", the mean of " + std::to_string(e.windows_averaged) + " windows";
   NODELET_INFO(
       "tescalib: new estimate from %d keyframes in %.2f s (keyframe to estimate %.2f s; %s)",
       e.keyframes_used, last_solve_seconds_.load(), latency, kind.c_str());
@@ -485,11 +488,14 @@ void CalibrationNodelet::publishEstimateMsgs(const OnlineEstimate& e, const std_
       e.converged, e.keyframes_used, e.cost_lidar, e.iterations_lidar, e.message, true,
       e.weakest_lidar, e.cov_lidar_known);
   if (quality) ros_conv::setQuality(*quality, &m);
+  m.windows_averaged = static_cast<uint32_t>(e.windows_averaged);
   lidar.publish(m);
-  stereo.publish(ros_conv::toEstimateMsg(
+  ExtrinsicEstimate s = ros_conv::toEstimateMsg(
       h, params_.right_frame, params_.left_frame, e.T_right_left, e.cov_stereo, e.observable_stereo,
       e.converged, e.keyframes_used, e.cost_stereo, e.iterations_stereo, e.message,
-      e.stereo_estimated, e.weakest_stereo, e.cov_stereo_known));
+      e.stereo_estimated, e.weakest_stereo, e.cov_stereo_known);
+  s.windows_averaged = static_cast<uint32_t>(e.windows_averaged);
+  stereo.publish(s);
 }
 
 ros::Time CalibrationNodelet::rosStamp(double stamp) {

@@ -160,6 +160,7 @@ void readMonitor(Visit& get, NodeParams* p) {
   get("monitor/change_span_s", &p->online.monitor.change_span_s);
   get("monitor/fresh_fraction", &p->online.monitor.fresh_fraction);
   get("monitor/pair_check_keyframes", &p->online.monitor.pair_check_keyframes);
+  get("monitor/average_windows", &p->online.monitor.average_windows);
   get("monitor/pair_check_lidar_change_deg", &p->online.monitor.pair_check_lidar_change_deg);
   get("monitor/pair_check_lidar_change_m", &p->online.monitor.pair_check_lidar_change_m);
 }
@@ -416,6 +417,8 @@ void checkMonitor(const MonitorSettings& m, std::ostringstream& e) {
     e << "monitor/change_span_s must be >= 0 s (got " << m.change_span_s << "); ";
   if (!(m.fresh_fraction > 0 && m.fresh_fraction <= 1))
     e << "monitor/fresh_fraction must be in (0, 1] (got " << m.fresh_fraction << "); ";
+  if (m.average_windows < 1)
+    e << "monitor/average_windows must be >= 1 (got " << m.average_windows << "); ";
   if (m.pair_check_keyframes < 0)
     e << "monitor/pair_check_keyframes must be >= 0 (got " << m.pair_check_keyframes << "); ";
   if (!nonNegative(m.pair_check_lidar_change_deg) || !nonNegative(m.pair_check_lidar_change_m))

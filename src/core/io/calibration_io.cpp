@@ -106,6 +106,7 @@ std::string calibrationYaml(const OnlineEstimate& e, const CalibrationFrames& fr
   std::snprintf(stamp, sizeof stamp, "%.9f", e.stamp);  // seconds since 1970 to the nanosecond
   yaml << YAML::BeginMap << YAML::Key << "converged" << YAML::Value << e.converged;
   yaml << YAML::Key << "keyframes_used" << YAML::Value << e.keyframes_used;
+  yaml << YAML::Key << "windows_averaged" << YAML::Value << e.windows_averaged;
   yaml << YAML::Key << "stamp" << YAML::Value << stamp;
   yamlBlock(yaml, "T_cam_lidar", frames.left, frames.lidar, e.T_cam_lidar, e.cov_lidar,
             e.cov_lidar_known, e.observable_lidar, true, e.weakest_lidar);

@@ -1,5 +1,6 @@
 #include "tescalib/core/online/online_calibrator.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
@@ -11,7 +12,8 @@ OnlineCalibrator::OnlineCalibrator(const StereoRig& rig, const OnlineSettings& s
     : rig_(rig),
       settings_(settings),
       window_(settings.window_size, settings.keyframe_selection),
-      monitor_(settings.monitor) {}
+      monitor_(settings.monitor),
+      average_(settings.monitor.average_windows) {}
 
 FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, std::string* msg,
                                        std::shared_ptr<const Keyframe>* built) {
@@ -238,15 +240,21 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
   e.solve_id = ++solves_kept_;
   e.chi2_to_published = chi2ToPublished(e, estimate_);
   std::string refusal = publicationRefusal(e, estimate_, settings_, *msg, recalibrating());
+  const BeforeObserving before = beforeObserving();
   const std::string monitor_note = monitorSolve(input, result);
   if (!monitor_note.empty())
     refusal = refusal.empty() ? monitor_note : refusal + "; " + monitor_note;
+  if (refusal.empty() && before.averaging) {
+    refusal = averageOrHold(before, input, &e);
+    e.held_between_windows = !refusal.empty();
+  }
   if (!refusal.empty()) {
     *msg = refusal;
     last_solve_ = e;
     last_solve_->message = refusal;
     return false;
   }
+  if (!before.averaging) average_.restart(e);
   estimate_ = last_solve_ = e;
   const bool full = e.keyframes_used >= settings_.window_size;
   monitor_.lidar_to_left.published(e.stamp, e.T_cam_lidar, e.cov_lidar, full);
@@ -270,6 +278,40 @@ std::vector<double> stampsOf(const std::vector<std::shared_ptr<Keyframe>>& keyfr
 }
 
 }  // namespace
+
+OnlineCalibrator::BeforeObserving OnlineCalibrator::beforeObserving() const {
+  const ExtrinsicMonitor& lidar = monitor_.lidar_to_left;
+  BeforeObserving b;
+  b.averaging = settings_.monitor.action == "recalibrate" &&
+                settings_.monitor.average_windows > 1 && estimate_ && lidar.checked() &&
+                average_.size() > 0 && !recalibrating();
+  b.counted = lidar.status().fresh_windows;
+  b.last_newest = lidar.lastCountedNewest();
+  return b;
+}
+
+std::string OnlineCalibrator::averageOrHold(const BeforeObserving& before,
+                                            const WindowSolveInput& input, OnlineEstimate* e) {
+  const ExtrinsicMonitor& lidar = monitor_.lidar_to_left;
+  const bool counted = lidar.status().fresh_windows > before.counted &&
+                       lidar.lastCountedNewest() == e->stamp &&
+                       lidar.status().state == MonitorState::kCalibrated;
+  if (!counted) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "held: the published estimate is the mean of %zu fresh windows, and this window "
+                  "overlaps the last one (%.1f chi2 from it)",
+                  average_.size(), e->chi2_to_published);
+    return buf;
+  }
+  const std::vector<double> stamps = stampsOf(input.keyframes);
+  const double share =
+      static_cast<double>(std::count_if(stamps.begin(), stamps.end(),
+                                        [&](double t) { return t > before.last_newest; })) /
+      static_cast<double>(std::max<size_t>(stamps.size(), 1));
+  *e = average_.add(*e, share);
+  return "";
+}
 
 bool OnlineCalibrator::recalibrating() const {
   return monitor_.lidar_to_left.status().state == MonitorState::kRecalibrating ||
@@ -371,6 +413,7 @@ void OnlineCalibrator::reset() {
   std::lock_guard<std::mutex> lock(mutex_);
   clearWindow();
   estimate_.reset();
+  average_.clear();
   co_sensitivity_.reset();
   monitor_.lidar_to_left.reset();
   monitor_.left_to_right.reset();

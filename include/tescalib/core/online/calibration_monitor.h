@@ -82,9 +82,6 @@ class ExtrinsicMonitor {
   /// suspect, against a full window's reference) and the keyframe is newer than every keyframe
   /// of the last window counted.
   bool isNew(double stamp) const { return checked() && stamp > last_newest_; }
-
- private:
-  bool setState(MonitorState state, double stamp);
   /// Whether windows are checked: calibrated or suspect (`changed` holds until recalibrated or
   /// reset, and the other states have no estimate to check against), with a full window's
   /// reference.
@@ -93,6 +90,11 @@ class ExtrinsicMonitor {
             status_.state == MonitorState::kSuspect) &&
            !provisional_;
   }
+  /// The newest keyframe of the last window counted.
+  double lastCountedNewest() const { return last_newest_; }
+
+ private:
+  bool setState(MonitorState state, double stamp);
   /// change_after from the windows counted since the evidence last was 0 (MonitorStatus).
   double changeAfter() const;
 

@@ -23,6 +23,7 @@
 #include "tescalib/core/online/keyframe_window.h"
 #include "tescalib/core/online/online_estimate.h"
 #include "tescalib/core/online/online_settings.h"
+#include "tescalib/core/online/window_average.h"
 #include "tescalib/core/online/window_solve.h"
 #include "tescalib/core/solvers/co_calibration.h"
 #include "tescalib/core/solvers/keyframe.h"
@@ -152,6 +153,17 @@ class OnlineCalibrator {
   /// left_to_right monitor, when they are MonitorSettings::pair_check_keyframes or more and a
   /// co-calibrated pair is published; else none.
   std::vector<std::shared_ptr<const Keyframe>> pairCheckKeyframes() const;  ///< REQUIRES(mutex_)
+  /// Where the lidar_to_left monitor stood before a solve was observed (averageOrHold).
+  struct BeforeObserving {
+    bool averaging = false;  ///< the published estimate averages fresh windows (window_average.h)
+    int counted = 0;         ///< fresh windows counted
+    double last_newest = 0;  ///< newest keyframe of the last one counted
+  };
+  BeforeObserving beforeObserving() const;  ///< REQUIRES(mutex_)
+  /// With averaging: adds the solve's estimate `e` to the average and makes `e` the mean when
+  /// its window was counted and agreed; else returns why it is held.
+  std::string averageOrHold(const BeforeObserving& before, const WindowSolveInput& input,
+                            OnlineEstimate* e);  ///< REQUIRES(mutex_)
   /// Records a solve's result and publishes it when the publish policy lets it.
   bool concludeSolve(const WindowSolveInput& input, uint64_t generation, WindowSolveResult result,
                      std::string* msg, OnlineEstimate* published);
@@ -183,6 +195,7 @@ class OnlineCalibrator {
   /// GUARDED_BY(mutex_): the newest keyframes admitted, whether the window keeps them or not
   /// (at most twice MonitorSettings::pair_check_keyframes), for the pair check.
   std::deque<std::shared_ptr<const Keyframe>> recent_;
+  WindowAverage average_;  ///< GUARDED_BY(mutex_) the fresh windows the published estimate averages
 };
 
 }  // namespace tescalib

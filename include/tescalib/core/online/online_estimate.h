@@ -35,6 +35,8 @@ struct OnlineEstimate {
   WeakDirection weakest_stereo;
   bool converged = false;
   int keyframes_used = 0;
+  /// Fresh windows whose estimates it averages (window_average.h; 1: this window's alone).
+  int windows_averaged = 1;
   double cost_lidar = 0, cost_stereo = 0;
   int iterations_lidar = 0, iterations_stereo = 0;
   int co_rounds = 0;  ///< co-calibration rounds of the solve (0: LiDAR-stereo only)
@@ -47,6 +49,9 @@ struct OnlineEstimate {
   uint64_t solve_id = 0;
   /// OnlineCalibrator::lastSolve: why the solve was not published (empty when it was).
   std::string message;
+  /// Held only because the published estimate averages fresh windows and this window is not
+  /// one (window_average.h): the normal course, not a problem.
+  bool held_between_windows = false;
   /// e^T (P + P_published)^-1 e of this T_cam_lidar against the estimate published before the
   /// solve (OnlineSettings::changed_chi2); NaN when there was none or the solve did not converge.
   double chi2_to_published = std::numeric_limits<double>::quiet_NaN();

@@ -43,6 +43,10 @@ struct MonitorSettings {
   /// of the pair; directions of the pair a LiDAR change does not move keep their precision.
   double pair_check_lidar_change_deg = 0.5;
   double pair_check_lidar_change_m = 0.05;
+  /// With action "recalibrate", once a full window's estimate is published: the published
+  /// estimate is the mean of the last this many fresh windows that agreed with it
+  /// (window_average.h), and solves in between are held. 1: each trusted solve is published.
+  int average_windows = 8;
 };
 
 struct OnlineSettings {
