@@ -21,7 +21,8 @@ def runs(row_dir):
 
 def memory(run_dir):
     """The calibrator's resident memory (MB) 30 s into the run (its window full) and at its last
-    sample, or None."""
+    sample within the keyframe loop (calibrate.log's closing "... N s"; after it the tool scores
+    the estimate's quality, which the node does not do this way), or None."""
     try:
         with open(os.path.join(run_dir, 'memory.txt')) as f:
             rss = [(int(t), int(kb) / 1024) for t, kb in (line.split() for line in f
@@ -31,7 +32,21 @@ def memory(run_dir):
     if not rss:
         return None
     start = next((mb for t, mb in rss if t >= 30), rss[-1][1])
-    return start, rss[-1][1]
+    in_loop = [mb for t, mb in rss if t <= loop_seconds(run_dir)]
+    return start, (in_loop or [rss[-1][1]])[-1]
+
+
+def loop_seconds(run_dir):
+    """How long tescalib_calibrate's keyframe loop ran (its summary line), or infinity."""
+    try:
+        with open(os.path.join(run_dir, 'calibrate.log')) as f:
+            for line in f:
+                words = line.split()
+                if 'keyframes,' in words and 'solves,' in words and words[-1] == 's':
+                    return float(words[-2])
+    except (OSError, ValueError):
+        pass
+    return math.inf
 
 
 def value(x):
