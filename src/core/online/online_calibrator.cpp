@@ -299,9 +299,9 @@ std::string OnlineCalibrator::averageOrHold(const BeforeObserving& before,
   if (!counted) {
     char buf[200];
     std::snprintf(buf, sizeof buf,
-                  "held: the published estimate is the mean of %zu fresh windows, and this window "
-                  "overlaps the last one (%.1f chi2 from it)",
-                  average_.size(), e->chi2_to_published);
+                  "held: the published estimate is the mean of %zu fresh window%s, and this "
+                  "window overlaps the last one (%.1f chi2 from it)",
+                  average_.size(), average_.size() == 1 ? "" : "s", e->chi2_to_published);
     return buf;
   }
   const std::vector<double> stamps = stampsOf(input.keyframes);
