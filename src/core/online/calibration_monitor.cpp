@@ -44,6 +44,7 @@ bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, const Eigen::I
   const auto [oldest_it, newest_it] = std::minmax_element(stamps.begin(), stamps.end());
   const double newest = *newest_it;
   last_newest_ = newest;
+  last_fresh_share_ = static_cast<double>(fresh) / static_cast<double>(stamps.size());
   ++status_.fresh_windows;
   status_.last_chi2 = chi2;
   // A window adds at most two thirds of cusum_h: however far off, one alone declares nothing,

@@ -1,6 +1,5 @@
 #include "tescalib/core/online/online_calibrator.h"
 
-#include <algorithm>
 #include <chrono>
 #include <cstdio>
 
@@ -245,7 +244,7 @@ bool OnlineCalibrator::concludeSolve(const WindowSolveInput& input, uint64_t gen
   if (!monitor_note.empty())
     refusal = refusal.empty() ? monitor_note : refusal + "; " + monitor_note;
   if (refusal.empty() && before.averaging) {
-    refusal = averageOrHold(before, input, &e);
+    refusal = averageOrHold(before, &e);
     e.held_between_windows = !refusal.empty();
   }
   if (!refusal.empty()) {
@@ -286,12 +285,10 @@ OnlineCalibrator::BeforeObserving OnlineCalibrator::beforeObserving() const {
                 settings_.monitor.average_windows > 1 && estimate_ && lidar.checked() &&
                 average_.size() > 0 && !recalibrating();
   b.counted = lidar.status().fresh_windows;
-  b.last_newest = lidar.lastCountedNewest();
   return b;
 }
 
-std::string OnlineCalibrator::averageOrHold(const BeforeObserving& before,
-                                            const WindowSolveInput& input, OnlineEstimate* e) {
+std::string OnlineCalibrator::averageOrHold(const BeforeObserving& before, OnlineEstimate* e) {
   const ExtrinsicMonitor& lidar = monitor_.lidar_to_left;
   const bool counted = lidar.status().fresh_windows > before.counted &&
                        lidar.lastCountedNewest() == e->stamp &&
@@ -304,12 +301,7 @@ std::string OnlineCalibrator::averageOrHold(const BeforeObserving& before,
                   average_.size(), average_.size() == 1 ? "" : "s", e->chi2_to_published);
     return buf;
   }
-  const std::vector<double> stamps = stampsOf(input.keyframes);
-  const double share =
-      static_cast<double>(std::count_if(stamps.begin(), stamps.end(),
-                                        [&](double t) { return t > before.last_newest; })) /
-      static_cast<double>(std::max<size_t>(stamps.size(), 1));
-  *e = average_.add(*e, share);
+  *e = average_.add(*e, lidar.lastFreshShare());
   return "";
 }
 

@@ -92,6 +92,9 @@ class ExtrinsicMonitor {
   }
   /// The newest keyframe of the last window counted.
   double lastCountedNewest() const { return last_newest_; }
+  /// The share of that window's keyframes newer than every keyframe of the window counted
+  /// before it.
+  double lastFreshShare() const { return last_fresh_share_; }
 
  private:
   bool setState(MonitorState state, double stamp);
@@ -109,6 +112,7 @@ class ExtrinsicMonitor {
   MonitorSettings settings_;
   MonitorStatus status_;
   double last_newest_ = -1e300;  ///< newest keyframe of the last window counted
+  double last_fresh_share_ = 1;  ///< lastFreshShare
   bool provisional_ = false;     ///< the reference is not from a full window yet
   std::vector<Counted> run_;     ///< the windows counted since the evidence last was 0
   Eigen::Isometry3d reference_ = Eigen::Isometry3d::Identity();

@@ -157,12 +157,11 @@ class OnlineCalibrator {
   struct BeforeObserving {
     bool averaging = false;  ///< the published estimate averages fresh windows (window_average.h)
     int counted = 0;         ///< fresh windows counted
-    double last_newest = 0;  ///< newest keyframe of the last one counted
   };
   BeforeObserving beforeObserving() const;  ///< REQUIRES(mutex_)
   /// With averaging: adds the solve's estimate `e` to the average and makes `e` the mean when
   /// its window was counted and agreed; else returns why it is held.
-  std::string averageOrHold(const BeforeObserving& before, const WindowSolveInput& input,
+  std::string averageOrHold(const BeforeObserving& before,
                             OnlineEstimate* e);  ///< REQUIRES(mutex_)
   /// Records a solve's result and publishes it when the publish policy lets it.
   bool concludeSolve(const WindowSolveInput& input, uint64_t generation, WindowSolveResult result,
