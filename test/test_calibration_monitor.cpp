@@ -387,6 +387,32 @@ TEST(CalibrationMonitor, AWeakDirectionOfTheWindowRaisesNoAlarm) {
   }
 }
 
+TEST(CalibrationMonitor, ADirectionTheWindowLeavesUnconstrainedIsLeftOut) {
+  // Highway windows whose covariance claims 7 mm along t_z while the trust check finds t_z
+  // beyond its limit: their estimates 7 cm off along t_z count for nothing when that direction is
+  // passed as unconstrained, and are a change when it is not. The same 7 cm along t_x, which the
+  // windows constrain, is a change either way.
+  Matrix6d P = windowCovariance();
+  P(5, 5) = 0.007 * 0.007;
+  const std::vector<Vector6d> loose = {Vector6d::Unit(5)};
+  struct Case {
+    int axis;
+    bool pass_loose, changes;
+  };
+  for (const Case& c : {Case{5, true, false}, Case{5, false, true}, Case{3, true, true}}) {
+    ExtrinsicMonitor m{MonitorSettings()};
+    m.published(5, kI, P);
+    Eigen::Isometry3d T = kI;
+    T.translation()(c.axis - 3) = 0.07;
+    bool changed = false;
+    for (double t = 10; t < 70; t += 5) {  // non-overlapping windows
+      m.observe(window(t), T, P, false, c.pass_loose ? loose : std::vector<Vector6d>{});
+      changed = changed || m.status().state == MonitorState::kChanged;
+    }
+    EXPECT_EQ(changed, c.changes) << "axis " << c.axis << (c.pass_loose ? ", t_z left out" : "");
+  }
+}
+
 TEST(PublishPolicy, ARecalibrationIsNotHeldToTheChangedEstimatesCovariance) {
   // Once the monitor declared the published extrinsic changed, that estimate's covariance says how
   // well the old rig was known: a full window's estimate of the new one is published even when

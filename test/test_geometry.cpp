@@ -71,6 +71,36 @@ TEST(Geometry, NeesByHandAndWithoutAPositiveDefiniteCovariance) {
   EXPECT_TRUE(std::isnan(nees(e, Matrix6d::Constant(std::nan("")))));
 }
 
+TEST(Geometry, NeesIgnoringADirectionIsTheOtherAxesMarginalNees) {
+  // The same e and P: ignoring tz leaves rx alone, whose marginal variance is 3 (1 / 3); ignoring
+  // rx leaves tz, variance 1 (4). Ignoring the direction of e itself leaves nothing; ignoring
+  // nothing is nees(). The length of an ignored direction does not matter.
+  Vector6d e = Vector6d::Zero();
+  e(0) = 1, e(5) = 2;
+  Matrix6d P = Matrix6d::Identity();
+  P(0, 0) = 3, P(0, 5) = P(5, 0) = 1;
+  const Vector6d tz = Vector6d::Unit(5), rx = Vector6d::Unit(0);
+  EXPECT_NEAR(neesIgnoring(e, P, {tz}), 1.0 / 3.0, 1e-12);
+  EXPECT_NEAR(neesIgnoring(e, P, {0.01 * rx}), 4.0, 1e-12);
+  EXPECT_NEAR(neesIgnoring(e, P, {e}), 0.0, 1e-12);
+  EXPECT_NEAR(neesIgnoring(e, P, {}), 4.5, 1e-12);
+  EXPECT_NEAR(neesIgnoring(e, P, {tz, 2 * tz}), 1.0 / 3.0, 1e-9);  // a repeated direction
+  P(5, 5) = 0.2;
+  EXPECT_TRUE(std::isnan(neesIgnoring(e, P, {tz})));
+}
+
+TEST(Geometry, BeyondLimitsGivesTheLooseDirectionsInPoseUnits) {
+  // Limits 0.1 deg and 1 cm; sigma 2 cm along tz, 0.05 deg about rx: only tz is beyond, as
+  // (0, 0, 0, 0, 0, 0.01) (the unit direction in units of the limits, back in metres).
+  Matrix6d P = Matrix6d::Identity() * 1e-12;
+  P(5, 5) = 0.02 * 0.02;
+  P(0, 0) = std::pow(0.05 / kDegPerRad, 2);
+  const std::vector<Vector6d> out = beyondLimits(weakDirections(P, 0.1, 0.01), 0.1, 0.01);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_NEAR(out[0](5), 0.01, 1e-12);
+  EXPECT_NEAR(out[0].head<5>().norm(), 0.0, 1e-12);
+}
+
 TEST(Geometry, WeakDirectionsFindACoupledDirectionNoAxisShows) {
   // Limits 0.1 deg and 1 cm. In units of the limits the covariance is 0.25 I plus 1.75 along
   // v = (tz - tx) / sqrt(2): the eigenvalue along v is 2 (ratio sqrt(2)), every other one 0.25

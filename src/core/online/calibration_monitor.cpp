@@ -32,14 +32,15 @@ bool ExtrinsicMonitor::setState(MonitorState state, double stamp) {
 }
 
 bool ExtrinsicMonitor::observe(const std::vector<double>& stamps, const Eigen::Isometry3d& T,
-                               const Matrix6d& cov, bool newer_half) {
+                               const Matrix6d& cov, bool newer_half,
+                               const std::vector<Vector6d>& unconstrained) {
   const MonitorState s = status_.state;
   if (stamps.empty() || !cov.allFinite()) return false;
   if (!checked()) return false;
   const long fresh =
       std::count_if(stamps.begin(), stamps.end(), [this](double t) { return t > last_newest_; });
   if (fresh < settings_.fresh_fraction * static_cast<double>(stamps.size())) return false;
-  const double chi2 = nees(poseError(T, reference_), cov + reference_cov_);
+  const double chi2 = neesIgnoring(poseError(T, reference_), cov + reference_cov_, unconstrained);
   if (!std::isfinite(chi2)) return false;  // the summed covariance is not positive definite
   const auto [oldest_it, newest_it] = std::minmax_element(stamps.begin(), stamps.end());
   const double newest = *newest_it;

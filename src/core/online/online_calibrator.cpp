@@ -319,7 +319,8 @@ void OnlineCalibrator::observeLidar(const WindowSolveInput& input,
   else if (const auto& half = result.newer_half)
     monitor_.lidar_to_left.observe(half->stamps, half->T_cam_lidar, half->covariance, true);
   else if (result.settled_unconstrained)
-    monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar);
+    monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar, false,
+                                   result.unconstrained_lidar);
 }
 
 void OnlineCalibrator::observePair(const WindowSolveInput& input, const WindowSolveResult& result) {

@@ -147,6 +147,9 @@ WindowSolveResult solveLidarStereoWindow(const WindowSolveInput& in, const Onlin
   out.searched = r.search_starts > 1;
   out.newer_half = newerHalf(r, ls, in.keyframes);
   out.settled_unconstrained = r.only_unconstrained && r.covariance_known && !halvesDisagree(r, ls);
+  if (out.settled_unconstrained)
+    out.unconstrained_lidar =
+        beyondLimits(r.weak_directions, ls.max_sigma_rot_deg, ls.max_sigma_trans_m);
   out.solver_cancelled = r.message == "cancelled";
   out.keyframe_information = r.keyframe_information;
   OnlineEstimate& e = out.estimate;

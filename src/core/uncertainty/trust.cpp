@@ -8,12 +8,30 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <Eigen/QR>
 
 namespace tescalib {
 
 double nees(const Vector6d& error, const Matrix6d& covariance) {
   const Eigen::LLT<Matrix6d> llt(covariance);
   return llt.info() == Eigen::Success ? error.dot(llt.solve(error)) : std::nan("");
+}
+
+double neesIgnoring(const Vector6d& error, const Matrix6d& covariance,
+                    const std::vector<Vector6d>& ignored) {
+  if (ignored.empty()) return nees(error, covariance);
+  const Eigen::LLT<Matrix6d> llt(covariance);
+  if (llt.info() != Eigen::Success) return std::nan("");
+  // P = S^-1; the limit of (S + lambda W W^T)^-1 for lambda -> infinity is
+  // P - P W (W^T P W)^+ W^T P.
+  Eigen::Matrix<double, 6, Eigen::Dynamic> W(6, static_cast<int>(ignored.size()));
+  for (size_t j = 0; j < ignored.size(); ++j) W.col(static_cast<int>(j)) = ignored[j];
+  const Vector6d Pe = llt.solve(error);
+  const Eigen::MatrixXd PW = llt.solve(W);
+  const Eigen::VectorXd b = W.transpose() * Pe;
+  const Eigen::MatrixXd A = W.transpose() * PW;
+  const Eigen::VectorXd x = A.completeOrthogonalDecomposition().solve(b);
+  return std::max(0.0, error.dot(Pe) - b.dot(x));
 }
 
 void addAxisVariances(Matrix6d* covariance, const std::array<double, 3>& sigma_rot_deg,
@@ -56,6 +74,15 @@ WeakDirection weakDirectionAlong(const Vector6d& v) {
   w.ratio = v.norm();
   if (w.ratio > 0) w.direction = largestPositive(v / w.ratio);
   return w;
+}
+
+std::vector<Vector6d> beyondLimits(const std::vector<WeakDirection>& directions,
+                                   double max_sigma_rot_deg, double max_sigma_trans_m) {
+  const Vector6d scale = limitScale(max_sigma_rot_deg, max_sigma_trans_m);
+  std::vector<Vector6d> out;
+  for (const WeakDirection& w : directions)
+    if (w.ratio > 1) out.push_back(w.direction.cwiseQuotient(scale));
+  return out;
 }
 
 std::vector<WeakDirection> weakDirections(const Matrix6d& covariance, double max_sigma_rot_deg,

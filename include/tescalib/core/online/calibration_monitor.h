@@ -51,9 +51,11 @@ class ExtrinsicMonitor {
   /// A solve's estimate `T` (covariance `cov`) from a window with keyframe `stamps`; counted
   /// when the window is fresh (its chi2 against the reference). A covariance that is not finite
   /// is not compared. `newer_half`: the estimate is of a window's newer half (`stamps`), whose
-  /// older half disagreed with it. Returns true when the state changed.
+  /// older half disagreed with it. `unconstrained`: directions over [phi; tau] the window does not
+  /// constrain (beyond the trust limits, where its covariance is least reliable: a highway's
+  /// optical axis); the chi2 leaves them out. Returns true when the state changed.
   bool observe(const std::vector<double>& stamps, const Eigen::Isometry3d& T, const Matrix6d& cov,
-               bool newer_half = false);
+               bool newer_half = false, const std::vector<Vector6d>& unconstrained = {});
   /// An estimate `T` (`cov`) from a window whose newest keyframe is `newest` was published. The
   /// first one, and the first after a recalibration, becomes the reference (`calibrated`); later
   /// ones only when they come from the last fresh window counted, which agreed with it. `full`:

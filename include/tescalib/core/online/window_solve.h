@@ -79,6 +79,8 @@ struct WindowSolveResult {
   /// axis is not constrained (LidarStereoResult::only_unconstrained): its estimate is evidence
   /// for the calibration monitor, whose chi2 weighs each direction by the covariance.
   bool settled_unconstrained = false;
+  /// Its directions beyond the trust limits (over [phi; tau]), which the monitor leaves out.
+  std::vector<Vector6d> unconstrained_lidar;
   /// A co-calibration whose left-right solve converged with a known covariance, whatever its
   /// LiDAR-stereo solve did: its T_right_left is evidence for the calibration monitor even when
   /// a changed pair leaves the LiDAR-stereo solve unsettled (the clouds are rectified for the

@@ -15,6 +15,12 @@ namespace tescalib {
 /// the covariance is not positive definite (an estimate without one has no NEES).
 double nees(const Vector6d& error, const Matrix6d& covariance);
 
+/// nees() with no information along `ignored` (directions over [phi; tau], any length): the
+/// error's components along them count for nothing, as with an infinite variance there, so
+/// only what the covariance constrains is compared (6 minus their number DoF). NaN as nees().
+double neesIgnoring(const Vector6d& error, const Matrix6d& covariance,
+                    const std::vector<Vector6d>& ignored);
+
 /// Adds independent per-axis variances to a covariance over [phi; tau]: 1-sigma rotations (deg)
 /// and translations (m) about / along the camera axes (the solvers' model-error floors).
 void addAxisVariances(Matrix6d* covariance, const std::array<double, 3>& sigma_rot_deg,
@@ -48,6 +54,11 @@ WeakDirection weakDirectionAlong(const Vector6d& v);
 /// the covariance is not finite or a limit is not positive.
 std::vector<WeakDirection> weakDirections(const Matrix6d& covariance, double max_sigma_rot_deg,
                                           double max_sigma_trans_m);
+
+/// The directions of a weakDirections list (made with these limits) that are beyond the limits
+/// (ratio above 1), back over [phi; tau] (rad, m).
+std::vector<Vector6d> beyondLimits(const std::vector<WeakDirection>& directions,
+                                   double max_sigma_rot_deg, double max_sigma_trans_m);
 
 /// A direction in words, its components of at least 0.2 largest first: "0.93 tz - 0.34 ry".
 std::string describeDirection(const Vector6d& direction);
