@@ -18,6 +18,7 @@
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/common/pinhole.h"
+#include "tescalib/core/io/kitti_calib.h"
 #include "tescalib/core/sim/scene_builder.h"
 #include "tescalib/core/sim/simulator.h"
 #include "tescalib/core/sim/simulator_camera.h"
@@ -44,6 +45,7 @@ struct Args {
   int keyframes = 20;
   int keep_rings = 1;
   bool random_rig = false;
+  std::string calib;  ///< KITTI calib.txt whose P2, P3 and Tr become the rig
   KeyframeSettings ks;
 };
 
@@ -78,6 +80,9 @@ bool parse(int argc, char** argv, Args* a) {
   app.add_flag("--random-rig", a->random_rig,
                "the rig drawn from the seed (tescalib_simulate --rig random) instead of the "
                "default one");
+  add(&app, "--calib", "FILE", to(&a->calib, cli::text),
+      "KITTI calib.txt whose P2, P3 and Tr become the rig (after --random-rig: its image size and "
+      "LiDAR mounting stay)");
   add(&app, "--refine-iterations", "N", to(&a->ks.stereo.refinement.iterations, cli::atLeast(0)),
       "rounds of the stereo clouds' disparity refinement (default 2)");
   add(&app, "--refine-smoothed-rounds", "N",
@@ -259,6 +264,7 @@ int main(int argc, char** argv) {
   if (args.random_rig) useRandomRig(o.seed, &o);
   std::unique_ptr<Simulator> sim_ptr;
   try {
+    if (!args.calib.empty()) o.calib = readKittiOdometryCalib(args.calib);
     sim_ptr = std::make_unique<Simulator>(o);
   } catch (const DataError& e) {
     std::cerr << "tescalib_error_budget: " << e.what() << "\n";
