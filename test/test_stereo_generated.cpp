@@ -163,41 +163,13 @@ TEST(StereoGenerated, SmoothedFirstRoundCorrectsMoreOfTheNoisyRoadBias) {
   StereoSettings one, smoothed;
   one.refinement.iterations = 1;
   one.refinement.smoothed_gradient_rounds = 0;
-  one.refinement.left_gradient_instrument = false;
   smoothed.refinement.iterations = 2;
   smoothed.refinement.smoothed_gradient_rounds = 1;
-  smoothed.refinement.left_gradient_instrument = false;
   const double e_one = medianRoadDisparityError(sim, 0, one);
   const double e_smoothed = medianRoadDisparityError(sim, 0, smoothed);
   std::cout << "[ road     ] noisy frame, median road disparity error: 1 round " << e_one
             << " px, smoothed + exact round " << e_smoothed << " px\n";
   EXPECT_LT(std::fabs(e_smoothed), 0.5 * std::fabs(e_one));  // two exact rounds: 0.62
-}
-
-TEST(StereoGenerated, TheLeftGradientInstrumentCorrectsMoreOfTheNoisyRoadBias) {
-  // The right image's noise in its own gradient shortens a least-squares round's step; with the
-  // left image's gradient as the instrument one exact round gets closer to the true road.
-  SimOptions o;
-  o.frames = 1;
-  o.seed = 1;
-  const Simulator sim(o);  // default noise
-  StereoSettings plain, instrumented;
-  for (StereoSettings* s : {&plain, &instrumented}) {
-    s->refinement.iterations = 1;
-    s->refinement.smoothed_gradient_rounds = 0;
-  }
-  plain.refinement.left_gradient_instrument = false;
-  instrumented.refinement.left_gradient_instrument = true;
-  const double e_plain = medianRoadDisparityError(sim, 0, plain);
-  const double e_instrumented = medianRoadDisparityError(sim, 0, instrumented);
-  StereoSettings raw;
-  raw.refinement.iterations = 0;
-  const double e_raw = medianRoadDisparityError(sim, 0, raw);
-  std::cout << "[ road     ] noisy frame, median road disparity error: SGBM " << e_raw
-            << " px, one least-squares round " << e_plain << " px, one instrumented round "
-            << e_instrumented << " px\n";
-  EXPECT_LT(e_raw, -0.1);  // SGBM's short near road, which the round corrects
-  EXPECT_LT(std::fabs(e_instrumented), 0.6 * std::fabs(e_plain));
 }
 
 TEST(StereoGenerated, RefinementDoesNotDependOnWhatItRefinedBefore) {
@@ -449,9 +421,6 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
   held.estimate_stereo_scale = false;
   LidarStereoSettings unmeasured = held;
   unmeasured.measure_disparity_offset = false;
-  // Whether a biased window's halves agree is the trust decision's business, not the
-  // sensitivity's (with +0.3 px they land near the split-window check's limit).
-  unmeasured.check_window_halves = false;
   auto solve = [](const std::vector<Keyframe>& kfs, const Eigen::Isometry3d& init,
                   const LidarStereoSettings& settings) {
     std::vector<const Keyframe*> window;
@@ -475,17 +444,16 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
       std::cout << "[ bias     ] " << names[b] << ", " << axes[i] << ": moved " << moved[i] * unit
                 << ", predicted " << predicted[i] * unit << (i < 3 ? " deg\n" : " cm\n");
     }
-    // First order, and the fine stage's fixed point wiggles by a few 0.1 mm and 0.01 deg:
-    // translation moves by the predicted amount within 30 %, rotation (a few hundredths of a
-    // degree, so the wiggle weighs more) within 50 %, both in the predicted direction (ry and tx
-    // trade against each other, so single axes are compared only through these).
+    // First order, and the fine stage's fixed point wiggles by a few 0.1 mm: rotation and
+    // translation each move by the predicted amount (within 30 %) in the predicted direction
+    // (ry and tx trade against each other, so single axes are compared only through these).
     for (int part : {0, 3}) {
       const Eigen::Vector3d m = moved.segment<3>(part), p = predicted.segment<3>(part);
       const double ratio = m.norm() / p.norm(), cosine = m.dot(p) / (m.norm() * p.norm());
       std::cout << "[ bias     ] " << names[b] << (part ? ", translation" : ", rotation")
                 << ": moved / predicted " << ratio << ", cosine " << cosine << "\n";
-      EXPECT_GT(ratio, part ? 0.7 : 0.5) << names[b] << " " << part;
-      EXPECT_LT(ratio, part ? 1.3 : 1.5) << names[b] << " " << part;
+      EXPECT_GT(ratio, 0.7) << names[b] << " " << part;
+      EXPECT_LT(ratio, 1.3) << names[b] << " " << part;
       EXPECT_GT(cosine, 0.9) << names[b] << " " << part;
     }
   }

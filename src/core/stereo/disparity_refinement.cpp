@@ -23,19 +23,14 @@ void windowMoment(const cv::Mat& x, const cv::Mat& kx, const cv::Mat& ky, cv::Ma
   cv::sepFilter2D(x, *out, CV_32F, kx, ky, cv::Point(-1, -1), 0, cv::BORDER_CONSTANT);
 }
 
-// Window sums: g the (warped) right gradient, l the left image, w the warped right image and, for
-// an instrumented round, h the left image's gradient.
-enum { kGG, kGL, kG, kLL, kL, kGW, kLW, kW, kHG, kHL, kH, kHW, kTerms };
-constexpr int kPlainTerms = kHG;  ///< the terms of a round without the instrument
+enum { kGG, kGL, kG, kLL, kL, kGW, kLW, kW, kTerms };
 
 /// The refinement's full-size images, kept per thread: a window's clouds are computed one after
 /// another on each thread, and allocating some 30 fresh image buffers per cloud cost more
 /// (zeroing new pages) than the arithmetic on them. A thread that has refined a 1241x376 pair
-/// keeps 34 float images, about 63 MB, until it ends (36, 67 MB, with smoothed gradient rounds; 9
-/// more, 17 MB, with the left gradient's instrument).
+/// keeps 34 float images, about 63 MB, until it ends (36, 67 MB, with smoothed gradient rounds).
 struct Buffers {
-  cv::Mat L, R, GR, GL, Rs, GRs, valid, map_y, s1, mx, my, mxx, myy, mxy, d0, map_x, W, G, sD, xD,
-      yD;
+  cv::Mat L, R, GR, Rs, GRs, valid, map_y, s1, mx, my, mxx, myy, mxy, d0, map_x, W, G, sD, xD, yD;
   cv::Mat terms[kTerms], sums[kTerms];
 };
 
@@ -72,8 +67,6 @@ void prepareImages(const cv::Mat& left_gray, const cv::Mat& right_gray,
   right_gray.convertTo(buf->R, CV_32F);
   const cv::Mat kernel = (cv::Mat_<float>(1, 3) << -0.5f, 0.f, 0.5f);
   cv::filter2D(buf->R, buf->GR, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
-  if (s.left_gradient_instrument)
-    cv::filter2D(buf->L, buf->GL, CV_32F, kernel, cv::Point(-1, -1), 0, cv::BORDER_REPLICATE);
   if (smoothed) {
     const int k =
         2 * static_cast<int>(std::ceil(2.0 * s.smoothed_gradient_sigma)) + 1;  // +-2 sigma
@@ -127,16 +120,15 @@ void warpRight(const cv::Mat& d, bool smoothed_gradient, Buffers* buf) {
 }
 
 /// Window sums of the photometric normal equations of W = G delta + alpha L + beta over the valid
-/// pixels (single precision suffices: grey values, 81-pixel windows); `instrumented` adds the
-/// sums with the left gradient H in place of G as the first equation's weight.
-void normalEquationSums(int r, bool instrumented, Buffers* buf) {
+/// pixels (single precision suffices: grey values, 81-pixel windows).
+void normalEquationSums(int r, Buffers* buf) {
   cv::Mat* terms = buf->terms;
   const cv::Mat &valid = buf->valid, &G = buf->G, &L = buf->L, &W = buf->W;
   const int rows = valid.rows, cols = valid.cols;
   cv::parallel_for_(cv::Range(0, rows), [&](const cv::Range& range) {
     for (int v = range.start; v < range.end; ++v) {
       const float *m = valid.ptr<float>(v), *g = G.ptr<float>(v), *l = L.ptr<float>(v),
-                  *w = W.ptr<float>(v), *h = instrumented ? buf->GL.ptr<float>(v) : nullptr;
+                  *w = W.ptr<float>(v);
       float* out[kTerms];
       for (int k = 0; k < kTerms; ++k) out[k] = terms[k].ptr<float>(v);
       for (int u = 0; u < cols; ++u) {
@@ -149,45 +141,17 @@ void normalEquationSums(int r, bool instrumented, Buffers* buf) {
         out[kGW][u] = gm * w[u];
         out[kLW][u] = lm * w[u];
         out[kW][u] = w[u] * m[u];
-        if (!h) continue;
-        const float hm = h[u] * m[u];
-        out[kHG][u] = hm * g[u];
-        out[kHL][u] = hm * l[u];
-        out[kH][u] = hm;
-        out[kHW][u] = hm * w[u];
       }
     }
   });
-  for (int k = 0; k < (instrumented ? kTerms : kPlainTerms); ++k)
-    windowSum(terms[k], r, &buf->sums[k]);
-}
-
-/// delta of the window at (v, u) from its sums: least squares, or with `instrumented` the
-/// instrumental-variable estimate (first equation weighted by the left gradient); false when the
-/// system is (nearly) singular.
-bool windowStep(const cv::Mat* sums, int v, int u, double n, bool instrumented, double* delta) {
-  const auto at = [&](int k) { return static_cast<double>(sums[k].at<float>(v, u)); };
-  if (!instrumented)
-    return solveFirst(at(kGG), at(kGL), at(kG), at(kLL), at(kL), n, at(kGW), at(kLW), at(kW),
-                      delta);
-  // [hg hl h; lg ll l; g l n] x = [hw lw w] (rows: the weights h, l, 1; columns: delta, alpha,
-  // beta)
-  const double a00 = at(kHG), a01 = at(kHL), a02 = at(kH), a10 = at(kGL), a11 = at(kLL),
-               a12 = at(kL), a20 = at(kG), a21 = at(kL), a22 = n;
-  const double b0 = at(kHW), b1 = at(kLW), b2 = at(kW);
-  const double c00 = a11 * a22 - a12 * a21, c10 = a02 * a21 - a01 * a22,
-               c20 = a01 * a12 - a02 * a11;
-  const double det = a00 * c00 + a10 * c10 + a20 * c20;
-  if (!(std::fabs(det) > 1e-9 * std::fabs(a00 * c00)) || !std::isfinite(det)) return false;
-  *delta = (c00 * b0 + c10 * b1 + c20 * b2) / det;
-  return true;
+  for (int k = 0; k < kTerms; ++k) windowSum(terms[k], r, &buf->sums[k]);
 }
 
 /// One round's update of every refinable pixel: d + delta, or in the last round the local plane
 /// fit d = c + a (u' - u) + b (v' - v) over the window plus delta (unbiased also where the window
 /// is only partly valid, and it averages out SGBM's per-pixel noise).
-void updateDisparity(const DisparityRefinementSettings& s, bool last, bool instrumented,
-                     const Buffers& buf, cv::Mat* disparity) {
+void updateDisparity(const DisparityRefinementSettings& s, bool last, const Buffers& buf,
+                     cv::Mat* disparity) {
   cv::Mat& d = *disparity;
   const int r = s.window_radius;
   const double n_window = (2.0 * r + 1) * (2.0 * r + 1);
@@ -206,7 +170,10 @@ void updateDisparity(const DisparityRefinementSettings& s, bool last, bool instr
         // Texture along x after removing the window's mean gradient.
         if (gg / n - (g / n) * (g / n) < s.min_gradient * s.min_gradient) continue;
         double delta = 0;
-        if (!windowStep(sums, v, u, n, instrumented, &delta)) continue;
+        if (!solveFirst(gg, sums[kGL].at<float>(v, u), g, sums[kLL].at<float>(v, u),
+                        sums[kL].at<float>(v, u), n, sums[kGW].at<float>(v, u),
+                        sums[kLW].at<float>(v, u), sums[kW].at<float>(v, u), &delta))
+          continue;
         delta = std::clamp(delta, -s.max_step, s.max_step);
         if (!last) {
           dv[u] = static_cast<float>(dv[u] + delta);
@@ -240,17 +207,15 @@ void refineDisparity(const cv::Mat& left_gray, const cv::Mat& right_gray, cv::Ma
   for (int k = 0; k < kTerms; ++k) buf.terms[k].create(d.size(), CV_32F);
   for (int it = 0; it < s.iterations; ++it) {
     const bool last = it + 1 == s.iterations;
-    const bool smoothed_round = smoothed && it < s.smoothed_gradient_rounds;
-    const bool instrumented = s.left_gradient_instrument && !smoothed_round;
-    warpRight(d, smoothed_round, &buf);
-    normalEquationSums(r, instrumented, &buf);
+    warpRight(d, smoothed && it < s.smoothed_gradient_rounds, &buf);
+    normalEquationSums(r, &buf);
     // The last round's plane fit needs the window moments of the disparity itself.
     if (last) {
       windowSum(buf.d0, r, &buf.sD);
       windowMoment(buf.d0, kern.lin, kern.ones, &buf.xD);
       windowMoment(buf.d0, kern.ones, kern.lin, &buf.yD);
     }
-    updateDisparity(s, last, instrumented, buf, disparity);
+    updateDisparity(s, last, buf, disparity);
   }
 }
 

@@ -8,11 +8,6 @@
 //   I_r(u - d(u, v) - delta, v) = alpha * I_l(u, v) + beta.
 // The refined value at the window centre is the window mean of d plus delta: on a plane the mean of
 // an affine disparity is its centre value, so this also averages out SGBM's per-pixel noise.
-// Under image noise the least-squares step falls short: the right image's gradient carries the
-// right image's noise, which inflates sum(g^2) but not sum(g * residual) (errors in variables).
-// The exact-gradient rounds can therefore take the left image's gradient as an instrument (its
-// noise is independent of the right image's): sum(g_l * residual) / sum(g_l * g_r) has no such
-// shrinkage.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -33,9 +28,6 @@ struct DisparityRefinementSettings {
   /// 2 rounds, the first smoothed).
   int smoothed_gradient_rounds = 1;
   double smoothed_gradient_sigma = 1.0;  ///< px; <= 0: every round takes the exact gradient
-  /// The exact-gradient rounds weight the residual by the left image's gradient (an instrumental
-  /// variable) instead of the right image's: the step is not shortened by the image noise.
-  bool left_gradient_instrument = true;
 };
 
 /// Refines `disparity` (CV_32F, px, NaN where invalid) in place for the rectified grey pair
