@@ -77,9 +77,10 @@ struct WindowSolveResult {
   std::optional<Matrix6d> lidar_sensitivity;
   /// A LiDAR-stereo window that settled and whose halves agree, not converged only because some
   /// axis is not constrained (LidarStereoResult::only_unconstrained): its estimate is evidence
-  /// for the calibration monitor, whose chi2 weighs each direction by the covariance.
+  /// for the calibration monitor, whose chi2 weighs each direction by the covariance, except
+  /// the directions beyond the trust limits (`unconstrained_lidar`, over [phi; tau]), which it
+  /// leaves out: where the scene does not constrain the rig the covariance is least reliable.
   bool settled_unconstrained = false;
-  /// Its directions beyond the trust limits (over [phi; tau]), which the monitor leaves out.
   std::vector<Vector6d> unconstrained_lidar;
   /// A co-calibration whose left-right solve converged with a known covariance, whatever its
   /// LiDAR-stereo solve did: its T_right_left is evidence for the calibration monitor even when
