@@ -206,6 +206,7 @@ void readSolversAndStart(Visit& get, NodeParams* p) {
   get("lidar_stereo/search_deg", &p->online.co.lidar.search_step_deg);
   get("lidar_stereo/search_min_keyframes", &p->online.search_min_keyframes);
   get("lidar_stereo/consistent_sample", &p->online.keyframe.mesh.consistent_sample);
+  get("lidar_stereo/ring_clusters", &p->online.co.lidar.ring_cluster_rings);
   get("photometric/pyramid_levels", &p->online.co.stereo.pyramid_levels);
   get("photometric/huber", &p->online.co.stereo.huber);
   get("initial/T_cam_lidar", &p->initial_T_cam_lidar);
@@ -354,6 +355,8 @@ void checkSolvers(const OnlineSettings& o, std::ostringstream& e) {
     e << "lidar_stereo/search_deg must be between 0 (off) and "
       << LidarStereoSettings::kMaxSearchStepDeg << " deg (got " << o.co.lidar.search_step_deg
       << "); ";
+  if (o.co.lidar.ring_cluster_rings < 0)
+    e << "lidar_stereo/ring_clusters must be >= 0 (got " << o.co.lidar.ring_cluster_rings << "); ";
   if (o.search_min_keyframes < 1)
     e << "lidar_stereo/search_min_keyframes must be >= 1 (got " << o.search_min_keyframes << "); ";
   if (o.co.stereo.pyramid_levels < 1 || o.co.stereo.pyramid_levels > 5)

@@ -204,6 +204,10 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
       app, "--cov-cells", "XxY", [a](const std::string& v) { setCovCells(v, a); },
       "image cells per keyframe of the covariance's sandwich estimator (default 8x3)")
       ->group(g);
+  add(app, "--ring-clusters", "N", to(&a->ring_clusters, cli::atLeast(0)),
+      "the covariance's sandwich also clusters the residuals by groups of N LiDAR rings (default "
+      "2; 0: by image cell alone)")
+      ->group(g);
   add(app, "--cov-model-scale", "K", to(&a->cov_model_scale, cli::toNonNegative),
       "scales the covariance's model error (the common biases and per-axis floor; default 1, 0: "
       "without it)")

@@ -184,7 +184,8 @@ void ProjectiveAssociation::associateKeyframe(size_t kf, const Eigen::Isometry3d
         s.cov_cells_x * std::clamp(static_cast<int>(v * s.cov_cells_y / st.disparity.rows), 0,
                                    s.cov_cells_y - 1);
     out->push_back({q, m, f.centroid.cast<double>(), f.normal.cast<double>(), ps,
-                    Eigen::Vector3d::Zero(), inv_sigma, static_cast<int>(kf) * cells + cell, d, g});
+                    Eigen::Vector3d::Zero(), inv_sigma, static_cast<int>(kf) * cells + cell, d, g,
+                    static_cast<int>(f.key >> 16)});
   }
 }
 

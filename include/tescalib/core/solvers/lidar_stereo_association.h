@@ -25,6 +25,7 @@ struct LidarStereoAssociation {
   int cluster = 0;  ///< keyframe and image cell, for the cluster-robust covariance
   double d = 1.0;   ///< the stereo point's disparity (px)
   double g = 0.0;   ///< its disparity change per rad of right-camera yaw, f (1 + x_r^2)
+  int ring = -1;    ///< the face's lower ring (range-image row; -1: not known)
 };
 
 /// The associations of every keyframe of a window of `n`: `fill(k, &list)` collects keyframe k's,
@@ -77,7 +78,8 @@ class NormalSpaceAssociation {
 /// The fine stage's projective association: each LiDAR face (drawn from its mesh's sample) is
 /// projected at the current T into the left image and compared with the stereo point of the
 /// disparity there, weighted by the point-to-plane noise and gated at fine_gate_sigma. Each
-/// association's cluster is its keyframe and image cell (cov_cells_x x cov_cells_y per image).
+/// association's cluster is its keyframe and image cell (cov_cells_x x cov_cells_y per image), its
+/// ring the face's lower ring.
 /// `window` and `settings` must outlive it.
 class ProjectiveAssociation {
  public:

@@ -101,6 +101,11 @@ struct LidarStereoSettings {
   // data may need larger values.
   int cov_cells_x = 8;
   int cov_cells_y = 3;
+  /// Residuals also share errors along the LiDAR's rings: a laser's range offset and elevation
+  /// error are the same in every keyframe (doc/scene_generator.md, real sensors' errors). The
+  /// sandwich clusters both ways (twoWayClusterCovariance) by image cell and by this many
+  /// adjacent rings (a face spans two); 0: by image cell alone.
+  int ring_cluster_rings = 2;
   double model_sigma_disparity_px = 0.05;
   /// Measure the window-common disparity offset the fine residuals show
   /// (LidarStereoResult::disparity_offset_px) and, where the window determines it

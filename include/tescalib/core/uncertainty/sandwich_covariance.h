@@ -28,4 +28,16 @@ Eigen::MatrixXd clusterRobustCovariance(const Eigen::MatrixXd& information_inver
                                         const std::vector<Eigen::VectorXd>& scores,
                                         double residual_scale, int floored_parameters);
 
+/// The two-way cluster-robust covariance (Cameron, Gelbach and Miller, "Robust inference with
+/// multiway clustering", 2011): residuals share errors within a cluster of either kind `a` or `b`
+/// (image cells, which share matching errors, and LiDAR rings, which share one laser's range and
+/// elevation error in every keyframe). H^-1 (M_a + M_b - M_ab) H^-1, M_ab over the clusters of
+/// both kinds at once (the residuals in one cell and ring), with the negative eigenvalues the
+/// difference can leave set to zero, and floored as clusterRobustCovariance.
+Eigen::MatrixXd twoWayClusterCovariance(const Eigen::MatrixXd& information_inverse,
+                                        const std::vector<Eigen::VectorXd>& scores_a,
+                                        const std::vector<Eigen::VectorXd>& scores_b,
+                                        const std::vector<Eigen::VectorXd>& scores_ab,
+                                        double residual_scale, int floored_parameters);
+
 }  // namespace tescalib
