@@ -8,6 +8,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "tescalib/core/common/allocator.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/io/calibration_io.h"
 #include "tescalib/core/uncertainty/trust.h"
@@ -53,6 +54,9 @@ void CalibrationNodelet::onInit() {
   ros::NodeHandle& pnh = getPrivateNodeHandle();
   start_wall_ = ros::WallTime::now();
   if (!loadParams(pnh)) return;
+  // Process-wide: the manager's other nodelets share the allocator's settings.
+  if (!keepResidentMemoryFlat())
+    NODELET_WARN("tescalib: not glibc: the resident memory may grow over a long drive");
   intake_ = std::make_unique<FrameIntake>(params_.online, params_.max_stereo_skew);
   const uint32_t q = 5;
   if (!subscribeImages(nh, pnh, q)) return;

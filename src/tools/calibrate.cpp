@@ -23,6 +23,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "tescalib/core/common/allocator.h"
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/eval/overlay.h"
@@ -292,6 +293,7 @@ int runSplit(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  keepResidentMemoryFlat();
   Args args;
   if (!calibrate::parse(argc, argv,
                         &args)) {  // the reason is on stderr; the usage would scroll it away
