@@ -67,16 +67,19 @@ FineResidual fineResidual(const LidarStereoAssociation& a, const LidarStereoEsti
   return f;
 }
 
-/// Adds an association's score `g` to its ring group's and its cluster and ring group's.
-void addRingScore(const LidarStereoAssociation& a, const LidarStereoSettings& s,
-                  const Eigen::VectorXd& g, const Eigen::MatrixXd& h, FineInformation* info) {
+/// Adds an association's score w r J to its ring group's and its cluster and ring group's, and
+/// its information w J J^T to its ring group's.
+void addRingScore(const LidarStereoAssociation& a, const LidarStereoSettings& s, double w, double r,
+                  const Eigen::VectorXd& J, FineInformation* info) {
   const int group = a.ring / s.ring_cluster_rings;
+  const Eigen::Index n = J.size();
   if (static_cast<int>(info->ring_scores.size()) <= group) {
-    info->ring_scores.resize(group + 1, Eigen::VectorXd::Zero(g.size()));
-    info->ring_information.resize(group + 1, Eigen::MatrixXd::Zero(g.size(), g.size()));
+    info->ring_scores.resize(group + 1, Eigen::VectorXd::Zero(n));
+    info->ring_information.resize(group + 1, Eigen::MatrixXd::Zero(n, n));
   }
+  const Eigen::VectorXd g = w * r * J;
   info->ring_scores[group] += g;
-  info->ring_information[group] += h;
+  info->ring_information[group].noalias() += w * J * J.transpose();
   auto [it, fresh] = info->cell_ring_scores.try_emplace({a.cluster, group}, g);
   if (!fresh) it->second += g;
 }
@@ -141,8 +144,7 @@ void accumulateFineInformation(const LidarStereoEstimate& est, const LidarStereo
     res->keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
         w * J.head<6>() * J.head<6>().transpose();
     info->scores[a0.cluster] += w * r * J;
-    if (s.ring_cluster_rings > 0 && a0.ring >= 0)
-      addRingScore(a0, s, w * r * J, w * J * J.transpose(), info);
+    if (s.ring_cluster_rings > 0 && a0.ring >= 0) addRingScore(a0, s, w, r, J, info);
     info->cost += w * r * r;
     abs_res.push_back(std::fabs(r));
   }
