@@ -207,6 +207,7 @@ void readSolversAndStart(Visit& get, NodeParams* p) {
   get("lidar_stereo/search_min_keyframes", &p->online.search_min_keyframes);
   get("lidar_stereo/consistent_sample", &p->online.keyframe.mesh.consistent_sample);
   get("lidar_stereo/ring_clusters", &p->online.co.lidar.ring_cluster_rings);
+  get("lidar_stereo/ring_range_sigma", &p->online.co.lidar.ring_range_sigma_m);
   get("photometric/pyramid_levels", &p->online.co.stereo.pyramid_levels);
   get("photometric/huber", &p->online.co.stereo.huber);
   get("initial/T_cam_lidar", &p->initial_T_cam_lidar);
@@ -357,6 +358,9 @@ void checkSolvers(const OnlineSettings& o, std::ostringstream& e) {
       << "); ";
   if (o.co.lidar.ring_cluster_rings < 0)
     e << "lidar_stereo/ring_clusters must be >= 0 (got " << o.co.lidar.ring_cluster_rings << "); ";
+  if (!(o.co.lidar.ring_range_sigma_m >= 0))
+    e << "lidar_stereo/ring_range_sigma must be >= 0 m (got " << o.co.lidar.ring_range_sigma_m
+      << "); ";
   if (o.search_min_keyframes < 1)
     e << "lidar_stereo/search_min_keyframes must be >= 1 (got " << o.search_min_keyframes << "); ";
   if (o.co.stereo.pyramid_levels < 1 || o.co.stereo.pyramid_levels > 5)

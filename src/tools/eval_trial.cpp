@@ -37,6 +37,7 @@ LidarStereoSettings lidarSettings(const Args& args, const KeyframeSettings& kfs)
   if (args.search_deg >= 0) solver_settings.search_step_deg = args.search_deg;
   if (args.cov_cells_y > 0) solver_settings.cov_cells_y = args.cov_cells_y;
   if (args.ring_clusters >= 0) solver_settings.ring_cluster_rings = args.ring_clusters;
+  if (args.ring_range_sigma >= 0) solver_settings.ring_range_sigma_m = args.ring_range_sigma;
   if (args.cov_model_scale >= 0) {
     for (double& v : solver_settings.model_sigma_rot_deg) v *= args.cov_model_scale;
     for (double& v : solver_settings.model_sigma_trans_m) v *= args.cov_model_scale;
@@ -56,6 +57,7 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
   cs.lidar.cov_cells_x = solver_settings.cov_cells_x;
   cs.lidar.cov_cells_y = solver_settings.cov_cells_y;
   cs.lidar.ring_cluster_rings = solver_settings.ring_cluster_rings;
+  cs.lidar.ring_range_sigma_m = solver_settings.ring_range_sigma_m;
   cs.lidar.model_sigma_rot_deg = solver_settings.model_sigma_rot_deg;
   cs.lidar.model_sigma_trans_m = solver_settings.model_sigma_trans_m;
   cs.lidar.model_sigma_disparity_px = solver_settings.model_sigma_disparity_px;

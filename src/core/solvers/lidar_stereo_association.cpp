@@ -137,6 +137,12 @@ void NormalSpaceAssociation::associateKeyframe(size_t k, const Eigen::Isometry3d
   }
 }
 
+size_t ringOffsetCount(const std::vector<LidarStereoAssociation>& associations) {
+  int n = 0;
+  for (const auto& a : associations) n = std::max(n, a.ring + 2);
+  return static_cast<size_t>(n);
+}
+
 // ------------------------------------------------------- projective (fine stage, eq. 3)
 
 ProjectiveAssociation::ProjectiveAssociation(const std::vector<const Keyframe*>& window,
@@ -185,7 +191,8 @@ void ProjectiveAssociation::associateKeyframe(size_t kf, const Eigen::Isometry3d
                                    s.cov_cells_y - 1);
     out->push_back({q, m, f.centroid.cast<double>(), f.normal.cast<double>(), ps,
                     Eigen::Vector3d::Zero(), inv_sigma, static_cast<int>(kf) * cells + cell, d, g,
-                    static_cast<int>(f.key >> 16)});
+                    static_cast<int>(f.key >> 16), (f.key & 1u) ? 1.0 / 3 : 2.0 / 3,
+                    f.normal.cast<double>().dot(f.centroid.cast<double>()) / f.range});
   }
 }
 

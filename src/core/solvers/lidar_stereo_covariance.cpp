@@ -37,6 +37,20 @@ struct FineInformation {
   double cost = 0;                    ///< mean Huber-weighted squared residual
 };
 
+/// Adds the rings' range offsets (LidarStereoEstimate::ring_offsets, 0 beyond it) to the
+/// residual `r` (LidarRingOffsetResidual) and their columns, from `first`, to `J`.
+void addRingOffsets(const LidarStereoAssociation& a, const std::vector<double>& offsets,
+                    Eigen::Index first, double* r, Eigen::VectorXd* J) {
+  J->tail(J->size() - first).setZero();
+  if (a.ring < 0) return;
+  const double gains[2] = {a.range_gain * a.lower_share, a.range_gain * (1.0 - a.lower_share)};
+  for (int k = 0; k < 2; ++k) {
+    const size_t ring = static_cast<size_t>(a.ring + k);
+    if (ring < offsets.size()) *r -= gains[k] * offsets[ring] * a.inv_sigma;
+    (*J)[first + ring] = -gains[k] * a.inv_sigma;
+  }
+}
+
 /// One fine residual at the estimate: r = (R n_l)^T (R p_l + t - p_s) / sigma, p_s as the clouds'
 /// scale and yaw place it.
 struct FineResidual {
@@ -64,6 +78,8 @@ FineResidual fineResidual(const LidarStereoAssociation& a, const LidarStereoEsti
   const double mp = f.m.dot(a.p_s) * a.inv_sigma;
   if (n_scale) J[6] = -mp * a.d / f.dc;
   if (s.estimate_stereo_yaw) J[6 + n_scale] = mp * est.scale * a.d * a.g / (f.dc * f.dc);
+  const Eigen::Index first = 6 + n_scale + (s.estimate_stereo_yaw ? 1 : 0);
+  if (J.size() > first) addRingOffsets(a, est.ring_offsets, first, &f.r, &J);
   return f;
 }
 
@@ -210,9 +226,13 @@ bool covariancesFromInformation(const FineInformation& info, const LidarStereoSe
 
 bool estimateLidarStereoCovariance(const LidarStereoEstimate& est, const LidarStereoSettings& s,
                                    size_t window_size, LidarStereoResult* res) {
-  const int n = 6 + (s.estimate_stereo_scale ? 1 : 0) + (s.estimate_stereo_yaw ? 1 : 0);
-  FineInformation info(n);
+  const int first = 6 + (s.estimate_stereo_scale ? 1 : 0) + (s.estimate_stereo_yaw ? 1 : 0);
+  const int rings =
+      s.ring_range_sigma_m > 0 ? static_cast<int>(ringOffsetCount(est.fine_associations)) : 0;
+  FineInformation info(first + rings);
   if (!est.fine_associations.empty()) accumulateFineInformation(est, s, window_size, &info, res);
+  // The offsets' prior (RingOffsetPrior): what the data leave of a ring's offset is its prior.
+  for (int i = first; i < first + rings; ++i) info.H(i, i) += std::pow(s.ring_range_sigma_m, -2);
   res->final_cost = info.cost;
   if (est.fine_associations.empty()) return false;
   if (!informationInvertible(info.H)) {

@@ -61,9 +61,9 @@ bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoS
     as = association.associate(est->T, est->scale, est->yaw);
     res->fine_inliers = static_cast<int>(as.size());
     if (static_cast<int>(as.size()) < s.min_inliers) break;
-    const Vector6d d =
-        solveLidarStereoUpdate(as, est->T.translation(), LidarStereoObjective::kPointPointNormal, s,
-                               s.fine_huber, &est->scale, &est->yaw);
+    const Vector6d d = solveLidarStereoUpdate(
+        as, est->T.translation(), LidarStereoObjective::kPointPointNormal, s, s.fine_huber,
+        &est->scale, &est->yaw, s.ring_range_sigma_m > 0 ? &est->ring_offsets : nullptr);
     if (!d.allFinite()) {
       est->solver_failed = true;
       break;

@@ -215,6 +215,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   res.T_cam_lidar = est.T;
   res.stereo_scale = est.scale;
   res.stereo_yaw_rad = est.yaw;
+  res.ring_range_offsets_m = est.ring_offsets;
   res.settled = est.settled && !est.solver_failed;
   if (est.solver_failed) {
     res.message = "Ceres could not solve an update (NaN residuals, or an infeasible bound)";

@@ -1,5 +1,6 @@
 #include "tescalib/core/solvers/lidar_stereo_update.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
@@ -8,6 +9,7 @@
 #include <ceres/ceres.h>
 
 #include "tescalib/core/solvers/residuals/lidar_normal_residual.h"
+#include "tescalib/core/solvers/residuals/lidar_ring_offset_residual.h"
 #include "tescalib/core/solvers/residuals/point_plane_normal_residual.h"
 #include "tescalib/core/solvers/shared_loss_options.h"
 
@@ -34,12 +36,54 @@ void boundStereoNuisances(bool coarse, const LidarStereoSettings& s, double* sca
   }
 }
 
+/// The coarse stage's residuals or the fine stage's (without ring offsets).
+void addResiduals(const std::vector<LidarStereoAssociation>& as, const Eigen::Vector3d& t_ref,
+                  bool coarse, const LidarStereoSettings& s, ceres::LossFunction* loss,
+                  double* delta, double* scale, double* yaw, ceres::Problem* problem) {
+  for (const auto& a : as) {
+    if (coarse) {
+      problem->AddResidualBlock(
+          PointPlaneNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.n_s, a.inv_sigma,
+                                           s.normal_residual_weight, a.d, a.g),
+          loss, delta, scale, yaw);
+    } else {
+      problem->AddResidualBlock(
+          LidarNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.inv_sigma, a.d, a.g), loss, delta,
+          scale, yaw);
+    }
+  }
+}
+
+/// The fine residuals with their rings' range offsets, and each used ring's prior.
+void addRingOffsetResiduals(const std::vector<LidarStereoAssociation>& as,
+                            const Eigen::Vector3d& t_ref, const LidarStereoSettings& s,
+                            ceres::LossFunction* loss, double* delta, double* scale, double* yaw,
+                            std::vector<double>* offsets, ceres::Problem* problem) {
+  offsets->resize(std::max(offsets->size(), ringOffsetCount(as)), 0.0);
+  std::vector<bool> used(offsets->size(), false);
+  for (const auto& a : as) {
+    if (a.ring < 0) {
+      problem->AddResidualBlock(
+          LidarNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.inv_sigma, a.d, a.g), loss, delta,
+          scale, yaw);
+      continue;
+    }
+    problem->AddResidualBlock(LidarRingOffsetResidual::Create(a, t_ref), loss, delta, scale, yaw,
+                              &(*offsets)[a.ring], &(*offsets)[a.ring + 1]);
+    used[a.ring] = used[a.ring + 1] = true;
+  }
+  for (size_t r = 0; r < used.size(); ++r)
+    if (used[r])
+      problem->AddResidualBlock(RingOffsetPrior::Create(s.ring_range_sigma_m), nullptr,
+                                &(*offsets)[r]);
+}
+
 }  // namespace
 
 Vector6d solveLidarStereoUpdate(const std::vector<LidarStereoAssociation>& as,
                                 const Eigen::Vector3d& t_ref, LidarStereoObjective objective,
                                 const LidarStereoSettings& s, double loss_scale, double* scale,
-                                double* yaw) {
+                                double* yaw, std::vector<double>* ring_offsets) {
   const bool coarse = objective == LidarStereoObjective::kPointPlaneNormal;
   double delta[6] = {0, 0, 0, 0, 0, 0};
   ceres::Problem problem(sharedLossProblemOptions());
@@ -48,21 +92,18 @@ Vector6d solveLidarStereoUpdate(const std::vector<LidarStereoAssociation>& as,
     loss = std::make_unique<ceres::CauchyLoss>(loss_scale);
   else
     loss = std::make_unique<ceres::HuberLoss>(loss_scale);
-  for (const auto& a : as) {
-    if (coarse) {
-      problem.AddResidualBlock(
-          PointPlaneNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.n_s, a.inv_sigma,
-                                           s.normal_residual_weight, a.d, a.g),
-          loss.get(), delta, scale, yaw);
-    } else {
-      problem.AddResidualBlock(
-          LidarNormalResidual::Create(a.q, a.m, t_ref, a.p_s, a.inv_sigma, a.d, a.g), loss.get(),
-          delta, scale, yaw);
-    }
-  }
+  const std::vector<double> offsets_before = ring_offsets ? *ring_offsets : std::vector<double>();
+  const bool with_offsets = !coarse && ring_offsets;
+  if (with_offsets)
+    addRingOffsetResiduals(as, t_ref, s, loss.get(), delta, scale, yaw, ring_offsets, &problem);
+  else
+    addResiduals(as, t_ref, coarse, s, loss.get(), delta, scale, yaw, &problem);
   if (!as.empty()) boundStereoNuisances(coarse, s, scale, yaw, &problem);
   ceres::Solver::Options opt;
-  opt.linear_solver_type = ceres::DENSE_NORMAL_CHOLESKY;
+  // The rings' offsets make the normal equations mostly sparse: a residual sees the pose, the
+  // clouds' scale and yaw and two of 64 offsets.
+  opt.linear_solver_type =
+      with_offsets ? ceres::SPARSE_NORMAL_CHOLESKY : ceres::DENSE_NORMAL_CHOLESKY;
   opt.max_num_iterations = s.ceres_iterations;
   opt.num_threads = s.threads;
   opt.logging_type = ceres::SILENT;
@@ -75,6 +116,7 @@ Vector6d solveLidarStereoUpdate(const std::vector<LidarStereoAssociation>& as,
   // NaN tells them it failed.
   if (!summary.IsSolutionUsable()) {
     *scale = scale_before, *yaw = yaw_before;
+    if (ring_offsets) *ring_offsets = offsets_before;
     return Vector6d::Constant(std::numeric_limits<double>::quiet_NaN());
   }
   for (int i = 0; i < 6; ++i) d[i] = delta[i];

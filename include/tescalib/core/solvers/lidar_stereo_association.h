@@ -26,6 +26,11 @@ struct LidarStereoAssociation {
   double d = 1.0;   ///< the stereo point's disparity (px)
   double g = 0.0;   ///< its disparity change per rad of right-camera yaw, f (1 + x_r^2)
   int ring = -1;    ///< the face's lower ring (range-image row; -1: not known)
+  /// The share of the face's vertices on its lower ring (2/3 or 1/3; the rest on the next ring).
+  double lower_share = 0.5;
+  /// How far the face moves along its normal per metre of range offset of its points: n_l^T b,
+  /// b the centroid's beam (LiDAR frame).
+  double range_gain = 0.0;
 };
 
 /// The associations of every keyframe of a window of `n`: `fill(k, &list)` collects keyframe k's,
@@ -42,6 +47,10 @@ std::vector<LidarStereoAssociation> associateKeyframes(size_t n, int threads, Fi
   for (const auto& p : per_kf) all.insert(all.end(), p.begin(), p.end());
   return all;
 }
+
+/// How many rings' range offsets `associations` involve: the highest face ring + 2 (a face spans
+/// its ring and the next), 0 without rings.
+size_t ringOffsetCount(const std::vector<LidarStereoAssociation>& associations);
 
 /// Disparity change of a rectified stereo point per rad of right-camera yaw (see
 /// correctedStereoScale): f (1 + x_r^2), x_r the normalised right image coordinate.

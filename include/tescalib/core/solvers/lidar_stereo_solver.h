@@ -106,6 +106,14 @@ struct LidarStereoSettings {
   /// sandwich clusters both ways (twoWayClusterCovariance) by image cell and by this many
   /// adjacent rings (a face spans two); 0: by image cell alone.
   int ring_cluster_rings = 2;
+  /// Prior 1-sigma (m) of a range offset per LiDAR ring (range-image row), estimated with the
+  /// pose by the fine stage: a multi-beam LiDAR's lasers each measure range with an offset of
+  /// their own (centimetres after the factory's calibration), which moves the rings of the road
+  /// against each other and tilts the mesh's ground. The offsets' uncertainty enters the
+  /// covariance (marginalised). 0.1 m is a loose bound on a factory-calibrated laser's offset:
+  /// the data fix the offsets (the estimate moves by a few thousandths of a degree between 0.05
+  /// and 0.3 m). 0: not estimated.
+  double ring_range_sigma_m = 0.1;
   double model_sigma_disparity_px = 0.05;
   /// Measure the window-common disparity offset the fine residuals show
   /// (LidarStereoResult::disparity_offset_px) and, where the window determines it
@@ -199,6 +207,10 @@ struct LidarStereoResult {
   /// left-right covariance this variance along the baseline.
   double stereo_scale_variance = 0.0;
   double stereo_yaw_rad = 0.0;  ///< estimated right-camera yaw (0 unless estimate_stereo_yaw)
+  /// Estimated range offset of each LiDAR ring (m, by range-image row: how much too long its
+  /// ranges are; LidarStereoSettings::ring_range_sigma_m; empty when not estimated, 0 for a ring
+  /// no association saw).
+  std::vector<double> ring_range_offsets_m;
   /// Disparity offset (px, added to every stereo disparity) that best explains the fine
   /// residuals at the estimate, the pose re-solved with it (a linearised step; 0 when not
   /// measured: LidarStereoSettings::measure_disparity_offset off, or the clouds' yaw estimated).

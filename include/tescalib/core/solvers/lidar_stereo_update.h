@@ -28,6 +28,10 @@ struct LidarStereoEstimate {
   Vector6d fine_drift = Vector6d::Zero();
   /// The fine stage's last association set: the residuals of the covariance.
   std::vector<LidarStereoAssociation> fine_associations;
+  /// The LiDAR rings' range offsets (m, by range-image row: how much too long the ring's ranges
+  /// are) the fine stage estimated with T (LidarStereoSettings::ring_range_sigma_m; empty when it
+  /// does not).
+  std::vector<double> ring_offsets;
 };
 
 /// Which objective an update minimises.
@@ -41,10 +45,12 @@ enum class LidarStereoObjective {
 /// The clouds' `scale` and `yaw` are updated in place when they are estimated in this stage
 /// (LidarStereoSettings::estimate_stereo_*, coarse_estimates_stereo_nuisances), within their
 /// bounds. A failed solve (an infeasible bound, NaN residuals) returns NaN and leaves scale and
-/// yaw as they were.
+/// yaw as they were. With `ring_offsets` (the fine stage only) the rings' range offsets are
+/// estimated too, from and into it (resized to the rings the associations span).
 Vector6d solveLidarStereoUpdate(const std::vector<LidarStereoAssociation>& associations,
                                 const Eigen::Vector3d& t_ref, LidarStereoObjective objective,
                                 const LidarStereoSettings& settings, double loss_scale,
-                                double* scale, double* yaw);
+                                double* scale, double* yaw,
+                                std::vector<double>* ring_offsets = nullptr);
 
 }  // namespace tescalib
