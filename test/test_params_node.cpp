@@ -65,7 +65,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_EQ(p.online.search_min_keyframes, 8);
   EXPECT_FALSE(p.online.keyframe.mesh.consistent_sample);
   EXPECT_EQ(p.online.co.lidar.ring_cluster_rings, 2);
-  EXPECT_DOUBLE_EQ(p.online.co.lidar.ring_range_sigma_m, 0.1);
+  EXPECT_DOUBLE_EQ(p.online.co.lidar.ring_range_sigma_m, 0.0);
   EXPECT_FALSE(p.online.deskew);  // KITTI odometry scans are compensated already
   EXPECT_DOUBLE_EQ(p.online.deskew_max_dt, 0.25);
   EXPECT_DOUBLE_EQ(p.max_stereo_skew, 0.02);

@@ -209,8 +209,8 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
       "2; 0: by image cell alone)")
       ->group(g);
   add(app, "--ring-range-sigma", "M", to(&a->ring_range_sigma, cli::toNonNegative),
-      "the fine stage estimates a range offset per LiDAR ring with this prior sigma (m; default "
-      "the solver's, 0: not estimated)")
+      "the fine stage estimates a range offset per LiDAR ring with this prior sigma (m; default 0: "
+      "not estimated; 0.1 for a LiDAR whose lasers disagree)")
       ->group(g);
   add(app, "--cov-model-scale", "K", to(&a->cov_model_scale, cli::toNonNegative),
       "scales the covariance's model error (the common biases and per-axis floor; default 1, 0: "

@@ -51,6 +51,19 @@ void addRingOffsets(const LidarStereoAssociation& a, const std::vector<double>& 
   }
 }
 
+/// The offsets' priors (RingOffsetPrior: what the data leave of a ring's offset is its prior) and
+/// the prior on the mean of those the associations saw (RingOffsetMean).
+void addRingOffsetPriors(const LidarStereoSettings& s, int first, int rings, Eigen::MatrixXd* H) {
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(H->rows());
+  for (int i = first; i < first + rings; ++i) {
+    if ((*H)(i, i) > 0) mean[i] = 1.0;
+    (*H)(i, i) += std::pow(s.ring_range_sigma_m, -2);
+  }
+  if (mean.sum() == 0) return;
+  mean /= mean.sum() * s.ring_range_mean_sigma_m;
+  *H += mean * mean.transpose();
+}
+
 /// One fine residual at the estimate: r = (R n_l)^T (R p_l + t - p_s) / sigma, p_s as the clouds'
 /// scale and yaw place it.
 struct FineResidual {
@@ -231,8 +244,7 @@ bool estimateLidarStereoCovariance(const LidarStereoEstimate& est, const LidarSt
       s.ring_range_sigma_m > 0 ? static_cast<int>(ringOffsetCount(est.fine_associations)) : 0;
   FineInformation info(first + rings);
   if (!est.fine_associations.empty()) accumulateFineInformation(est, s, window_size, &info, res);
-  // The offsets' prior (RingOffsetPrior): what the data leave of a ring's offset is its prior.
-  for (int i = first; i < first + rings; ++i) info.H(i, i) += std::pow(s.ring_range_sigma_m, -2);
+  if (rings > 0) addRingOffsetPriors(s, first, rings, &info.H);
   res->final_cost = info.cost;
   if (est.fine_associations.empty()) return false;
   if (!informationInvertible(info.H)) {

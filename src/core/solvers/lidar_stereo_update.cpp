@@ -72,10 +72,17 @@ void addRingOffsetResiduals(const std::vector<LidarStereoAssociation>& as,
                               &(*offsets)[a.ring], &(*offsets)[a.ring + 1]);
     used[a.ring] = used[a.ring + 1] = true;
   }
-  for (size_t r = 0; r < used.size(); ++r)
-    if (used[r])
-      problem->AddResidualBlock(RingOffsetPrior::Create(s.ring_range_sigma_m), nullptr,
-                                &(*offsets)[r]);
+  std::vector<double*> used_blocks;
+  for (size_t r = 0; r < used.size(); ++r) {
+    if (!used[r]) continue;
+    problem->AddResidualBlock(RingOffsetPrior::Create(s.ring_range_sigma_m), nullptr,
+                              &(*offsets)[r]);
+    used_blocks.push_back(&(*offsets)[r]);
+  }
+  if (!used_blocks.empty())
+    problem->AddResidualBlock(
+        new RingOffsetMean(static_cast<int>(used_blocks.size()), s.ring_range_mean_sigma_m),
+        nullptr, used_blocks);
 }
 
 }  // namespace

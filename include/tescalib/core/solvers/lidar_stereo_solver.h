@@ -110,10 +110,14 @@ struct LidarStereoSettings {
   /// pose by the fine stage: a multi-beam LiDAR's lasers each measure range with an offset of
   /// their own (centimetres after the factory's calibration), which moves the rings of the road
   /// against each other and tilts the mesh's ground. The offsets' uncertainty enters the
-  /// covariance (marginalised). 0.1 m is a loose bound on a factory-calibrated laser's offset:
-  /// the data fix the offsets (the estimate moves by a few thousandths of a degree between 0.05
-  /// and 0.3 m). 0: not estimated.
-  double ring_range_sigma_m = 0.1;
+  /// covariance (marginalised). 0: not estimated (the default: the model-error floors and the
+  /// benchmarks are calibrated without it); 0.1 m, a loose bound on a factory-calibrated laser's
+  /// offset, for LiDARs whose lasers disagree (the data fix the offsets: the estimate moves by a
+  /// few thousandths of a degree between 0.05 and 0.3 m).
+  double ring_range_sigma_m = 0.0;
+  /// Sigma (m) of the mean of the rings' offsets (RingOffsetMean): their common part is not
+  /// estimated, since it moves the faces in view as the camera's optical axis does.
+  double ring_range_mean_sigma_m = 0.001;
   double model_sigma_disparity_px = 0.05;
   /// Measure the window-common disparity offset the fine residuals show
   /// (LidarStereoResult::disparity_offset_px) and, where the window determines it

@@ -50,6 +50,31 @@ struct LidarRingOffsetResidual {
   double inv_sigma_, d_, g_, gain_lo_, gain_hi_;
 };
 
+/// The mean of the rings' range offsets, held near 0 (mean / sigma): the common part of the rings'
+/// offsets moves every face in view along its beam, as the camera's optical axis does, and is
+/// the window-common range bias of the covariance's model error (LidarStereoSettings::
+/// model_sigma_range_m) rather than a parameter. One 1-D parameter block per ring.
+class RingOffsetMean : public ceres::CostFunction {
+ public:
+  RingOffsetMean(int rings, double sigma) : gain_(1.0 / (rings * sigma)) {
+    set_num_residuals(1);
+    for (int i = 0; i < rings; ++i) mutable_parameter_block_sizes()->push_back(1);
+  }
+
+  bool Evaluate(double const* const* offsets, double* residual, double** jacobians) const override {
+    const size_t n = parameter_block_sizes().size();
+    residual[0] = 0;
+    for (size_t i = 0; i < n; ++i) residual[0] += offsets[i][0] * gain_;
+    if (jacobians)
+      for (size_t i = 0; i < n; ++i)
+        if (jacobians[i]) jacobians[i][0] = gain_;
+    return true;
+  }
+
+ private:
+  double gain_;
+};
+
 /// The prior of one ring's range offset: offset / sigma.
 struct RingOffsetPrior {
   explicit RingOffsetPrior(double sigma) : inv_sigma_(1.0 / sigma) {}
