@@ -5,7 +5,10 @@
 # runs only the rows of doc/benchmarks.md's main table, one per benchmark target (about 25 minutes);
 # BENCH=rigs only the random-rig rows (RIGS rigs drawn by tescalib_simulate --rig random, about
 # 1.5 minutes each). BENCH=monitor runs the calibration monitor's rows (scripts/bench_monitor.sh,
-# about 3 minutes per 60 s drive).
+# about 3 minutes per 60 s drive). BENCH=realism runs the rows of real sensors' errors
+# (tescalib_simulate --realism kitti): urban drives of the default rig (REALISM_SEEDS) and of random
+# rigs (REALISM_RIG_SEEDS), the rings' range offsets estimated (the default) and held, and each error
+# source alone on REALISM_SOURCE_SEED (about 60 minutes in all).
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
@@ -70,7 +73,8 @@ kitti_co() {  # day sequences rot-deg trans-m: co from the LiDAR that far off, 1
 case $BENCH in
   sim | kitti | all | core | rigs) ;;
   monitor) exec bash "$ROOT/scripts/bench_monitor.sh" ;;
-  *) echo "[bench] BENCH=$BENCH: expected sim, kitti, all, core, rigs or monitor" >&2; exit 2 ;;
+  realism) exec bash "$ROOT/scripts/bench_realism.sh" ;;
+  *) echo "[bench] BENCH=$BENCH: expected sim, kitti, all, core, rigs, monitor or realism" >&2; exit 2 ;;
 esac
 RIG_SEEDS=${RIG_SEEDS:-"301 302 303 304 305 306 307 308 309 310"}
 random_rigs() {  # name rot-deg trans-m: LiDAR-stereo on each random rig's urban drive, window 20
