@@ -142,6 +142,34 @@ TEST(SensorRealism, TrueRightCameraIsWrittenAndShowsInTheRows) {
   EXPECT_FALSE(fs::exists(clean.path / "calib_true.txt"));
 }
 
+TEST(SensorRealism, RowsMeasuredOnOnePairGiveTheRightCamerasPitchAndRoll) {
+  // The pair matched at calib.txt's extrinsic, its rows measured, and the extrinsic that explains
+  // them (rowAlignedExtrinsic): its pitch and roll against the true right camera's, and the rows
+  // of the pair matched again with it.
+  SimOptions o = small(23, "right_rotation_deg=0.06");
+  const Simulator sim(o);
+  const StereoRig nominal = Simulator(small(23, "")).rig();
+  const Frame f = sim.renderFrame(0);
+  const StereoCloud cloud = computeStereoCloud(f.left, f.right, nominal, nominal.T_right_left);
+  const VerticalAlignment rows =
+      verticalAlignment(f.left, f.right, cloud, nominal, nominal.T_right_left);
+  const Eigen::Isometry3d aligned =
+      rowAlignedExtrinsic(nominal.T_right_left, rows, nominal.right.fy);
+  const Eigen::AngleAxisd truth(sim.trueRig().T_right_left.linear() *
+                                nominal.T_right_left.linear().transpose());
+  const Eigen::AngleAxisd found(aligned.linear() * nominal.T_right_left.linear().transpose());
+  const Eigen::Vector3d w_true = truth.angle() * truth.axis() * kDegPerRad,
+                        w_found = found.angle() * found.axis() * kDegPerRad;
+  EXPECT_GT(std::fabs(w_true.x()), 0.01) << "the drawn pitch is too small to test with";
+  EXPECT_NEAR(w_found.x(), w_true.x(), 0.006) << "deg";
+  EXPECT_NEAR(w_found.z(), w_true.z(), 0.02) << "deg";
+  EXPECT_EQ(w_found.y(), 0.0);  // a yaw is a disparity offset, not a row offset
+  const StereoCloud again = computeStereoCloud(f.left, f.right, nominal, aligned);
+  const VerticalAlignment after = verticalAlignment(f.left, f.right, again, nominal, aligned);
+  EXPECT_LT(std::fabs(after.offset_px), 0.05);
+  EXPECT_LT(std::fabs(after.offset_px), 0.3 * std::fabs(rows.offset_px));
+}
+
 TEST(SensorRealism, LasersRangeOffsetsScaleAndElevationErrors) {
   SimOptions o = small(5, "");
   o.scenario = Scenario::kHighway;

@@ -208,6 +208,11 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
       "the covariance's sandwich also clusters the residuals by groups of N LiDAR rings (default "
       "2; 0: by image cell alone)")
       ->group(g);
+  add(app, "--align-rows", "0|1", to(&a->align_rows, cli::toSwitch),
+      "lidar_stereo mode: measure how far the right image's rows lie from where the calibration "
+      "puts them on keyframe 0 and match every pair again re-rectified for the right camera's "
+      "pitch and roll that explain it (default 0)")
+      ->group(g);
   add(app, "--ring-range-sigma", "M", to(&a->ring_range_sigma, cli::toNonNegative),
       "the fine stage estimates a range offset per LiDAR ring with this prior sigma (m; default 0: "
       "not estimated; 0.1 for a LiDAR whose lasers disagree)")

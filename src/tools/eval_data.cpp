@@ -15,6 +15,7 @@
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/lidar/scan_motion.h"
 #include "tescalib/core/solvers/co_calibration.h"
+#include "tescalib/core/stereo/row_alignment.h"
 
 namespace tescalib::eval {
 
@@ -145,15 +146,17 @@ bool loadKeyframes(const Args& args, const std::vector<std::unique_ptr<KittiSequ
 /// lidar_stereo mode: the keyframes' stereo clouds at the ground truth, one keyframe per core at a
 /// time (as a window is preprocessed in a batch); the time charged to each window is its share of
 /// the wall-clock time.
-void computeStereoClouds(const std::vector<Frame>& frames, EvalData* d) {
+void computeStereoClouds(const std::vector<Frame>& frames, const Eigen::Isometry3d& T_right_left,
+                         EvalData* d) {
   const auto t_stereo = Clock::now();
   parallelFor(static_cast<int>(d->keyframes.size()), resolveThreads(d->kfs.stereo.threads),
               [&](int k) {
                 d->keyframes[k].stereo = computeStereoCloud(frames[k].left, frames[k].right, d->rig,
-                                                            d->rig.T_right_left, d->kfs.stereo);
-                d->keyframes[k].T_right_left_used = d->rig.T_right_left;
+                                                            T_right_left, d->kfs.stereo);
+                d->keyframes[k].T_right_left_used = T_right_left;
               });
-  d->stereo_seconds = std::chrono::duration<double>(Clock::now() - t_stereo).count();
+  d->stereo_seconds += std::chrono::duration<double>(Clock::now() - t_stereo).count();
+  d->kf_stereo_seconds.clear();
   for (size_t k = 0; k < d->keyframes.size(); ++k) {
     d->kf_stereo_seconds.push_back(d->stereo_seconds / d->keyframes.size());
     const cv::Mat& disp = d->keyframes[k].stereo.disparity;
@@ -162,6 +165,21 @@ void computeStereoClouds(const std::vector<Frame>& frames, EvalData* d) {
                 d->keyframes[k].stereo.points.size(), 100 * valid,
                 d->keyframes[k].stereo.seconds_sgbm);
   }
+}
+
+/// --align-rows: the rows of keyframe 0's pair as the calibration predicts them, and the clouds
+/// again with the extrinsic that aligns them (rowAlignedExtrinsic).
+void alignRows(const std::vector<Frame>& frames, EvalData* d) {
+  const VerticalAlignment rows = verticalAlignment(
+      frames[0].left, frames[0].right, d->keyframes[0].stereo, d->rig, d->rig.T_right_left);
+  const Eigen::Isometry3d T = rowAlignedExtrinsic(d->rig.T_right_left, rows, d->rig.right.fy);
+  computeStereoClouds(frames, T, d);
+  const VerticalAlignment after =
+      verticalAlignment(frames[0].left, frames[0].right, d->keyframes[0].stereo, d->rig, T);
+  std::printf(
+      "  rows of keyframe 0: offset %+.3f px, roll slope %+.3f px (%d corners); "
+      "re-rectified: %+.3f px, %+.3f px\n",
+      rows.offset_px, rows.slope_x_px, rows.points, after.offset_px, after.slope_x_px);
 }
 
 }  // namespace
@@ -177,7 +195,10 @@ bool loadData(const Args& args, EvalData* d) {
   std::vector<Frame> frames;
   if (!loadKeyframes(args, seqs, picked, &frames, d)) return false;
   // stereo: no cloud needed; co: computed per trial
-  if (args.mode == "lidar_stereo") computeStereoClouds(frames, d);
+  if (args.mode == "lidar_stereo") {
+    computeStereoClouds(frames, d->rig.T_right_left, d);
+    if (args.align_rows > 0) alignRows(frames, d);
+  }
   return true;
 }
 

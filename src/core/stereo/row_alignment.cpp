@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
 
+#include "tescalib/core/common/geometry.h"
 #include "tescalib/core/common/image_sampling.h"
 #include "tescalib/core/common/statistics.h"
 
@@ -83,6 +84,17 @@ VerticalAlignment verticalAlignment(const cv::Mat& left, const cv::Mat& right,
   out.slope_y_px = c[2];
   out.spread_px = 1.4826 * medianOf(res);
   return out;
+}
+
+Eigen::Isometry3d rowAlignedExtrinsic(const Eigen::Isometry3d& T_right_left,
+                                      const VerticalAlignment& rows, double fy) {
+  if (!std::isfinite(rows.offset_px) || !std::isfinite(rows.slope_x_px) || !(fy > 0))
+    return T_right_left;
+  // A right camera turned by Rx(a) sees a point's row f a lower (y' = y - a z); by Rz(g), f g x
+  // higher at normalised x (y' = y + g x).
+  Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
+  turn.linear() = expSO3(Eigen::Vector3d(-rows.offset_px / fy, 0.0, rows.slope_x_px / fy));
+  return turn * T_right_left;
 }
 
 }  // namespace tescalib

@@ -35,4 +35,14 @@ VerticalAlignment verticalAlignment(const cv::Mat& left, const cv::Mat& right,
                                     const StereoCloud& cloud, const StereoRig& rig,
                                     const Eigen::Isometry3d& T_right_left, int max_corners = 3000);
 
+/// The left->right extrinsic that explains a measured misalignment of the rows: `T_right_left`
+/// with the right camera turned about its x axis by -offset_px / fy (a relative pitch: every row
+/// offset alike) and about its optical axis by slope_x_px / fy (a relative roll: the offset growing
+/// across the image), `fy` the right camera's. A pair rectified with it has rows that agree
+/// (computeStereoCloud re-rectifies for a rotated right camera). slope_y_px, a difference of
+/// vertical focal length, is not a rotation and stays. `T_right_left` itself when the fit is
+/// missing (NaN).
+Eigen::Isometry3d rowAlignedExtrinsic(const Eigen::Isometry3d& T_right_left,
+                                      const VerticalAlignment& rows, double fy);
+
 }  // namespace tescalib
