@@ -51,7 +51,7 @@ void addRingOffsets(const LidarStereoAssociation& a, const std::vector<double>& 
   }
 }
 
-/// The offsets' priors (RingOffsetPrior: what the data leave of a ring's offset is its prior) and
+/// The offsets' priors (ScalarPrior: what the data leave of a ring's offset is its prior) and
 /// the prior on the mean of those the associations saw (RingOffsetMean).
 void addRingOffsetPriors(const LidarStereoSettings& s, int first, int rings, Eigen::MatrixXd* H) {
   Eigen::VectorXd mean = Eigen::VectorXd::Zero(H->rows());

@@ -11,6 +11,7 @@
 #include "tescalib/core/solvers/residuals/lidar_normal_residual.h"
 #include "tescalib/core/solvers/residuals/lidar_ring_offset_residual.h"
 #include "tescalib/core/solvers/residuals/point_plane_normal_residual.h"
+#include "tescalib/core/solvers/residuals/scalar_prior.h"
 #include "tescalib/core/solvers/shared_loss_options.h"
 
 namespace tescalib {
@@ -75,8 +76,7 @@ void addRingOffsetResiduals(const std::vector<LidarStereoAssociation>& as,
   std::vector<double*> used_blocks;
   for (size_t r = 0; r < used.size(); ++r) {
     if (!used[r]) continue;
-    problem->AddResidualBlock(RingOffsetPrior::Create(s.ring_range_sigma_m), nullptr,
-                              &(*offsets)[r]);
+    problem->AddResidualBlock(ScalarPrior::Create(s.ring_range_sigma_m), nullptr, &(*offsets)[r]);
     used_blocks.push_back(&(*offsets)[r]);
   }
   if (!used_blocks.empty())

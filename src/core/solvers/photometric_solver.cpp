@@ -16,6 +16,7 @@
 #include "tescalib/core/solvers/photometric_lidar_sensitivity.h"
 #include "tescalib/core/solvers/residuals/baseline_length_prior.h"
 #include "tescalib/core/solvers/residuals/photometric_residual.h"
+#include "tescalib/core/solvers/residuals/scalar_prior.h"
 #include "tescalib/core/solvers/shared_loss_options.h"
 #include "tescalib/core/uncertainty/ceres_covariance.h"
 #include "tescalib/core/uncertainty/trust.h"
@@ -209,9 +210,7 @@ void addKeyPoint(LevelProblem* lp, const PhotometricResidual& r, const MeshFace&
               new LogDepthLidarPrior(depthRow(f, T_cam_lidar, X), s.depth_prior_sigma)),
           &lp->depth_loss, rho, lp->xi);
     else
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<LogDepthPrior, 1, 1>(
-                                   new LogDepthPrior(s.depth_prior_sigma)),
-                               &lp->depth_loss, rho);
+      problem.AddResidualBlock(ScalarPrior::Create(s.depth_prior_sigma), &lp->depth_loss, rho);
   } else {
     lp->photometric_blocks.push_back(problem.AddResidualBlock(
         new ceres::AutoDiffCostFunction<PhotometricResidual, kPatternSize, 6, 2>(

@@ -6,7 +6,7 @@
 //   r = [ dist - g (s_lo o_lo + s_hi o_hi) ] / sigma
 // with g the face's range_gain n_l^T b (LidarStereoAssociation; in the LiDAR frame, which the
 // pose's rotation does not change) and s_lo, s_hi its vertices' shares of the two rings. The
-// offsets' prior is RingOffsetPrior.
+// offsets' priors are ScalarPrior (residuals/scalar_prior.h) and RingOffsetMean.
 #pragma once
 
 #include <ceres/ceres.h>
@@ -73,24 +73,6 @@ class RingOffsetMean : public ceres::CostFunction {
 
  private:
   double gain_;
-};
-
-/// The prior of one ring's range offset: offset / sigma.
-struct RingOffsetPrior {
-  explicit RingOffsetPrior(double sigma) : inv_sigma_(1.0 / sigma) {}
-
-  template <typename T>
-  bool operator()(const T* const offset, T* residual) const {
-    residual[0] = offset[0] * T(inv_sigma_);
-    return true;
-  }
-
-  static ceres::CostFunction* Create(double sigma) {
-    return new ceres::AutoDiffCostFunction<RingOffsetPrior, 1, 1>(new RingOffsetPrior(sigma));
-  }
-
- private:
-  double inv_sigma_;
 };
 
 }  // namespace tescalib

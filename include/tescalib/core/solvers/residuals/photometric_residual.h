@@ -103,17 +103,6 @@ struct PhotometricDepthResidual {
   PhotometricResidual r_;
 };
 
-/// Prior on a key point's log-depth correction: rho / sigma.
-struct LogDepthPrior {
-  explicit LogDepthPrior(double sigma) : inv_sigma_(1.0 / sigma) {}
-  template <typename T>
-  bool operator()(const T* const rho, T* residual) const {
-    residual[0] = rho[0] * T(inv_sigma_);
-    return true;
-  }
-  double inv_sigma_;
-};
-
 /// Prior on a key point's log-depth correction when the LiDAR extrinsic's error is a nuisance
 /// `xi` ([phi; tau], camera frame) shared by the key points: (rho - D xi) / sigma, D how the key
 /// point's log depth follows the LiDAR extrinsic.
