@@ -314,6 +314,41 @@ StereoRig perturbedRig(const Simulator& sim, unsigned seed, double lidar_deg, do
 }
 }  // namespace
 
+TEST(OnlineCalibratorGenerated, RowsOffTheCalibrationReRectifyThePairOnce) {
+  // The right camera turned by hundredths of a degree after rectification (its rows a tenth of a
+  // pixel off): with align_rows the first keyframe's rows turn the pair's T_right_left towards
+  // the true one, its keyframe is dropped, and the next keyframes are matched re-rectified.
+  SimOptions o;
+  o.frames = 11;
+  o.seed = 23;
+  ASSERT_EQ(o.realism.set("right_rotation_deg=0.06"), "");
+  const Simulator sim(o);
+  OnlineSettings settings;
+  settings.align_rows = true;
+  OnlineCalibrator cal(sim.rig(), settings);
+  std::string msg;
+  const Frame f0 = sim.renderFrame(0);
+  EXPECT_NE(cal.addFrame(f0, f0.stamp, &msg), FrameResult::kKeyframe);
+  EXPECT_NE(msg.find("re-rectified"), std::string::npos) << msg;
+  EXPECT_EQ(cal.windowFill(), 0u);
+  const auto pitchRoll = [&](const Eigen::Isometry3d& T) {
+    const Eigen::AngleAxisd turn(T.linear() * sim.rig().T_right_left.linear().transpose());
+    const Eigen::Vector3d w = turn.angle() * turn.axis() * kDegPerRad;
+    return Eigen::Vector2d(w.x(), w.z());
+  };
+  const Eigen::Vector2d truth = pitchRoll(sim.trueRig().T_right_left);
+  const Eigen::Vector2d found = pitchRoll(cal.rig().T_right_left);
+  EXPECT_LT((found - truth).norm(), 0.3 * truth.norm())
+      << found.transpose() << " vs " << truth.transpose();
+  const Eigen::Isometry3d aligned = cal.rig().T_right_left;
+  for (int i = 5; i < o.frames; i += 5) {
+    const Frame f = sim.renderFrame(i);
+    EXPECT_EQ(cal.addFrame(f, f.stamp, &msg), FrameResult::kKeyframe) << msg;
+  }
+  EXPECT_EQ(cal.windowFill(), 2u);
+  EXPECT_TRUE(cal.rig().T_right_left.isApprox(aligned));  // once
+}
+
 TEST(OnlineCalibratorGenerated, AfterAnUnconvergedSolveTheWarmStartRunsTheCoarseStageAgain) {
   // A published estimate far off (the extrinsic changed beyond the fine stage's basin): the
   // warm start from it runs the fine stage only while the last solve converged, and the coarse

@@ -181,6 +181,7 @@ void readCoCalibrationAndStereo(Visit& get, NodeParams* p) {
   get("stereo/block_size", &p->online.keyframe.stereo.block_size);
   get("stereo/max_depth", &p->online.keyframe.stereo.max_depth);
   get("stereo/max_row_offset_px", &p->online.max_row_offset_px);
+  get("stereo/align_rows", &p->online.align_rows);
   get("stereo/min_points", &p->online.min_stereo_points);
   get("images/min_contrast", &p->online.image_quality.min_contrast);
   get("images/max_clipped_difference", &p->online.image_quality.max_clipped_difference);

@@ -253,6 +253,7 @@ void configure(const Args& args, Session* session) {
   if (args.min_keyframes) session->settings.min_keyframes = *args.min_keyframes;
   session->settings.keyframe.mesh.consistent_sample = args.consistent_sample;
   session->settings.deskew = args.deskew > 0;
+  session->settings.align_rows = args.align_rows > 0;
   if (args.search_deg >= 0) session->settings.co.lidar.search_step_deg = args.search_deg;
   session->settings.monitor.action = args.monitor;
   session->holdout = args.holdout;

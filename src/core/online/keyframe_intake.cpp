@@ -130,6 +130,7 @@ RowCheck checkRowAlignment(const Keyframe& keyframe, const StereoRig& rig,
   const VerticalAlignment rows =
       verticalAlignment(left, right, keyframe.stereo, rig, keyframe.T_right_left_used);
   RowCheck check;
+  check.rows = rows;
   check.decided = rows.points >= 100;
   if (!check.decided || !(std::fabs(rows.median_px) > settings.max_row_offset_px)) return check;
   char buf[400];

@@ -79,10 +79,32 @@ bool OnlineCalibrator::checkRowsOnce(const Keyframe& keyframe, std::string* msg)
   if (!rows.decided) {  // too little texture to tell: the next keyframe is checked
     std::lock_guard<std::mutex> lock(mutex_);
     rows_checked_ = false;
-  } else if (!rows.warning.empty()) {
+  } else {
     *msg = rows.warning;
+    if (settings_.align_rows) alignRowsOnce(keyframe, rows.rows, msg);
   }
   return true;
+}
+
+void OnlineCalibrator::alignRowsOnce(const Keyframe& keyframe, const VerticalAlignment& rows,
+                                     std::string* msg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (rows_aligned_ || estimate_) return;
+  rows_aligned_ = true;
+  const Eigen::Isometry3d aligned =
+      rowAlignedExtrinsic(keyframe.T_right_left_used, rows, rig_.right.fy);
+  if (aligned.isApprox(keyframe.T_right_left_used)) return;
+  rig_.T_right_left = aligned;
+  clearWindow();  // this keyframe and those built alongside it matched the old rows
+  char buf[300];
+  std::snprintf(buf, sizeof buf,
+                "%sthe right image's rows lie %+.3f px (%+.3f px per unit of x) from the stereo "
+                "calibration: the pair is re-rectified for the right camera's pitch %+.4f deg and "
+                "roll %+.4f deg that explain them; the window restarts",
+                msg->empty() ? "" : "; ", rows.offset_px, rows.slope_x_px,
+                -rows.offset_px / rig_.right.fy * kDegPerRad,
+                rows.slope_x_px / rig_.right.fy * kDegPerRad);
+  *msg += buf;
 }
 
 FrameResult OnlineCalibrator::admitKeyframe(std::shared_ptr<Keyframe> keyframe, uint64_t generation,
@@ -95,9 +117,9 @@ FrameResult OnlineCalibrator::admitKeyframe(std::shared_ptr<Keyframe> keyframe, 
     // would otherwise find a keyframe of the estimate it cleared in its fresh window. Its row
     // check, if it had the one, is another keyframe's to do.
     if (took_row_check) rows_checked_ = false;
-    *msg =
-        "the window was cleared while this keyframe was built (reset, or time went backwards): "
-        "dropped";
+    *msg = (msg->empty() ? "" : *msg + "; ") +
+           "the window was cleared while this keyframe was built (reset, or time went backwards, "
+           "or the pair re-rectified): dropped";
     return FrameResult::kRejected;
   }
   if (built) *built = keyframe;

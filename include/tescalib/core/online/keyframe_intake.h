@@ -12,6 +12,7 @@
 #include "tescalib/core/common/types.h"
 #include "tescalib/core/online/online_settings.h"
 #include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/stereo/row_alignment.h"
 
 namespace tescalib {
 
@@ -56,7 +57,8 @@ struct RowCheck {
   /// The pair has enough texture (100 corners followed) to tell; otherwise the next keyframe is
   /// checked.
   bool decided = false;
-  std::string warning;  ///< the right image's rows lie too far off: what that means
+  std::string warning;     ///< the right image's rows lie too far off: what that means
+  VerticalAlignment rows;  ///< what was measured
 };
 RowCheck checkRowAlignment(const Keyframe& keyframe, const StereoRig& rig,
                            const OnlineSettings& settings);

@@ -124,6 +124,9 @@ class OnlineCalibrator {
   /// The row check of OnlineSettings::max_row_offset_px on the first keyframe with texture
   /// enough; a warning goes to `msg`. Returns whether this keyframe took the check.
   bool checkRowsOnce(const Keyframe& keyframe, std::string* msg);
+  /// OnlineSettings::align_rows: before the first estimate, once, the rig's T_right_left turned
+  /// to explain `rows` (measured on `keyframe`) and the window cleared; said in `msg`.
+  void alignRowsOnce(const Keyframe& keyframe, const VerticalAlignment& rows, std::string* msg);
   /// Puts a built keyframe into the window, unless the window was cleared meanwhile.
   FrameResult admitKeyframe(std::shared_ptr<Keyframe> keyframe, uint64_t generation,
                             bool took_row_check, std::shared_ptr<const Keyframe>* built,
@@ -185,6 +188,7 @@ class OnlineCalibrator {
   /// The last frame's scan, for the next keyframe's de-skewing (OnlineSettings::deskew).
   std::shared_ptr<const LidarScan> previous_scan_;  ///< GUARDED_BY(mutex_)
   double previous_scan_stamp_ = -1e300;             ///< GUARDED_BY(mutex_)
+  bool rows_aligned_ = false;  ///< GUARDED_BY(mutex_) OnlineSettings::align_rows done
   bool rows_checked_ = false;  ///< GUARDED_BY(mutex_) OnlineSettings::max_row_offset_px done
   int next_search_start_ = 0;  ///< GUARDED_BY(mutex_) OnlineSettings::spread_search
   /// GUARDED_BY(mutex_): the published full co-calibration's LiDAR sensitivity to the pair, for

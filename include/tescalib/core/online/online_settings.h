@@ -152,6 +152,11 @@ struct OnlineSettings {
   /// returns the keyframe with a message saying so (SGBM matches along rows, so its clouds are
   /// biased; a wrong camera_info is the usual cause). <= 0: no check. KITTI: 0.01-0.13 px.
   double max_row_offset_px = 0.5;
+  /// With the row check: the pair is re-rectified once for the right camera's pitch and roll that
+  /// explain the rows measured (rowAlignedExtrinsic), before the first estimate, and the window
+  /// restarts (a real pair's residual rotation after rectification biases SGBM's disparities of
+  /// oblique texture; doc/limitations.md). Off: the rows are only checked.
+  bool align_rows = false;
   ScanSweep sweep;
   /// Keyframes' mesh and stereo cloud. With `estimate_stereo` the keyframes' clouds take
   /// `co.stereo_cloud`'s refinement instead, so that every cloud of a co-calibration window is of
