@@ -155,8 +155,7 @@ void computeStereoClouds(const std::vector<Frame>& frames, const Eigen::Isometry
                                                             T_right_left, d->kfs.stereo);
                 d->keyframes[k].T_right_left_used = T_right_left;
               });
-  d->stereo_seconds += std::chrono::duration<double>(Clock::now() - t_stereo).count();
-  d->kf_stereo_seconds.clear();
+  d->stereo_seconds = std::chrono::duration<double>(Clock::now() - t_stereo).count();
   for (size_t k = 0; k < d->keyframes.size(); ++k) {
     d->kf_stereo_seconds.push_back(d->stereo_seconds / d->keyframes.size());
     const cv::Mat& disp = d->keyframes[k].stereo.disparity;
@@ -167,15 +166,22 @@ void computeStereoClouds(const std::vector<Frame>& frames, const Eigen::Isometry
   }
 }
 
-/// --align-rows: the rows of keyframe 0's pair as the calibration predicts them, and the clouds
-/// again with the extrinsic that aligns them (rowAlignedExtrinsic).
-void alignRows(const std::vector<Frame>& frames, EvalData* d) {
-  const VerticalAlignment rows = verticalAlignment(
-      frames[0].left, frames[0].right, d->keyframes[0].stereo, d->rig, d->rig.T_right_left);
-  const Eigen::Isometry3d T = rowAlignedExtrinsic(d->rig.T_right_left, rows, d->rig.right.fy);
-  computeStereoClouds(frames, T, d);
+/// --align-rows: the extrinsic that aligns the rows of keyframe 0's pair as the calibration
+/// predicts them (rowAlignedExtrinsic), and those rows in `rows` (measured on the pair's cloud at
+/// the calibration).
+Eigen::Isometry3d rowAlignedPair(const std::vector<Frame>& frames, const EvalData& d,
+                                 VerticalAlignment* rows) {
+  const StereoCloud cloud =
+      computeStereoCloud(frames[0].left, frames[0].right, d.rig, d.rig.T_right_left, d.kfs.stereo);
+  *rows = verticalAlignment(frames[0].left, frames[0].right, cloud, d.rig, d.rig.T_right_left);
+  return rowAlignedExtrinsic(d.rig.T_right_left, *rows, d.rig.right.fy);
+}
+
+/// The rows of keyframe 0 before (`rows`) and in the clouds computed with the aligned `T`.
+void printAlignedRows(const std::vector<Frame>& frames, const EvalData& d,
+                      const VerticalAlignment& rows, const Eigen::Isometry3d& T) {
   const VerticalAlignment after =
-      verticalAlignment(frames[0].left, frames[0].right, d->keyframes[0].stereo, d->rig, T);
+      verticalAlignment(frames[0].left, frames[0].right, d.keyframes[0].stereo, d.rig, T);
   std::printf(
       "  rows of keyframe 0: offset %+.3f px, roll slope %+.3f px (%d corners); "
       "re-rectified: %+.3f px, %+.3f px\n",
@@ -196,8 +202,11 @@ bool loadData(const Args& args, EvalData* d) {
   if (!loadKeyframes(args, seqs, picked, &frames, d)) return false;
   // stereo: no cloud needed; co: computed per trial
   if (args.mode == "lidar_stereo") {
-    computeStereoClouds(frames, d->rig.T_right_left, d);
-    if (args.align_rows > 0) alignRows(frames, d);
+    VerticalAlignment rows;
+    const Eigen::Isometry3d T =
+        args.align_rows > 0 ? rowAlignedPair(frames, *d, &rows) : d->rig.T_right_left;
+    computeStereoClouds(frames, T, d);
+    if (args.align_rows > 0) printAlignedRows(frames, *d, rows, T);
   }
   return true;
 }
