@@ -7,8 +7,9 @@
 # 1.5 minutes each). BENCH=monitor runs the calibration monitor's rows (scripts/bench_monitor.sh,
 # about 3 minutes per 60 s drive). BENCH=realism runs the rows of real sensors' errors
 # (tescalib_simulate --realism kitti): urban drives of the default rig (REALISM_SEEDS) and of random
-# rigs (REALISM_RIG_SEEDS), the rings' range offsets estimated (the default) and held, and each error
-# source alone on REALISM_SOURCE_SEED (about 60 minutes in all).
+# rigs (REALISM_RIG_SEEDS), the rings' range offsets held (the default) and estimated, and each error
+# source alone on REALISM_SOURCE_SEED (about 60 minutes in all). BENCH=validate runs
+# tescalib_validate's criteria against the truth and on KITTI (scripts/bench_validate.sh).
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
@@ -74,7 +75,9 @@ case $BENCH in
   sim | kitti | all | core | rigs) ;;
   monitor) exec bash "$ROOT/scripts/bench_monitor.sh" ;;
   realism) exec bash "$ROOT/scripts/bench_realism.sh" ;;
-  *) echo "[bench] BENCH=$BENCH: expected sim, kitti, all, core, rigs, monitor or realism" >&2; exit 2 ;;
+  validate) exec bash "$ROOT/scripts/bench_validate.sh" ;;
+  *) echo "[bench] BENCH=$BENCH: expected sim, kitti, all, core, rigs, monitor, realism or validate" >&2
+     exit 2 ;;
 esac
 RIG_SEEDS=${RIG_SEEDS:-"301 302 303 304 305 306 307 308 309 310"}
 random_rigs() {  # name rot-deg trans-m: LiDAR-stereo on each random rig's urban drive, window 20

@@ -114,6 +114,12 @@ TEST(ValidateTool, RanksTheRecordingsCalibrationAboveAMovedOneInTableAndJson) {
   // One frame pins the disparity residual's optimum near the truth.
   EXPECT_LT(opt["difference"]["rotation_deg"].get<double>(), 0.3) << opt;
   EXPECT_LT(opt["difference"]["translation_m"].get<double>(), 0.05) << opt;
+  // One frame says nothing about how far the optimum may lie: no axis is resolved.
+  EXPECT_EQ(opt["uncertainty"]["frames"], 1) << opt;
+  EXPECT_EQ(opt["uncertainty"]["rank"], 0) << opt;
+  EXPECT_TRUE(opt["uncertainty"]["sigma"][0].is_null()) << opt;
+  EXPECT_NE(out.find("its 1-sigma uncertainty (1 frames): [ - - - - - - ]"), std::string::npos)
+      << out;
 
   // The same drive as a kitti2bag-style bag: its keyframes (0, 5, 10) score as the folder's.
   writeKittiBag(KittiSequence(drive), tmp.str() + "/drive.bag", KittiBagOptions{});

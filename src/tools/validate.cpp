@@ -17,6 +17,7 @@
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/io/calibration_io.h"
 #include "tescalib/core/io/kitti_reader.h"
+#include "tescalib/core/validation/optimum_uncertainty.h"
 #include "tescalib/core/validation/validation.h"
 #include "validate_bag.h"
 #include "validate_report.h"
@@ -104,7 +105,9 @@ bool parseArgs(int argc, char** argv, Args* a) {
   cli::add(&app, "--json", "FILE", cli::to(&a->json, cli::text), "also write the scores as JSON");
   cli::add(&app, "--optimum", "0|1", cli::to(&a->optimum, cli::toSwitch),
            "also search each criterion's optimum near every calibration (direction-set search, "
-           "slower) and print how far it lies and how much better it scores");
+           "slower) and print how far it lies, how much better it scores, its 1-sigma uncertainty "
+           "per axis (the frames' scatter and the criterion's floor) and whether the calibration "
+           "lies within its 95 %");
   cli::add(&app, "--fit-sequences", "DIR[,DIR...]",
            cli::to(&a->fit_sequences, [](const std::string& v) { return cli::splitList(v); }),
            "search the optima on these folders' frames (of the same rig) instead, and score "
@@ -311,6 +314,7 @@ int run(const Args& args) {
       const int i = static_cast<int>(c);
       s.optima[i] = criterionOptimum(fit, c, s.T_cam_lidar, s.T_right_left, 5);
       s.optimum_scores[i] = set.score(s.optima[i], s.T_right_left, {c})[i];
+      s.optimum_uncertainty[i] = optimumUncertainty(fit, c, s.optima[i], s.T_right_left);
     }
   }
   std::fputs(validate::scoreTable(all, settings).c_str(), stdout);

@@ -1,5 +1,6 @@
 #include "validate_report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -74,6 +75,29 @@ std::string optimumLine(const Scored& s, int i) {
          (significant(d) ? " (significant)\n" : " (not significant)\n");
 }
 
+/// The two-sided 95 % quantile of chi2 with 1..6 degrees of freedom.
+double chi2Quantile95(int dof) {
+  constexpr double q[7] = {0, 3.84, 5.99, 7.81, 9.49, 11.07, 12.59};
+  return q[std::max(0, std::min(dof, 6))];
+}
+
+/// The optimum's 1-sigma uncertainty per axis and where the calibration lies in it.
+std::string uncertaintyLine(const Scored& s, int i) {
+  const OptimumUncertainty& u = s.optimum_uncertainty[i];
+  std::string out = format("    its 1-sigma uncertainty (%.0f frames): [", u.frames);
+  for (int k = 0; k < 6; ++k) {
+    const double scale = k < 3 ? kDegPerRad : 100.0;
+    out +=
+        u.resolved[k] ? format(k < 3 ? " %.3f" : " %.2f", u.sigma(k) * scale) : std::string(" -");
+  }
+  out += " ] deg, cm (-: not resolved)";
+  if (u.rank == 0) return out + "\n";
+  const double chi2 = u.chi2(s.optima[i], s.T_cam_lidar);
+  return out + format("; the calibration lies at chi2 %.1f", chi2) +
+         format(" (%.0f DoF) from it", u.rank) +
+         (chi2 > chi2Quantile95(u.rank) ? " (outside its 95 %)\n" : " (within its 95 %)\n");
+}
+
 nlohmann::json vec6(const Vector6d& v) {
   return nlohmann::json::array({v(0), v(1), v(2), v(3), v(4), v(5)});
 }
@@ -90,6 +114,24 @@ nlohmann::json differenceJson(const Eigen::Isometry3d& T, const Eigen::Isometry3
   return {{"rotation_deg", e.head<3>().norm() * kDegPerRad},
           {"translation_m", e.tail<3>().norm()},
           {"error", vec6(e)}};
+}
+
+/// The optimum's covariance [rad, m] (over its resolved directions), sigma per axis (null where
+/// not resolved), and the calibration's and the recording's chi2 against it.
+nlohmann::json uncertaintyJson(const Scored& s, int i, const Eigen::Isometry3d& T_recording) {
+  const OptimumUncertainty& u = s.optimum_uncertainty[i];
+  nlohmann::json sigma = nlohmann::json::array(), cov = nlohmann::json::array();
+  for (int k = 0; k < 6; ++k)
+    sigma.push_back(u.resolved[k] ? nlohmann::json(u.sigma(k)) : nlohmann::json());
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 6; ++c) cov.push_back(u.covariance(r, c));
+  return {{"frames", u.frames},
+          {"resolved", u.resolved},
+          {"rank", u.rank},
+          {"sigma", sigma},
+          {"covariance", cov},
+          {"calibration_chi2", u.rank > 0 ? u.chi2(s.optima[i], s.T_cam_lidar) : 0.0},
+          {"recording_chi2", u.rank > 0 ? u.chi2(s.optima[i], T_recording) : 0.0}};
 }
 
 nlohmann::json calibrationJson(const std::vector<Scored>& all, size_t row) {
@@ -124,7 +166,8 @@ nlohmann::json calibrationJson(const std::vector<Scored>& all, size_t row) {
           {"T_cam_lidar", poseJson(s.optima[static_cast<int>(c)])},
           {"difference", differenceJson(s.optima[static_cast<int>(c)], s.T_cam_lidar)},
           {"score", summarize(s.optimum_scores[static_cast<int>(c)]).mean},
-          {"frame_scores", s.optimum_scores[static_cast<int>(c)]}};
+          {"frame_scores", s.optimum_scores[static_cast<int>(c)]},
+          {"uncertainty", uncertaintyJson(s, static_cast<int>(c), all[0].T_cam_lidar)}};
   }
   return j;
 }
@@ -166,7 +209,7 @@ std::string scoreTable(const std::vector<Scored>& all, const ValidationSettings&
       const int i = static_cast<int>(c);
       out += "  " + cell(criterionName(c), 22) +
              directionLine(all[r].validation.criteria[i], settings) + "\n";
-      if (all[r].has_optima) out += optimumLine(all[r], i);
+      if (all[r].has_optima) out += optimumLine(all[r], i) + uncertaintyLine(all[r], i);
     }
   }
   out +=

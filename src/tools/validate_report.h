@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
 
+#include "tescalib/core/validation/optimum_uncertainty.h"
 #include "tescalib/core/validation/validation.h"
 
 namespace tescalib::validate {
@@ -25,6 +26,8 @@ struct Scored {
   bool optima_held_out = false;  ///< the optima were searched on other frames than scored on
   std::array<Eigen::Isometry3d, kCriteria> optima;  ///< each criterion's optimum near it
   FrameScores optimum_scores;  ///< [c]: criterion c's per-frame scores at its optimum
+  /// [c]: how well the frames it was searched on pin criterion c's optimum down.
+  std::array<OptimumUncertainty, kCriteria> optimum_uncertainty;
 };
 
 /// The index of the best-scoring calibration for the criterion.

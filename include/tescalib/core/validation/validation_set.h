@@ -16,6 +16,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
+#include "tescalib/core/common/geometry.h"
 #include "tescalib/core/common/types.h"
 #include "tescalib/core/stereo/stereo_cloud.h"
 #include "tescalib/core/validation/edge_alignment.h"
@@ -34,6 +35,9 @@ const char* criterionName(Criterion c);
 const char* criterionUnit(Criterion c);
 bool higherIsBetter(Criterion c);
 
+/// The model-error floors of the criteria's optima (ValidationSettings::optimum_floor).
+std::array<Vector6d, kCriteria> defaultOptimumFloors();
+
 struct ValidationSettings {
   EdgeAlignmentSettings edges;
   PhotometricConsistencySettings photometric;
@@ -41,6 +45,10 @@ struct ValidationSettings {
   double step_rot_deg = 0.1;  ///< the finite-difference step of the sensitivities
   double step_trans_m = 0.01;
   int threads = 0;  ///< frames scored at the same time (0: one per core)
+  /// [criterion]: the 1-sigma model-error floor of the criterion's optimum per axis [rad x3; m x3]
+  /// (optimum_uncertainty.h), the rms distance of its optima from the truth on generated drives
+  /// with real sensors' errors (doc/validation.md).
+  std::array<Vector6d, kCriteria> optimum_floor = defaultOptimumFloors();
 };
 
 /// scores[criterion][frame].
