@@ -347,6 +347,16 @@ TEST(OnlineCalibratorGenerated, RowsOffTheCalibrationReRectifyThePairOnce) {
   }
   EXPECT_EQ(cal.windowFill(), 2u);
   EXPECT_TRUE(cal.rig().T_right_left.isApprox(aligned));  // once
+
+  // The pair without the rotation: its rows move by less than align_rows_min_px, the first
+  // keyframe stays and the pair is not touched.
+  o.realism = sim::RealismSizes{};
+  const Simulator clean(o);
+  OnlineCalibrator kept(clean.rig(), settings);
+  const Frame c0 = clean.renderFrame(0);
+  EXPECT_EQ(kept.addFrame(c0, c0.stamp, &msg), FrameResult::kKeyframe) << msg;
+  EXPECT_EQ(msg.find("re-rectified"), std::string::npos) << msg;
+  EXPECT_TRUE(kept.rig().T_right_left.isApprox(clean.rig().T_right_left));
 }
 
 TEST(OnlineCalibratorGenerated, AfterAnUnconvergedSolveTheWarmStartRunsTheCoarseStageAgain) {

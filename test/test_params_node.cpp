@@ -36,6 +36,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   p.max_stereo_skew = 0.04;
   p.online.max_row_offset_px = 0.9;
   p.online.align_rows = true;
+  p.online.align_rows_min_px = 0.2;
   p.online.image_quality.min_contrast = 3.0;
   p.online.image_quality.max_clipped_difference = 0.7;
   p.online.keyframe.stereo.equalize_exposure_ratio = 1.5;
@@ -73,6 +74,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_EQ(p.image_transport, "raw");
   EXPECT_DOUBLE_EQ(p.online.max_row_offset_px, 0.5);
   EXPECT_FALSE(p.online.align_rows);
+  EXPECT_DOUBLE_EQ(p.online.align_rows_min_px, 0.05);
   EXPECT_DOUBLE_EQ(p.online.image_quality.min_contrast, 8.0);
   EXPECT_DOUBLE_EQ(p.online.image_quality.max_clipped_difference, 0.4);
   EXPECT_DOUBLE_EQ(p.online.keyframe.stereo.equalize_exposure_ratio, 1.15);

@@ -168,6 +168,17 @@ TEST(SensorRealism, RowsMeasuredOnOnePairGiveTheRightCamerasPitchAndRoll) {
   const VerticalAlignment after = verticalAlignment(f.left, f.right, again, nominal, aligned);
   EXPECT_LT(std::fabs(after.offset_px), 0.05);
   EXPECT_LT(std::fabs(after.offset_px), 0.3 * std::fabs(rows.offset_px));
+  // The correction moves the outermost rows by |offset| + |slope| x_max: more than the re-aligned
+  // pair's rows still show.
+  const double x_max =
+      std::max(nominal.left.cx, nominal.left.width - nominal.left.cx) / nominal.left.fx;
+  EXPECT_DOUBLE_EQ(largestRowCorrectionPx(rows, nominal.left),
+                   std::fabs(rows.offset_px) + std::fabs(rows.slope_x_px) * x_max);
+  EXPECT_GT(largestRowCorrectionPx(rows, nominal.left), 0.05);
+  EXPECT_LT(largestRowCorrectionPx(after, nominal.left),
+            0.5 * largestRowCorrectionPx(rows, nominal.left));
+  EXPECT_TRUE(
+      std::isnan(largestRowCorrectionPx(VerticalAlignment{0, 0, NAN, NAN, NAN, 0}, nominal.left)));
 }
 
 TEST(SensorRealism, LasersRangeOffsetsScaleAndElevationErrors) {

@@ -182,6 +182,7 @@ void readCoCalibrationAndStereo(Visit& get, NodeParams* p) {
   get("stereo/max_depth", &p->online.keyframe.stereo.max_depth);
   get("stereo/max_row_offset_px", &p->online.max_row_offset_px);
   get("stereo/align_rows", &p->online.align_rows);
+  get("stereo/align_rows_min_px", &p->online.align_rows_min_px);
   get("stereo/min_points", &p->online.min_stereo_points);
   get("images/min_contrast", &p->online.image_quality.min_contrast);
   get("images/max_clipped_difference", &p->online.image_quality.max_clipped_difference);
@@ -287,6 +288,8 @@ void checkWindowAndImages(const OnlineSettings& o, std::ostringstream& e) {
     e << "window/max_variance_growth_first_co must be >= 1; ";
   if (!(o.changed_chi2 > 0)) e << "window/changed_chi2 must be > 0; ";
   if (o.min_stereo_points < 0) e << "stereo/min_points must be >= 0; ";
+  if (!nonNegative(o.align_rows_min_px))
+    e << "stereo/align_rows_min_px must be >= 0 px (got " << o.align_rows_min_px << "); ";
   if (!(o.image_quality.min_contrast >= 0))
     e << "images/min_contrast must be >= 0 (0: no check; got " << o.image_quality.min_contrast
       << "); ";

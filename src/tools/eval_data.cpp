@@ -14,6 +14,7 @@
 #include "tescalib/core/io/kitti_calib.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/lidar/scan_motion.h"
+#include "tescalib/core/online/online_settings.h"
 #include "tescalib/core/solvers/co_calibration.h"
 #include "tescalib/core/stereo/row_alignment.h"
 
@@ -168,12 +169,15 @@ void computeStereoClouds(const std::vector<Frame>& frames, const Eigen::Isometry
 
 /// --align-rows: the extrinsic that aligns the rows of keyframe 0's pair as the calibration
 /// predicts them (rowAlignedExtrinsic), and those rows in `rows` (measured on the pair's cloud at
-/// the calibration).
+/// the calibration); the calibration itself when that moves no row by more than the node's
+/// stereo/align_rows_min_px.
 Eigen::Isometry3d rowAlignedPair(const std::vector<Frame>& frames, const EvalData& d,
                                  VerticalAlignment* rows) {
   const StereoCloud cloud =
       computeStereoCloud(frames[0].left, frames[0].right, d.rig, d.rig.T_right_left, d.kfs.stereo);
   *rows = verticalAlignment(frames[0].left, frames[0].right, cloud, d.rig, d.rig.T_right_left);
+  if (!(largestRowCorrectionPx(*rows, d.rig.left) > OnlineSettings{}.align_rows_min_px))
+    return d.rig.T_right_left;
   return rowAlignedExtrinsic(d.rig.T_right_left, *rows, d.rig.right.fy);
 }
 

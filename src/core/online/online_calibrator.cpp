@@ -91,6 +91,8 @@ void OnlineCalibrator::alignRowsOnce(const Keyframe& keyframe, const VerticalAli
   std::lock_guard<std::mutex> lock(mutex_);
   if (rows_aligned_ || estimate_) return;
   rows_aligned_ = true;
+  // NaN (not fitted) fails the comparison too.
+  if (!(largestRowCorrectionPx(rows, rig_.left) > settings_.align_rows_min_px)) return;
   const Eigen::Isometry3d aligned =
       rowAlignedExtrinsic(keyframe.T_right_left_used, rows, rig_.right.fy);
   if (aligned.isApprox(keyframe.T_right_left_used)) return;

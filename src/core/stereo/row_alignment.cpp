@@ -97,4 +97,9 @@ Eigen::Isometry3d rowAlignedExtrinsic(const Eigen::Isometry3d& T_right_left,
   return turn * T_right_left;
 }
 
+double largestRowCorrectionPx(const VerticalAlignment& rows, const CameraIntrinsics& left) {
+  const double x_max = std::max(left.cx, left.width - left.cx) / left.fx;
+  return std::fabs(rows.offset_px) + std::fabs(rows.slope_x_px) * x_max;
+}
+
 }  // namespace tescalib

@@ -157,6 +157,9 @@ struct OnlineSettings {
   /// restarts (a real pair's residual rotation after rectification biases SGBM's disparities of
   /// oblique texture; doc/limitations.md). Off: the rows are only checked.
   bool align_rows = false;
+  /// With align_rows: the pair is re-rectified only when that moves some row of the image by more
+  /// than this (px): SGBM's disparities do not notice less, and a restart costs a keyframe.
+  double align_rows_min_px = 0.05;
   ScanSweep sweep;
   /// Keyframes' mesh and stereo cloud. With `estimate_stereo` the keyframes' clouds take
   /// `co.stereo_cloud`'s refinement instead, so that every cloud of a co-calibration window is of

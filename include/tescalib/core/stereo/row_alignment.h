@@ -45,4 +45,8 @@ VerticalAlignment verticalAlignment(const cv::Mat& left, const cv::Mat& right,
 Eigen::Isometry3d rowAlignedExtrinsic(const Eigen::Isometry3d& T_right_left,
                                       const VerticalAlignment& rows, double fy);
 
+/// How far rowAlignedExtrinsic() moves the row farthest from the image's centre (px): |offset| +
+/// |slope_x| times the largest normalised x of the (left) image. NaN when the fit is missing.
+double largestRowCorrectionPx(const VerticalAlignment& rows, const CameraIntrinsics& left);
+
 }  // namespace tescalib
