@@ -35,7 +35,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   p.online.deskew_max_dt = 0.4;
   p.max_stereo_skew = 0.04;
   p.online.max_row_offset_px = 0.9;
-  p.online.align_rows = true;
+  p.online.align_rows = false;
   p.online.align_rows_min_px = 0.2;
   p.online.image_quality.min_contrast = 3.0;
   p.online.image_quality.max_clipped_difference = 0.7;
@@ -73,7 +73,7 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_DOUBLE_EQ(p.max_stereo_skew, 0.02);
   EXPECT_EQ(p.image_transport, "raw");
   EXPECT_DOUBLE_EQ(p.online.max_row_offset_px, 0.5);
-  EXPECT_FALSE(p.online.align_rows);
+  EXPECT_TRUE(p.online.align_rows);
   EXPECT_DOUBLE_EQ(p.online.align_rows_min_px, 0.05);
   EXPECT_DOUBLE_EQ(p.online.image_quality.min_contrast, 8.0);
   EXPECT_DOUBLE_EQ(p.online.image_quality.max_clipped_difference, 0.4);

@@ -89,7 +89,7 @@ void addCalibrationOptions(CLI::App* app, Args* a) {
       ->group(g);
   cli::add(app, "--align-rows", "0|1", cli::to(&a->align_rows, cli::toSwitch),
            "re-rectify the pair once, before the first estimate, for the right camera's pitch "
-           "and roll that the right image's rows show (default 0; the node's stereo/align_rows)")
+           "and roll that the right image's rows show (default 1; the node's stereo/align_rows)")
       ->group(g);
   cli::add(app, "--perturb-rot-deg", "R", cli::to(&a->perturb_rot_deg, cli::toDouble),
            "with --perturb-trans-m (either or both): start that far from the initial "

@@ -23,7 +23,7 @@ struct Args {
   double perturb_rot_deg = 0, perturb_trans_m = 0;
   uint64_t seed = 1;
   int deskew = -1;     // -1: as the data say (KittiSequence::sweptScans)
-  int align_rows = 0;  // OnlineSettings::align_rows
+  int align_rows = 1;  // OnlineSettings::align_rows
   std::string out;
   std::string lidar_frame;  // empty: the bag's cloud frame, velo_link for folders
   std::string overlay;      // PNG: the last keyframe with the scan drawn, initial guess vs result

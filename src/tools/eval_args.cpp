@@ -211,7 +211,7 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
   add(app, "--align-rows", "0|1", to(&a->align_rows, cli::toSwitch),
       "lidar_stereo mode: measure how far the right image's rows lie from where the calibration "
       "puts them on keyframe 0 and match every pair again re-rectified for the right camera's "
-      "pitch and roll that explain it (default 0, as the node's stereo/align_rows)")
+      "pitch and roll that explain it (default 1, as the node's stereo/align_rows)")
       ->group(g);
   add(app, "--ring-range-sigma", "M", to(&a->ring_range_sigma, cli::toNonNegative),
       "the fine stage estimates a range offset per LiDAR ring with this prior sigma (m; default 0: "

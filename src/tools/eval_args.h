@@ -25,7 +25,7 @@ struct Args {
   int cov_cells_x = -1, cov_cells_y = -1;  ///< -1: the solver default
   double ring_range_sigma = -1;  ///< LidarStereoSettings::ring_range_sigma_m; < 0: default
   int ring_clusters = -1;        ///< LidarStereoSettings::ring_cluster_rings; -1: default
-  int align_rows = 0;  ///< 1: re-rectify with the rows of keyframe 0 (rowAlignedExtrinsic)
+  int align_rows = 1;  ///< 1: re-rectify with the rows of keyframe 0 (rowAlignedExtrinsic)
   int smooth_keypoints_px = -1;  ///< photometric smooth_depth_radius_px; -1: the solver default
   double depth_prior = -1;       ///< photometric depth_prior_sigma; < 0: the solver default
   /// stereo mode: 1-sigma per axis of the given LiDAR extrinsic (deg, m), propagated into the

@@ -25,7 +25,10 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   if (kf) *msg = keyframeProblem(*kf, frame.scan, selection.inputs.T_cam_lidar, rig_, settings_);
   if (!kf || !msg->empty())
     return rejectAfterSelection(frame.stamp, selection.previous_keyframe_stamp);
-  const bool took_row_check = checkRowsOnce(*kf, msg);
+  bool realigned = false;
+  const bool took_row_check = checkRowsOnce(*kf, msg, &realigned);
+  if (realigned) kf = rebuildRealigned(frame, lidar_stamp, &selection, msg);
+  if (!kf) return rejectAfterSelection(frame.stamp, selection.previous_keyframe_stamp);
   return admitKeyframe(std::move(kf), selection.generation, took_row_check, built, msg);
 }
 
@@ -67,7 +70,25 @@ FrameResult OnlineCalibrator::rejectAfterSelection(double stamp, double previous
   return FrameResult::kRejected;
 }
 
-bool OnlineCalibrator::checkRowsOnce(const Keyframe& keyframe, std::string* msg) {
+std::shared_ptr<Keyframe> OnlineCalibrator::rebuildRealigned(const Frame& frame, double lidar_stamp,
+                                                             Selection* selection,
+                                                             std::string* msg) {
+  StereoRig rig;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    rig = rig_;
+    selection->inputs.T_right_left = rig_.T_right_left;
+    selection->generation = generation_;
+  }
+  std::string problem;
+  std::shared_ptr<Keyframe> kf =
+      buildKeyframe(frame, lidar_stamp, rig, selection->inputs, settings_, &problem);
+  if (kf) problem = keyframeProblem(*kf, frame.scan, selection->inputs.T_cam_lidar, rig, settings_);
+  if (!problem.empty()) *msg += "; matched again: " + problem;
+  return kf && problem.empty() ? kf : nullptr;
+}
+
+bool OnlineCalibrator::checkRowsOnce(const Keyframe& keyframe, std::string* msg, bool* realigned) {
   bool check_rows = false;
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -81,32 +102,34 @@ bool OnlineCalibrator::checkRowsOnce(const Keyframe& keyframe, std::string* msg)
     rows_checked_ = false;
   } else {
     *msg = rows.warning;
-    if (settings_.align_rows) alignRowsOnce(keyframe, rows.rows, msg);
+    if (settings_.align_rows) *realigned = alignRowsOnce(keyframe, rows.rows, msg);
   }
   return true;
 }
 
-void OnlineCalibrator::alignRowsOnce(const Keyframe& keyframe, const VerticalAlignment& rows,
+bool OnlineCalibrator::alignRowsOnce(const Keyframe& keyframe, const VerticalAlignment& rows,
                                      std::string* msg) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (rows_aligned_ || estimate_) return;
+  if (rows_aligned_ || estimate_) return false;
   rows_aligned_ = true;
   // NaN (not fitted) fails the comparison too.
-  if (!(largestRowCorrectionPx(rows, rig_.left) > settings_.align_rows_min_px)) return;
+  if (!(largestRowCorrectionPx(rows, rig_.left) > settings_.align_rows_min_px)) return false;
   const Eigen::Isometry3d aligned =
       rowAlignedExtrinsic(keyframe.T_right_left_used, rows, rig_.right.fy);
-  if (aligned.isApprox(keyframe.T_right_left_used)) return;
+  if (aligned.isApprox(keyframe.T_right_left_used)) return false;
   rig_.T_right_left = aligned;
   clearWindow();  // this keyframe and those built alongside it matched the old rows
   char buf[300];
   std::snprintf(buf, sizeof buf,
                 "%sthe right image's rows lie %+.3f px (%+.3f px per unit of x) from the stereo "
                 "calibration: the pair is re-rectified for the right camera's pitch %+.4f deg and "
-                "roll %+.4f deg that explain them; the window restarts",
+                "roll %+.4f deg that explain them; the window restarts with this keyframe matched "
+                "again",
                 msg->empty() ? "" : "; ", rows.offset_px, rows.slope_x_px,
                 -rows.offset_px / rig_.right.fy * kDegPerRad,
                 rows.slope_x_px / rig_.right.fy * kDegPerRad);
   *msg += buf;
+  return true;
 }
 
 FrameResult OnlineCalibrator::admitKeyframe(std::shared_ptr<Keyframe> keyframe, uint64_t generation,

@@ -122,11 +122,17 @@ class OnlineCalibrator {
   /// taken, not against this one.
   FrameResult rejectAfterSelection(double stamp, double previous_keyframe_stamp);
   /// The row check of OnlineSettings::max_row_offset_px on the first keyframe with texture
-  /// enough; a warning goes to `msg`. Returns whether this keyframe took the check.
-  bool checkRowsOnce(const Keyframe& keyframe, std::string* msg);
+  /// enough; a warning goes to `msg`. Returns whether this keyframe took the check; `realigned`:
+  /// whether the pair was re-rectified for it (alignRowsOnce).
+  bool checkRowsOnce(const Keyframe& keyframe, std::string* msg, bool* realigned);
   /// OnlineSettings::align_rows: before the first estimate, once, the rig's T_right_left turned
-  /// to explain `rows` (measured on `keyframe`) and the window cleared; said in `msg`.
-  void alignRowsOnce(const Keyframe& keyframe, const VerticalAlignment& rows, std::string* msg);
+  /// to explain `rows` (measured on `keyframe`) and the window cleared; said in `msg`. Returns
+  /// whether it turned.
+  bool alignRowsOnce(const Keyframe& keyframe, const VerticalAlignment& rows, std::string* msg);
+  /// The keyframe of `frame` built again with the re-rectified pair, for the window the
+  /// re-rectification started; null (and why in `msg`) when it is not usable.
+  std::shared_ptr<Keyframe> rebuildRealigned(const Frame& frame, double lidar_stamp,
+                                             Selection* selection, std::string* msg);
   /// Puts a built keyframe into the window, unless the window was cleared meanwhile.
   FrameResult admitKeyframe(std::shared_ptr<Keyframe> keyframe, uint64_t generation,
                             bool took_row_check, std::shared_ptr<const Keyframe>* built,

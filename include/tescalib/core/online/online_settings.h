@@ -154,9 +154,10 @@ struct OnlineSettings {
   double max_row_offset_px = 0.5;
   /// With the row check: the pair is re-rectified once for the right camera's pitch and roll that
   /// explain the rows measured (rowAlignedExtrinsic), before the first estimate, and the window
-  /// restarts (a real pair's residual rotation after rectification biases SGBM's disparities of
-  /// oblique texture; doc/limitations.md). Off: the rows are only checked.
-  bool align_rows = false;
+  /// restarts with that keyframe matched again (a real pair's residual rotation after rectification
+  /// biases SGBM's disparities of oblique texture; doc/limitations.md). Off: the rows are only
+  /// checked.
+  bool align_rows = true;
   /// With align_rows: the pair is re-rectified only when that moves some row of the image by more
   /// than this (px): SGBM's disparities do not notice less, and a restart costs a keyframe.
   double align_rows_min_px = 0.05;
