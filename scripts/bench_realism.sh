@@ -5,7 +5,7 @@
 #    STARTS starts each: the rings' range offsets held (the default) and estimated
 #    (--ring-range-sigma 0.1), pooled per row by rig_summary.py;
 #  - each error source alone (the others set to 0) on REALISM_SOURCE_SEED, 100 frames, window 20,
-#    SOURCE_STARTS starts, held and estimated.
+#    SOURCE_STARTS starts, held and estimated (SOURCE_STARTS=0: not run).
 set -o pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
@@ -47,7 +47,8 @@ pooled() {  # row name, tescalib_eval options...
 }
 pooled sim_urban_realism_kitti
 pooled sim_urban_realism_kitti_ring_offsets --ring-range-sigma 0.1
-for source in clean $SOURCES; do
+[ "$SOURCE_STARTS" -gt 0 ] || SOURCES=""
+for source in $([ -n "$SOURCES" ] && echo clean) $SOURCES; do
   others=""
   for s in $SOURCES; do  # off: 0, the asphalt's texture 1 (as clean)
     [ "$s" = "$source" ] || others="$others${others:+,}$s=$([ "$s" = asphalt_texture ] && echo 1 || echo 0)"
