@@ -10,13 +10,7 @@
 # rigs (REALISM_RIG_SEEDS), the rings' range offsets held (the default) and estimated, and each error
 # source alone on REALISM_SOURCE_SEED (about 60 minutes in all). BENCH=validate runs
 # tescalib_validate's criteria against the truth and on KITTI (scripts/bench_validate.sh).
-set -o pipefail
-ROOT=$(cd "$(dirname "$0")/.." && pwd)
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-source "$ROOT/build/devel/setup.bash"
-K=$ROOT/../shared/data/kitti_odometry_mini/sequences
-OUT=$ROOT/build/bench
-mkdir -p "$OUT"
+source "$(dirname "$0")/bench_env.sh"
 TRIALS=${TRIALS:-20}
 SIM_TRIALS=${SIM_TRIALS:-30}
 BENCH=${BENCH:-all}

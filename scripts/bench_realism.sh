@@ -6,12 +6,7 @@
 #    (--ring-range-sigma 0.1), pooled per row by rig_summary.py;
 #  - each error source alone (the others set to 0) on REALISM_SOURCE_SEED, 100 frames, window 20,
 #    SOURCE_STARTS starts, held and estimated (SOURCE_STARTS=0: not run).
-set -o pipefail
-ROOT=$(cd "$(dirname "$0")/.." && pwd)
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-source "$ROOT/build/devel/setup.bash"
-OUT=$ROOT/build/bench
-mkdir -p "$OUT"
+source "$(dirname "$0")/bench_env.sh"
 REALISM_SEEDS=${REALISM_SEEDS:-"1201 1202 1203 1204 1205"}
 REALISM_RIG_SEEDS=${REALISM_RIG_SEEDS:-"1211 1212 1213"}
 REALISM_SOURCE_SEED=${REALISM_SOURCE_SEED:-1221}

@@ -8,15 +8,9 @@
 #  - both KITTI days: their calibration against 0.5 deg / 5 cm steps with the optima, and the optima
 #    searched on one part of the day and scored on the other (--fit-sequences).
 # About 15 minutes.
-set -o pipefail
-ROOT=$(cd "$(dirname "$0")/.." && pwd)
-export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
-source "$ROOT/build/devel/setup.bash"
-K=$ROOT/../shared/data/kitti_odometry_mini/sequences
-OUT=$ROOT/build/bench
-mkdir -p "$OUT"
+source "$(dirname "$0")/bench_env.sh"
 VALIDATE_SEEDS=${VALIDATE_SEEDS:-"1330 1331 1332 1333 1334 1335"}
-VALIDATE_RIG_SEEDS=${VALIDATE_RIG_SEEDS:-"1340 1341 1342 1343"}
+VALIDATE_RIG_SEEDS=${VALIDATE_RIG_SEEDS-"1340 1341 1342 1343"}
 STATUS=0
 validate() {  # json, tescalib_validate options...
   rosrun tescalib tescalib_validate --json "$1" "${@:2}" > "${1%.json}.txt" ||
