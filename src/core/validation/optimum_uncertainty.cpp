@@ -25,11 +25,7 @@ class OrientedScores {
 
   /// At the optimum moved by `steps` (in multiples of the settings' step per axis).
   std::vector<double> at(const Vector6d& steps) const {
-    std::vector<double> s = set_.score(perturb(T_, steps.cwiseProduct(step_)), T_right_left_,
-                                       {c_})[static_cast<int>(c_)];
-    if (!higherIsBetter(c_))
-      for (double& v : s) v = -v;
-    return s;
+    return betterScores(set_, c_, perturb(T_, steps.cwiseProduct(step_)), T_right_left_);
   }
   const Vector6d& step() const { return step_; }
 
@@ -40,12 +36,6 @@ class OrientedScores {
   Vector6d step_;
 };
 
-Vector6d unitStep(int k, double sign) {
-  Vector6d d = Vector6d::Zero();
-  d(k) = sign;
-  return d;
-}
-
 /// Per frame: the gradient and the Hessian (in steps) by central differences.
 void frameDerivatives(const OrientedScores& s, std::vector<Vector6d>* g, std::vector<Matrix6d>* H) {
   const std::vector<double> s0 = s.at(Vector6d::Zero());
@@ -53,16 +43,16 @@ void frameDerivatives(const OrientedScores& s, std::vector<Vector6d>* g, std::ve
   g->assign(F, Vector6d::Zero());
   H->assign(F, Matrix6d::Zero());
   for (int k = 0; k < 6; ++k) {
-    const std::vector<double> p = s.at(unitStep(k, 1)), m = s.at(unitStep(k, -1));
+    const std::vector<double> p = s.at(Vector6d::Unit(k)), m = s.at(-Vector6d::Unit(k));
     for (size_t f = 0; f < F; ++f) {
       (*g)[f](k) = 0.5 * (p[f] - m[f]);
       (*H)[f](k, k) = p[f] + m[f] - 2 * s0[f];
     }
     for (int l = 0; l < k; ++l) {
-      const std::vector<double> pp = s.at(unitStep(k, 1) + unitStep(l, 1)),
-                                pm = s.at(unitStep(k, 1) + unitStep(l, -1)),
-                                mp = s.at(unitStep(k, -1) + unitStep(l, 1)),
-                                mm = s.at(unitStep(k, -1) + unitStep(l, -1));
+      const std::vector<double> pp = s.at(Vector6d::Unit(k) + Vector6d::Unit(l)),
+                                pm = s.at(Vector6d::Unit(k) - Vector6d::Unit(l)),
+                                mp = s.at(-Vector6d::Unit(k) + Vector6d::Unit(l)),
+                                mm = s.at(-Vector6d::Unit(k) - Vector6d::Unit(l));
       for (size_t f = 0; f < F; ++f)
         (*H)[f](k, l) = (*H)[f](l, k) = 0.25 * (pp[f] - pm[f] - mp[f] + mm[f]);
     }

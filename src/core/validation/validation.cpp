@@ -11,17 +11,10 @@ constexpr double kT95[30] = {12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2
                              2.201,  2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086,
                              2.080,  2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042};
 
-Vector6d unit(int k, double size) {
-  Vector6d d = Vector6d::Zero();
-  d(k) = size;
-  return d;
-}
-
 /// The criterion's mean score, oriented so that larger is better.
 double betterScore(ValidationSet& set, Criterion c, const Eigen::Isometry3d& T,
                    const Eigen::Isometry3d& T_right_left) {
-  const double m = summarize(set.score(T, T_right_left, {c})[static_cast<int>(c)]).mean;
-  return higherIsBetter(c) ? m : -m;
+  return summarize(betterScores(set, c, T, T_right_left)).mean;
 }
 
 /// The finite differences of one criterion along axis k from the per-frame scores at the pose and
@@ -66,6 +59,14 @@ double lineSearch(ValidationSet& set, Criterion c, const Eigen::Isometry3d& T_ri
 
 }  // namespace
 
+std::vector<double> betterScores(ValidationSet& set, Criterion c, const Eigen::Isometry3d& T,
+                                 const Eigen::Isometry3d& T_right_left) {
+  std::vector<double> s = set.score(T, T_right_left, {c})[static_cast<int>(c)];
+  if (!higherIsBetter(c))
+    for (double& v : s) v = -v;
+  return s;
+}
+
 ScoreSummary summarize(const std::vector<double>& values) {
   ScoreSummary s;
   s.frames = static_cast<int>(values.size());
@@ -108,8 +109,10 @@ Validation validateCalibration(ValidationSet& set, const Eigen::Isometry3d& T_ca
   if (!sensitivities) return v;
   const Vector6d step = validationStep(set.settings());
   for (int k = 0; k < 6; ++k) {
-    const FrameScores plus = set.score(perturb(T_cam_lidar, unit(k, step(k))), T_right_left);
-    const FrameScores minus = set.score(perturb(T_cam_lidar, unit(k, -step(k))), T_right_left);
+    const FrameScores plus =
+        set.score(perturb(T_cam_lidar, Vector6d::Unit(k) * step(k)), T_right_left);
+    const FrameScores minus =
+        set.score(perturb(T_cam_lidar, -Vector6d::Unit(k) * step(k)), T_right_left);
     for (Criterion c : kAllCriteria) {
       const int i = static_cast<int>(c);
       differences(v.frames[i], plus[i], minus[i], higherIsBetter(c), k, &v.criteria[i]);
@@ -127,7 +130,7 @@ Eigen::Isometry3d criterionOptimum(ValidationSet& set, Criterion c,
     for (int sweep = 0; sweep < 3; ++sweep) {
       Vector6d moved = Vector6d::Zero();  // in steps
       for (int k = 0; k < 6; ++k) {
-        const double s = lineSearch(set, c, T_right_left, unit(k, step(k)), &T);
+        const double s = lineSearch(set, c, T_right_left, Vector6d::Unit(k) * step(k), &T);
         moved(k) = s;
       }
       // Powell's extra direction: the sweep's net move, along which a valley of two correlated

@@ -55,6 +55,11 @@ struct Validation {
   FrameScores frames;  ///< the per-frame scores at the calibration itself
 };
 
+/// The criterion's per-frame scores of a calibration, negated where lower is better: larger is
+/// better.
+std::vector<double> betterScores(ValidationSet& set, Criterion c, const Eigen::Isometry3d& T,
+                                 const Eigen::Isometry3d& T_right_left);
+
 /// The step per axis [rad x3; m x3] of the settings.
 Vector6d validationStep(const ValidationSettings& s);
 
