@@ -122,6 +122,14 @@ std::string keyframeProblem(const Keyframe& keyframe, const LidarScan& scan,
   return "";
 }
 
+std::shared_ptr<Keyframe> buildTakenKeyframe(const Frame& frame, double lidar_stamp,
+                                             const StereoRig& rig, const KeyframeInputs& inputs,
+                                             const OnlineSettings& settings, std::string* message) {
+  std::shared_ptr<Keyframe> kf = buildKeyframe(frame, lidar_stamp, rig, inputs, settings, message);
+  if (kf) *message = keyframeProblem(*kf, frame.scan, inputs.T_cam_lidar, rig, settings);
+  return kf && message->empty() ? kf : nullptr;
+}
+
 RowCheck checkRowAlignment(const Keyframe& keyframe, const StereoRig& rig,
                            const OnlineSettings& settings) {
   // On the grey values SGBM matched (Lucas-Kanade assumes equal brightness too).

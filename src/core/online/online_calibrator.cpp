@@ -21,10 +21,8 @@ FrameResult OnlineCalibrator::addFrame(const Frame& frame, double lidar_stamp, s
   Selection selection;
   if (const std::optional<FrameResult> result = selectFrame(frame, msg, &selection)) return *result;
   std::shared_ptr<Keyframe> kf =
-      buildKeyframe(frame, lidar_stamp, rig_, selection.inputs, settings_, msg);
-  if (kf) *msg = keyframeProblem(*kf, frame.scan, selection.inputs.T_cam_lidar, rig_, settings_);
-  if (!kf || !msg->empty())
-    return rejectAfterSelection(frame.stamp, selection.previous_keyframe_stamp);
+      buildTakenKeyframe(frame, lidar_stamp, rig_, selection.inputs, settings_, msg);
+  if (!kf) return rejectAfterSelection(frame.stamp, selection.previous_keyframe_stamp);
   bool realigned = false;
   const bool took_row_check = checkRowsOnce(*kf, msg, &realigned);
   if (realigned) kf = rebuildRealigned(frame, lidar_stamp, &selection, msg);
@@ -82,10 +80,9 @@ std::shared_ptr<Keyframe> OnlineCalibrator::rebuildRealigned(const Frame& frame,
   }
   std::string problem;
   std::shared_ptr<Keyframe> kf =
-      buildKeyframe(frame, lidar_stamp, rig, selection->inputs, settings_, &problem);
-  if (kf) problem = keyframeProblem(*kf, frame.scan, selection->inputs.T_cam_lidar, rig, settings_);
-  if (!problem.empty()) *msg += "; matched again: " + problem;
-  return kf && problem.empty() ? kf : nullptr;
+      buildTakenKeyframe(frame, lidar_stamp, rig, selection->inputs, settings_, &problem);
+  if (!kf) *msg += "; matched again: " + problem;
+  return kf;
 }
 
 bool OnlineCalibrator::checkRowsOnce(const Keyframe& keyframe, std::string* msg, bool* realigned) {

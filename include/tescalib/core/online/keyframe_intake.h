@@ -52,6 +52,12 @@ std::string keyframeProblem(const Keyframe& keyframe, const LidarScan& scan,
                             const Eigen::Isometry3d& T_cam_lidar, const StereoRig& rig,
                             const OnlineSettings& settings);
 
+/// buildKeyframe, then keyframeProblem: the keyframe when it is taken, else null with `message`
+/// saying why.
+std::shared_ptr<Keyframe> buildTakenKeyframe(const Frame& frame, double lidar_stamp,
+                                             const StereoRig& rig, const KeyframeInputs& inputs,
+                                             const OnlineSettings& settings, std::string* message);
+
 /// The stereo calibration checked on a keyframe's pair (OnlineSettings::max_row_offset_px).
 struct RowCheck {
   /// The pair has enough texture (100 corners followed) to tell; otherwise the next keyframe is
