@@ -1,19 +1,20 @@
 #!/usr/bin/env python3
 """Pools tescalib_eval JSON files of several rigs (make bench's random-rig rows) into one table row:
-converged and successful trials, per-axis median and worst |error|, mean NEES (6 DoF) of the
-converged trials. Usage: rig_summary.py NAME FILE.json [FILE.json ...]"""
+converged and successful trials, per-axis median and worst |error| and mean NEES (6 DoF) of the
+converged trials, of the LiDAR extrinsic and, where the pair is estimated (co, joint), the pair's. Usage: rig_summary.py NAME FILE.json [FILE.json ...]"""
 import json
 import statistics
 import sys
 
 
-def nees(trial):
-    """e^T C^-1 e of the LiDAR extrinsic (rotation in rad, translation in m), or None."""
-    lidar = trial["lidar"]
-    cov = lidar.get("covariance")
-    if not cov or len(cov) != 36:
+def nees(trial, extrinsic="lidar"):
+    """e^T C^-1 e of one extrinsic ("lidar" or "stereo"; rotation in rad, translation in m), or
+    None."""
+    est = trial[extrinsic]
+    cov = est.get("covariance")
+    if not cov or len(cov) != 36 or any(c is None for c in cov):
         return None
-    err = [x * 3.141592653589793 / 180 for x in lidar["rot_err_deg"]] + list(lidar["trans_err_m"])
+    err = [x * 3.141592653589793 / 180 for x in est["rot_err_deg"]] + list(est["trans_err_m"])
     a = [cov[6 * r:6 * r + 6] + [err[r]] for r in range(6)]
     for c in range(6):  # Gauss-Jordan elimination on [C | e]
         p = max(range(c, 6), key=lambda r: abs(a[r][c]))
@@ -27,23 +28,33 @@ def nees(trial):
     return sum(err[r] * a[r][6] / a[r][r] for r in range(6))
 
 
+def print_extrinsic(label, conv, extrinsic, digits):
+    """Median and worst |error| per axis and mean NEES of one extrinsic over the converged trials."""
+    rot = [[abs(t[extrinsic]["rot_err_deg"][i]) for t in conv] for i in range(3)]
+    tra = [[abs(t[extrinsic]["trans_err_m"][i]) * 1000 for t in conv] for i in range(3)]
+    med = lambda xs: statistics.median(xs) if xs else float("nan")
+    worst = lambda xs: max(xs, default=float("nan"))
+    r, m = f"{{:.{digits}f}}", f"{{:.{digits - 2}f}}"
+    print(f"  {label} median |err| rot x y z deg: " + " ".join(r.format(med(x)) for x in rot) +
+          "; trans x y z mm: " + " ".join(m.format(med(x)) for x in tra))
+    print(f"  {label} worst  |err| rot x y z deg: " + " ".join(r.format(worst(x)) for x in rot) +
+          "; trans x y z mm: " + " ".join(m.format(worst(x)) for x in tra))
+    values = [v for v in (nees(t, extrinsic) for t in conv) if v is not None]
+    if values:
+        print(f"  {label} mean NEES of the converged trials (6 DoF, ideal 6): "
+              f"{statistics.mean(values):.2f} ({len(values)} trials)")
+
+
 def main():
     name, files = sys.argv[1], sys.argv[2:]
     trials = [t for f in files for t in json.load(open(f))["trials"]]
     conv = [t for t in trials if t["converged"]]
     succ = sum(1 for t in trials if t["success"])
-    rot = [[abs(t["lidar"]["rot_err_deg"][i]) for t in conv] for i in range(3)]
-    tra = [[abs(t["lidar"]["trans_err_m"][i]) * 1000 for t in conv] for i in range(3)]
-    values = [v for v in (nees(t) for t in conv) if v is not None]
-    med = lambda xs: statistics.median(xs) if xs else float("nan")
     print(f"{name}: {len(files)} rigs, {len(trials)} trials, converged {len(conv)}, "
           f"success {succ} ({100.0 * succ / max(len(trials), 1):.0f} %)")
-    print("  median |err| rot x y z deg: " + " ".join(f"{med(r):.3f}" for r in rot) +
-          "; trans x y z mm: " + " ".join(f"{med(t):.1f}" for t in tra))
-    print("  worst  |err| rot x y z deg: " + " ".join(f"{max(r, default=float('nan')):.3f}" for r in rot) +
-          "; trans x y z mm: " + " ".join(f"{max(t, default=float('nan')):.1f}" for t in tra))
-    if values:
-        print(f"  mean NEES of the converged trials (6 DoF, ideal 6): {statistics.mean(values):.2f}")
+    print_extrinsic("LiDAR", conv, "lidar", 3)
+    if any(t["stereo"].get("estimated") for t in trials):
+        print_extrinsic("pair", conv, "stereo", 4)
 
 
 if __name__ == "__main__":
