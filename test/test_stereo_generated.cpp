@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/lidar/mesh_depth.h"
 #include "tescalib/core/sim/simulator.h"
@@ -170,6 +171,30 @@ TEST(StereoGenerated, SmoothedFirstRoundCorrectsMoreOfTheNoisyRoadBias) {
   std::cout << "[ road     ] noisy frame, median road disparity error: 1 round " << e_one
             << " px, smoothed + exact round " << e_smoothed << " px\n";
   EXPECT_LT(std::fabs(e_smoothed), 0.5 * std::fabs(e_one));  // two exact rounds: 0.62
+}
+
+TEST(StereoGenerated, EightPathsDoNotShiftTheRoadsMatchUpwards) {
+  // SGBM with 3 (or 5) paths aggregates in one pass from the top row: the smoothness reaches a
+  // pixel from the rows above alone, so the road, whose disparity grows with the row, matches
+  // short; with 8 paths (StereoSettings::sgbm_paths) the rows below pull back. Default noise.
+  SimOptions o;
+  o.frames = 1;
+  o.seed = 1;
+  const Simulator sim(o);
+  StereoSettings three, eight;
+  three.refinement.iterations = eight.refinement.iterations = 0;
+  eight.sgbm_paths = 8;
+  const double e_three = medianRoadDisparityError(sim, 0, three);
+  const double e_eight = medianRoadDisparityError(sim, 0, eight);
+  std::cout << "[ road     ] noisy frame, SGBM's median road disparity error: 3 paths " << e_three
+            << " px, 8 paths " << e_eight << " px\n";
+  EXPECT_LT(e_three, -0.1);
+  EXPECT_LT(std::fabs(e_eight), 0.5 * std::fabs(e_three));
+  StereoSettings bad;
+  bad.sgbm_paths = 4;
+  const Frame f = sim.renderFrame(0);
+  EXPECT_THROW(computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left, bad),
+               DataError);
 }
 
 TEST(StereoGenerated, RefinementDoesNotDependOnWhatItRefinedBefore) {

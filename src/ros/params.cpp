@@ -179,6 +179,7 @@ void readCoCalibrationAndStereo(Visit& get, NodeParams* p) {
   get("co_calibration/stereo_from_features", &p->online.co.stereo_from_features);
   get("stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
   get("stereo/block_size", &p->online.keyframe.stereo.block_size);
+  get("stereo/sgbm_paths", &p->online.keyframe.stereo.sgbm_paths);
   get("stereo/max_depth", &p->online.keyframe.stereo.max_depth);
   get("stereo/max_row_offset_px", &p->online.max_row_offset_px);
   get("stereo/align_rows", &p->online.align_rows);
@@ -329,6 +330,9 @@ void checkStereo(const OnlineSettings& o, std::ostringstream& e) {
   if (o.keyframe.stereo.block_size < 1 || o.keyframe.stereo.block_size % 2 == 0)
     e << "stereo/block_size must be a positive odd number (got " << o.keyframe.stereo.block_size
       << "); ";
+  const int paths = o.keyframe.stereo.sgbm_paths;
+  if (paths != 3 && paths != 5 && paths != 8)
+    e << "stereo/sgbm_paths must be 3, 5 or 8 (got " << paths << "); ";
   if (!positive(o.keyframe.stereo.disparity_sigma)) e << "stereo/disparity_sigma must be > 0; ";
   if (!std::isfinite(o.keyframe.stereo.equalize_exposure_ratio))
     e << "stereo/equalize_exposure_ratio must be a number (<= 1: off); ";

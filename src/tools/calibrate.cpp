@@ -254,6 +254,8 @@ void configure(const Args& args, Session* session) {
   session->settings.keyframe.mesh.consistent_sample = args.consistent_sample;
   session->settings.deskew = args.deskew > 0;
   session->settings.align_rows = args.align_rows > 0;
+  session->settings.keyframe.stereo.sgbm_paths = args.sgbm_paths;
+  session->settings.co.stereo_cloud.sgbm_paths = args.sgbm_paths;
   if (args.search_deg >= 0) session->settings.co.lidar.search_step_deg = args.search_deg;
   session->settings.monitor.action = args.monitor;
   session->holdout = args.holdout;

@@ -91,6 +91,11 @@ void addCalibrationOptions(CLI::App* app, Args* a) {
            "re-rectify the pair once, before the first estimate, for the right camera's pitch "
            "and roll that the right image's rows show (default 1; the node's stereo/align_rows)")
       ->group(g);
+  cli::add(app, "--sgbm-paths", "3|5|8", cli::to(&a->sgbm_paths, cli::toSgbmPaths),
+           "SGBM's aggregation paths (default 3; the node's stereo/sgbm_paths): 8 also "
+           "aggregates from below, which keeps the road's disparity from matching as if shifted "
+           "upwards, at about 3x the stereo time")
+      ->group(g);
   cli::add(app, "--perturb-rot-deg", "R", cli::to(&a->perturb_rot_deg, cli::toDouble),
            "with --perturb-trans-m (either or both): start that far from the initial "
            "T_cam_lidar (random direction, --seed); the errors against that initial guess (DIR's "

@@ -64,6 +64,12 @@ inline std::function<int(const std::string&)> atLeast(int min) {
     return v;
   };
 }
+/// SGBM's aggregation paths (StereoSettings::sgbm_paths): 3, 5 or 8; anything else throws.
+inline int toSgbmPaths(const std::string& s) {
+  const int v = toInt(s);
+  if (v != 3 && v != 5 && v != 8) throw std::invalid_argument(s);
+  return v;
+}
 /// The value as it is given (a name, a path).
 inline std::string text(const std::string& s) { return s; }
 

@@ -153,6 +153,10 @@ void addKeyframeStudyOptions(CLI::App* app, Args* a, const cli::ExpertOptions& e
       "rounds of the stereo clouds' sub-pixel disparity refinement (0 keeps SGBM's disparities; "
       "default 2 in lidar_stereo mode, 1 for the clouds co and joint match again)")
       ->group(g);
+  add(app, "--sgbm-paths", "3|5|8", to(&a->sgbm_paths, cli::toSgbmPaths),
+      "SGBM's aggregation paths of every stereo cloud (default 3, as the node's "
+      "stereo/sgbm_paths; 8 also aggregates from below)")
+      ->group(g);
   add(app, "--refine-smoothed-rounds", "N", to(&a->refine_smoothed, cli::atLeast(0)),
       "of those rounds, the first N follow a smoothed image gradient (default 1 in lidar_stereo "
       "mode, 0 in co and joint)")

@@ -88,6 +88,7 @@ void setKeyframeSettings(const Args& args, EvalData* d) {
     return r;
   };
   d->kfs.stereo.refinement = withRefineArgs(d->kfs.stereo.refinement);
+  d->kfs.stereo.sgbm_paths = args.sgbm_paths;
   d->co_refinement = withRefineArgs(CoCalibrationSettings{}.stereo_cloud.refinement);
   const bool co_clouds = args.mode == "co" || args.mode == "joint";
   d->used_refinement = co_clouds ? d->co_refinement : d->kfs.stereo.refinement;

@@ -54,6 +54,7 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
                                  const DisparityRefinementSettings& refinement) {
   CoCalibrationSettings cs;
   cs.stereo_cloud.refinement = refinement;
+  cs.stereo_cloud.sgbm_paths = args.sgbm_paths;
   cs.lidar.cov_cells_x = solver_settings.cov_cells_x;
   cs.lidar.cov_cells_y = solver_settings.cov_cells_y;
   cs.lidar.ring_cluster_rings = solver_settings.ring_cluster_rings;

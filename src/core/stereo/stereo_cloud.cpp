@@ -209,6 +209,9 @@ void requireUsableInputs(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
     throw DataError("stereo pair: images " + std::to_string(left_bgr.cols) +
                     " px wide, not wider than num_disparities + block_size (" +
                     std::to_string(s.num_disparities + s.block_size) + ")");
+  if (s.sgbm_paths != 3 && s.sgbm_paths != 5 && s.sgbm_paths != 8)
+    throw DataError("stereo settings: sgbm_paths must be 3, 5 or 8 (got " +
+                    std::to_string(s.sgbm_paths) + ")");
   if (s.num_disparities < 16 || s.num_disparities % 16 || s.sample_step < 1 || s.normal_scale < 1)
     throw DataError(
         "stereo settings: num_disparities must be a positive multiple of 16, sample_step and "
@@ -239,16 +242,22 @@ void rectifyPair(const Rectification& rect, const StereoRig& rig, cv::Mat* left,
   *left = lr, *right = rr;
 }
 
+/// OpenCV's SGBM mode with `paths` aggregation paths (3, 5 or 8; checked by
+/// requireUsableInputs).
+int sgbmMode(int paths) {
+  if (paths == 8) return cv::StereoSGBM::MODE_HH;
+  return paths == 5 ? cv::StereoSGBM::MODE_SGBM : cv::StereoSGBM::MODE_SGBM_3WAY;
+}
+
 /// SGBM's disparity of the rectified pair in px, NaN where invalid (SGBM leaves the first
 /// num_disparities columns unmatched); its time goes to out->seconds_sgbm.
 cv::Mat sgbmDisparity(const cv::Mat& left, const cv::Mat& right, const StereoSettings& s,
                       StereoCloud* out) {
   const auto t_sgbm = std::chrono::steady_clock::now();
   const int bs = s.block_size;
-  auto sgbm = cv::StereoSGBM::create(
-      0, s.num_disparities, bs, 8 * bs * bs, 32 * bs * bs, s.disp12_max_diff, 0, s.uniqueness_ratio,
-      s.speckle_window, s.speckle_range,
-      s.three_way ? cv::StereoSGBM::MODE_SGBM_3WAY : cv::StereoSGBM::MODE_SGBM);
+  auto sgbm = cv::StereoSGBM::create(0, s.num_disparities, bs, 8 * bs * bs, 32 * bs * bs,
+                                     s.disp12_max_diff, 0, s.uniqueness_ratio, s.speckle_window,
+                                     s.speckle_range, sgbmMode(s.sgbm_paths));
   cv::Mat disp16;
   sgbm->compute(left, right, disp16);
   out->seconds_sgbm = secondsSince(t_sgbm);

@@ -15,19 +15,26 @@
 namespace tescalib {
 
 struct StereoSettings {
-  int num_disparities = 128;     ///< SGBM search range (multiple of 16)
-  int block_size = 5;            ///< SGBM block size (odd)
-  bool three_way = true;         ///< MODE_SGBM_3WAY (2.5x faster than MODE_SGBM, same quality here)
-  int uniqueness_ratio = 10;     ///< SGBM uniqueness margin (%)
-  int speckle_window = 100;      ///< SGBM speckle filter window (px)
-  int speckle_range = 2;         ///< SGBM speckle filter range (disparity units)
-  int disp12_max_diff = 1;       ///< left-right consistency check (px)
-  int sample_step = 4;           ///< take one stereo point every N pixels in u and v
-  double min_depth = 2.0;        ///< m
-  double max_depth = 40.0;       ///< m; stereo depth noise grows with Z^2, far points carry little
-  int normal_scale = 3;          ///< px; half-width of the finite differences for normals
-  double max_second_diff = 1.5;  ///< px; disparity is affine on a plane: larger curvature = edge
-  int edge_dilation = 2;         ///< px removed around an edge (SGBM fattens foreground ~block/2)
+  int num_disparities = 128;  ///< SGBM search range (multiple of 16)
+  int block_size = 5;         ///< SGBM block size (odd)
+  /// SGBM's aggregation paths: 3 (MODE_SGBM_3WAY), 5 (MODE_SGBM) or 8 (MODE_HH). 3 and 5 run
+  /// in one pass over the image from its top row, so their smoothness reaches each pixel from
+  /// the rows above alone: a surface whose disparity changes with the row (the road) matches
+  /// as if shifted upwards, about 0.4 row under the generator's image noise (disparity error
+  /// -0.42 px x dd/dv on random rig 307; tescalib_error_budget). 8 adds the paths from below,
+  /// with no such shift (+0.007 px x dd/dv), at about 3x the time and W x H x
+  /// num_disparities x 2 bytes of memory per cloud.
+  int sgbm_paths = 3;
+  int uniqueness_ratio = 10;      ///< SGBM uniqueness margin (%)
+  int speckle_window = 100;       ///< SGBM speckle filter window (px)
+  int speckle_range = 2;          ///< SGBM speckle filter range (disparity units)
+  int disp12_max_diff = 1;        ///< left-right consistency check (px)
+  int sample_step = 4;            ///< take one stereo point every N pixels in u and v
+  double min_depth = 2.0;         ///< m
+  double max_depth = 40.0;        ///< m; stereo depth noise grows with Z^2, far points carry little
+  int normal_scale = 3;           ///< px; half-width of the finite differences for normals
+  double max_second_diff = 1.5;   ///< px; disparity is affine on a plane: larger curvature = edge
+  int edge_dilation = 2;          ///< px removed around an edge (SGBM fattens foreground ~block/2)
   double disparity_sigma = 0.35;  ///< px; SGBM sub-pixel noise used by the noise model
   /// When the pair's mean grey value or contrast (standard deviation) differ by more than this
   /// factor, the image with the lower contrast is mapped onto the other's grey-value histogram
