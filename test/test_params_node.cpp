@@ -86,6 +86,8 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_EQ(p.online.co.stereo_cloud.refinement.smoothed_gradient_rounds, 0);
   EXPECT_EQ(p.online.keyframe.stereo.num_disparities, 128);
   EXPECT_EQ(p.online.co.stereo_cloud.num_disparities, p.online.keyframe.stereo.num_disparities);
+  EXPECT_EQ(p.online.keyframe.stereo.sgbm_paths, 3);
+  EXPECT_EQ(p.online.co.stereo_cloud.sgbm_paths, p.online.keyframe.stereo.sgbm_paths);
 }
 
 TEST(Params, KittiYamlHoldsTheCompiledInDefaults) {
@@ -274,6 +276,7 @@ TEST(Params, NotANumberAndOtherSilentValuesAreNamed) {
   pnh.setParam("initial/perturb_rot_deg", -2.0);
   pnh.setParam("window/size", 2);
   pnh.setParam("stereo/block_size", -1);
+  pnh.setParam("stereo/sgbm_paths", 4);
   tescalib::NodeParams p;
   std::string error;
   EXPECT_FALSE(tescalib::loadNodeParams(pnh, &p, &error));
@@ -283,7 +286,8 @@ TEST(Params, NotANumberAndOtherSilentValuesAreNamed) {
         "stereo/max_depth must be beyond the stereo clouds' near limit of 2 m (got 1.5)",
         "initial/perturb_rot_deg and initial/perturb_trans_m must be sizes, >= 0 (got -2, 0)",
         "window/min_keyframes must be in [1, window/size] (got 3, window/size 2)",
-        "stereo/block_size must be a positive odd number (got -1)"})
+        "stereo/block_size must be a positive odd number (got -1)",
+        "stereo/sgbm_paths must be 3, 5 or 8 (got 4)"})
     EXPECT_NE(error.find(named), std::string::npos) << named << " in: " << error;
 }
 
