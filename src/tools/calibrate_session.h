@@ -205,7 +205,7 @@ struct Session {
       std::printf("no keyframe: no overlay written\n");
       return true;
     }
-    const CameraIntrinsics& cam = calibrator->rig().left;
+    const CameraIntrinsics cam = calibrator->rig().left;
     cv::Mat before = last_keyframe.left.clone(), after = last_keyframe.left.clone();
     drawLidarOverlay(last_keyframe.scan, T_initial, cam, &before);
     drawStatusText({"initial T_cam_lidar"}, &before);

@@ -201,16 +201,17 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
     return false;
   }
   WindowSolveInput input;
+  StereoRig rig;
   uint64_t generation = 0;
-  if (!startSolve(recording_ended, &input, &generation, msg)) return false;
+  if (!startSolve(recording_ended, &input, &rig, &generation, msg)) return false;
   const auto t0 = std::chrono::steady_clock::now();
   WindowSolveResult result;
   // A solver that throws (a DataError on an estimate gone far off, OpenCV on data it cannot use)
   // fails this solve, not the node: the published estimate stays.
   try {
-    result = solveWindow(input, rig_, settings_, &cancel_);
+    result = solveWindow(input, rig, settings_, &cancel_);
     if (!input.pair_check.empty() && !cancel_)
-      result.pair_check = checkStereoPair(input.pair_check, rig_, *input.published, settings_);
+      result.pair_check = checkStereoPair(input.pair_check, rig, *input.published, settings_);
   } catch (const std::exception& ex) {
     *msg = std::string("the solve failed: ") + ex.what() +
            (input.published ? " (keeping the previous estimate)" : " (nothing published yet)");
@@ -224,10 +225,11 @@ bool OnlineCalibrator::solve(std::string* msg, OnlineEstimate* published, bool r
   return concludeSolve(input, generation, std::move(result), msg, published);
 }
 
-bool OnlineCalibrator::startSolve(bool recording_ended, WindowSolveInput* input,
+bool OnlineCalibrator::startSolve(bool recording_ended, WindowSolveInput* input, StereoRig* rig,
                                   uint64_t* generation, std::string* msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   *generation = generation_;
+  *rig = rig_;
   if (window_.empty() || static_cast<int>(window_.size()) < settings_.minKeyframes()) {
     *msg = "window has " + std::to_string(window_.size()) + " keyframes, needs " +
            std::to_string(settings_.minKeyframes());
@@ -466,6 +468,11 @@ std::optional<OnlineEstimate> OnlineCalibrator::estimate() const {
 std::optional<OnlineEstimate> OnlineCalibrator::lastSolve() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return last_solve_;
+}
+
+StereoRig OnlineCalibrator::rig() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return rig_;
 }
 
 Eigen::Isometry3d OnlineCalibrator::currentTcamLidar() const {

@@ -93,7 +93,9 @@ class OnlineCalibrator {
   std::optional<OnlineEstimate> lastSolve() const;
   size_t windowFill() const;
   bool readyToSolve() const;
-  const StereoRig& rig() const { return rig_; }
+  /// The rig: intrinsics and the initial extrinsics (the pair's as re-rectified by
+  /// stereo/align_rows); a copy, as the keyframe thread may re-rectify it.
+  StereoRig rig() const;
   Eigen::Isometry3d currentTcamLidar() const;  ///< estimate, or the initial guess
   Eigen::Isometry3d currentTrightLeft() const;
   /// Stamps of the keyframes in the window, oldest first.
@@ -141,8 +143,8 @@ class OnlineCalibrator {
   void clearWindow();  ///< REQUIRES(mutex_)
   /// The solve's input from the window and the published estimate; false (with `msg`) when the
   /// window holds too few keyframes.
-  bool startSolve(bool recording_ended, WindowSolveInput* input, uint64_t* generation,
-                  std::string* msg);
+  bool startSolve(bool recording_ended, WindowSolveInput* input, StereoRig* rig,
+                  uint64_t* generation, std::string* msg);
   /// Feeds a solve's estimates to the monitors (observeLidar, observePair; neither while the
   /// other extrinsic holds a change); returns why the monitor holds it back
   /// (empty: it does not), restarts the window on `changed` with MonitorSettings::action
@@ -176,7 +178,9 @@ class OnlineCalibrator {
   bool concludeSolve(const WindowSolveInput& input, uint64_t generation, WindowSolveResult result,
                      std::string* msg, OnlineEstimate* published);
 
-  StereoRig rig_;  ///< intrinsics + initial extrinsics
+  /// Intrinsics + initial extrinsics. Written (alignRowsOnce) and read on the keyframe thread;
+  /// other threads read copies under `mutex_` (startSolve, rig()).
+  StereoRig rig_;
   OnlineSettings settings_;
   mutable std::mutex mutex_;
   KeyframeWindow window_;                     ///< GUARDED_BY(mutex_)
