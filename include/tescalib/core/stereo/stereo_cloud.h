@@ -22,8 +22,9 @@ struct StereoSettings {
   /// the rows above alone: a surface whose disparity changes with the row (the road) matches
   /// as if shifted upwards, about 0.4 row under the generator's image noise (disparity error
   /// -0.42 px x dd/dv on random rig 307; tescalib_error_budget). 8 adds the paths from below,
-  /// with no such shift (+0.007 px x dd/dv), at about 3x the time and W x H x
-  /// num_disparities x 2 bytes of memory per cloud.
+  /// with no such shift (+0.007 px x dd/dv), at about 3x the time and about 4 bytes x W x H x
+  /// num_disparities of memory while matching (200 MB more at 1241x376). 3 is the default: the
+  /// refinement and the model-error floors are fitted with it (doc/limitations.md).
   int sgbm_paths = 3;
   int uniqueness_ratio = 10;      ///< SGBM uniqueness margin (%)
   int speckle_window = 100;       ///< SGBM speckle filter window (px)
