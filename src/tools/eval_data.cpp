@@ -93,8 +93,9 @@ void setKeyframeSettings(const Args& args, EvalData* d) {
   const bool co_clouds = args.mode == "co" || args.mode == "joint";
   d->used_refinement = co_clouds ? d->co_refinement : d->kfs.stereo.refinement;
   if (args.mode != "stereo")  // stereo mode matches no clouds
-    std::cout << "  stereo clouds: disparity refinement " << d->used_refinement.iterations
-              << " round(s), " << d->used_refinement.smoothed_gradient_rounds
+    std::cout << "  stereo clouds: SGBM with " << args.sgbm_paths << " paths, disparity refinement "
+              << d->used_refinement.iterations << " round(s), "
+              << d->used_refinement.smoothed_gradient_rounds
               << " of them with the smoothed gradient\n";
 }
 

@@ -368,6 +368,7 @@ Json runJson(const Args& args, const EvalData& d, const Estimated& estimated,
             {"refinement",
              {{"iterations", d.used_refinement.iterations},
               {"smoothed_rounds", d.used_refinement.smoothed_gradient_rounds}}},
+            {"sgbm_paths", args.sgbm_paths},
             {"consistent_sample", args.consistent_sample},
             {"trials", Json::array()}};
   for (const auto& tr : trials) j["trials"].push_back(trialJson(args, estimated, tr));
