@@ -4,8 +4,8 @@
 # BENCH=sim|kitti|all (default all) selects the generated-drive or the real-KITTI part; BENCH=core
 # runs only the rows of doc/benchmarks.md's main table, one per benchmark target (about 25 minutes);
 # BENCH=rigs only the random-rig rows (the RIG_SEEDS rigs drawn by tescalib_simulate --rig random:
-# LiDAR-stereo from 3 deg / 0.3 m and 10 deg / 1 m, co; about 3 minutes per rig). BENCH=monitor runs the calibration monitor's rows (scripts/bench_monitor.sh,
-# about 3 minutes per 60 s drive). BENCH=realism runs the rows of real sensors' errors
+# LiDAR-stereo from 3 deg / 0.3 m and 10 deg / 1 m, co; about 3 minutes per rig). BENCH=monitor
+# runs the calibration monitor's rows (scripts/bench_monitor.sh, about 3 minutes per 60 s drive). BENCH=realism runs the rows of real sensors' errors
 # (tescalib_simulate --realism kitti): urban drives of the default rig (REALISM_SEEDS) and of random
 # rigs (REALISM_RIG_SEEDS), the rings' range offsets held (the default) and estimated, and each error
 # source alone on REALISM_SOURCE_SEED (about 60 minutes in all). BENCH=validate runs

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Pools tescalib_eval JSON files of several rigs (make bench's random-rig rows) into one table row:
 converged and successful trials, per-axis median and worst |error| and mean NEES (6 DoF) of the
-converged trials, of the LiDAR extrinsic and, where the pair is estimated (co, joint), the pair's. Usage: rig_summary.py NAME FILE.json [FILE.json ...]"""
+converged trials, of the LiDAR extrinsic and, where the pair is estimated (co, joint), the pair's.
+Usage: rig_summary.py NAME FILE.json [FILE.json ...]"""
 import json
 import statistics
 import sys
@@ -29,7 +30,8 @@ def nees(trial, extrinsic="lidar"):
 
 
 def print_extrinsic(label, conv, extrinsic, digits):
-    """Median and worst |error| per axis and mean NEES of one extrinsic over the converged trials."""
+    """Median and worst |error| per axis and mean NEES of one extrinsic over the converged
+    trials."""
     rot = [[abs(t[extrinsic]["rot_err_deg"][i]) for t in conv] for i in range(3)]
     tra = [[abs(t[extrinsic]["trans_err_m"][i]) * 1000 for t in conv] for i in range(3)]
     med = lambda xs: statistics.median(xs) if xs else float("nan")
