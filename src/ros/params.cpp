@@ -9,6 +9,8 @@
 
 #include <ros/param.h>
 
+#include "tescalib/core/stereo/stereo_cloud.h"
+
 namespace tescalib {
 
 namespace {
@@ -330,9 +332,8 @@ void checkStereo(const OnlineSettings& o, std::ostringstream& e) {
   if (o.keyframe.stereo.block_size < 1 || o.keyframe.stereo.block_size % 2 == 0)
     e << "stereo/block_size must be a positive odd number (got " << o.keyframe.stereo.block_size
       << "); ";
-  const int paths = o.keyframe.stereo.sgbm_paths;
-  if (paths != 3 && paths != 5 && paths != 8)
-    e << "stereo/sgbm_paths must be 3, 5 or 8 (got " << paths << "); ";
+  if (!validSgbmPaths(o.keyframe.stereo.sgbm_paths))
+    e << "stereo/sgbm_paths must be 3, 5 or 8 (got " << o.keyframe.stereo.sgbm_paths << "); ";
   if (!positive(o.keyframe.stereo.disparity_sigma)) e << "stereo/disparity_sigma must be > 0; ";
   if (!std::isfinite(o.keyframe.stereo.equalize_exposure_ratio))
     e << "stereo/equalize_exposure_ratio must be a number (<= 1: off); ";

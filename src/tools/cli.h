@@ -18,6 +18,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "tescalib/core/stereo/stereo_cloud.h"
+
 namespace tescalib::cli {
 
 /// "a,b,,c" -> {"a", "b", "c"}.
@@ -67,7 +69,7 @@ inline std::function<int(const std::string&)> atLeast(int min) {
 /// SGBM's aggregation paths (StereoSettings::sgbm_paths): 3, 5 or 8; anything else throws.
 inline int toSgbmPaths(const std::string& s) {
   const int v = toInt(s);
-  if (v != 3 && v != 5 && v != 8) throw std::invalid_argument(s);
+  if (!tescalib::validSgbmPaths(v)) throw std::invalid_argument(s);
   return v;
 }
 /// The value as it is given (a name, a path).

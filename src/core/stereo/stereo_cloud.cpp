@@ -209,7 +209,7 @@ void requireUsableInputs(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
     throw DataError("stereo pair: images " + std::to_string(left_bgr.cols) +
                     " px wide, not wider than num_disparities + block_size (" +
                     std::to_string(s.num_disparities + s.block_size) + ")");
-  if (s.sgbm_paths != 3 && s.sgbm_paths != 5 && s.sgbm_paths != 8)
+  if (!validSgbmPaths(s.sgbm_paths))
     throw DataError("stereo settings: sgbm_paths must be 3, 5 or 8 (got " +
                     std::to_string(s.sgbm_paths) + ")");
   if (s.num_disparities < 16 || s.num_disparities % 16 || s.sample_step < 1 || s.normal_scale < 1)

@@ -81,6 +81,9 @@ struct StereoCloud {
   Eigen::Vector3d pointAt(double u, double v, double d) const;
 };
 
+/// Whether `paths` is a StereoSettings::sgbm_paths SGBM has: 3, 5 or 8.
+inline bool validSgbmPaths(int paths) { return paths == 3 || paths == 5 || paths == 8; }
+
 /// Maps the image of the pair (8-bit grey) with the lower contrast onto the other's grey-value
 /// histogram when their means or contrasts differ by more than `ratio_limit` (> 1; otherwise, and
 /// within it, the images are left alone). Returns whether it mapped one.
