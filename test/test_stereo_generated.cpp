@@ -183,6 +183,7 @@ TEST(StereoGenerated, EightPathsDoNotShiftTheRoadsMatchUpwards) {
   const Simulator sim(o);
   StereoSettings three, eight;
   three.refinement.iterations = eight.refinement.iterations = 0;
+  three.sgbm_both_ways = eight.sgbm_both_ways = false;
   eight.sgbm_paths = 8;
   const double e_three = medianRoadDisparityError(sim, 0, three);
   const double e_eight = medianRoadDisparityError(sim, 0, eight);
@@ -192,6 +193,31 @@ TEST(StereoGenerated, EightPathsDoNotShiftTheRoadsMatchUpwards) {
   EXPECT_LT(std::fabs(e_eight), 0.5 * std::fabs(e_three));
   StereoSettings bad;
   bad.sgbm_paths = 4;
+  const Frame f = sim.renderFrame(0);
+  EXPECT_THROW(computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left, bad),
+               DataError);
+}
+
+TEST(StereoGenerated, MatchingBothWaysDoesNotShiftTheRoadsMatch) {
+  // The upside-down pass of StereoSettings::sgbm_both_ways aggregates from the bottom row: its
+  // road matches shift downwards as the upright pass's shift upwards, and their mean does not
+  // shift. Default noise, no refinement.
+  SimOptions o;
+  o.frames = 1;
+  o.seed = 1;
+  const Simulator sim(o);
+  StereoSettings upright, both;
+  upright.refinement.iterations = both.refinement.iterations = 0;
+  upright.sgbm_both_ways = false;
+  both.sgbm_both_ways = true;
+  const double e_upright = medianRoadDisparityError(sim, 0, upright);
+  const double e_both = medianRoadDisparityError(sim, 0, both);
+  std::cout << "[ road     ] noisy frame, SGBM's median road disparity error: upright " << e_upright
+            << " px, both ways " << e_both << " px\n";
+  EXPECT_LT(e_upright, -0.1);
+  EXPECT_LT(std::fabs(e_both), 0.3 * std::fabs(e_upright));
+  StereoSettings bad = both;
+  bad.both_ways_max_diff_px = -1;
   const Frame f = sim.renderFrame(0);
   EXPECT_THROW(computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left, bad),
                DataError);

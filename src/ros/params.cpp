@@ -182,6 +182,7 @@ void readCoCalibrationAndStereo(Visit& get, NodeParams* p) {
   get("stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
   get("stereo/block_size", &p->online.keyframe.stereo.block_size);
   get("stereo/sgbm_paths", &p->online.keyframe.stereo.sgbm_paths);
+  get("stereo/sgbm_both_ways", &p->online.keyframe.stereo.sgbm_both_ways);
   get("stereo/max_depth", &p->online.keyframe.stereo.max_depth);
   get("stereo/max_row_offset_px", &p->online.max_row_offset_px);
   get("stereo/align_rows", &p->online.align_rows);

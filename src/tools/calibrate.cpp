@@ -256,6 +256,8 @@ void configure(const Args& args, Session* session) {
   session->settings.align_rows = args.align_rows > 0;
   session->settings.keyframe.stereo.sgbm_paths = args.sgbm_paths;
   session->settings.co.stereo_cloud.sgbm_paths = args.sgbm_paths;
+  session->settings.keyframe.stereo.sgbm_both_ways = args.sgbm_both_ways > 0;
+  session->settings.co.stereo_cloud.sgbm_both_ways = args.sgbm_both_ways > 0;
   if (args.search_deg >= 0) session->settings.co.lidar.search_step_deg = args.search_deg;
   session->settings.monitor.action = args.monitor;
   session->holdout = args.holdout;

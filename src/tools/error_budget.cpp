@@ -90,6 +90,8 @@ bool parse(int argc, char** argv, Args* a) {
       "of those rounds, the first N take the smoothed gradient (default 1)");
   add(&app, "--sgbm-paths", "3|5|8", to(&a->ks.stereo.sgbm_paths, cli::toSgbmPaths),
       "SGBM's aggregation paths (default 3; 8 also aggregates from below)");
+  add(&app, "--sgbm-both-ways", "0|1", to(&a->ks.stereo.sgbm_both_ways, cli::toSwitch),
+      "match each pair upright and upside down and keep the mean (default 1)");
   add(&app, "--refine-window", "R", to(&a->ks.stereo.refinement.window_radius, cli::atLeast(1)),
       "the refinement's window radius, px (default 4: 9x9 windows)");
   add(&app, "--keep-rings", "N", to(&a->keep_rings, cli::atLeast(1)),
@@ -285,7 +287,7 @@ int main(int argc, char** argv) {
     addKeyframe(kf, depth, rig.left, T, &budget);
   }
   std::printf(
-      "tescalib_error_budget: %s drive, seed %llu, %d keyframes, noise %s, SGBM paths %d, "
+      "tescalib_error_budget: %s drive, seed %llu, %d keyframes, noise %s, SGBM paths %d%s, "
       "refinement rounds %d (%d smoothed)\n",
       o.scenario == sim::Scenario::kUrban         ? "urban"
       : o.scenario == sim::Scenario::kResidential ? "residential"
@@ -294,7 +296,8 @@ int main(int argc, char** argv) {
       o.noise == NoiseLevel::kNone   ? "none"
       : o.noise == NoiseLevel::kHigh ? "high"
                                      : "default",
-      ks.stereo.sgbm_paths, ks.stereo.refinement.iterations,
+      ks.stereo.sgbm_paths, ks.stereo.sgbm_both_ways ? " both ways" : "",
+      ks.stereo.refinement.iterations,
       std::min(ks.stereo.refinement.smoothed_gradient_rounds, ks.stereo.refinement.iterations));
   std::printf(
       "  %d fine-stage associations at the ground truth (%d more across depth edges "

@@ -89,11 +89,13 @@ void setKeyframeSettings(const Args& args, EvalData* d) {
   };
   d->kfs.stereo.refinement = withRefineArgs(d->kfs.stereo.refinement);
   d->kfs.stereo.sgbm_paths = args.sgbm_paths;
+  d->kfs.stereo.sgbm_both_ways = args.sgbm_both_ways;
   d->co_refinement = withRefineArgs(CoCalibrationSettings{}.stereo_cloud.refinement);
   const bool co_clouds = args.mode == "co" || args.mode == "joint";
   d->used_refinement = co_clouds ? d->co_refinement : d->kfs.stereo.refinement;
   if (args.mode != "stereo")  // stereo mode matches no clouds
-    std::cout << "  stereo clouds: SGBM with " << args.sgbm_paths << " paths, disparity refinement "
+    std::cout << "  stereo clouds: SGBM with " << args.sgbm_paths << " paths"
+              << (args.sgbm_both_ways ? " both ways" : "") << ", disparity refinement "
               << d->used_refinement.iterations << " round(s), "
               << d->used_refinement.smoothed_gradient_rounds
               << " of them with the smoothed gradient\n";

@@ -55,6 +55,7 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
   CoCalibrationSettings cs;
   cs.stereo_cloud.refinement = refinement;
   cs.stereo_cloud.sgbm_paths = args.sgbm_paths;
+  cs.stereo_cloud.sgbm_both_ways = args.sgbm_both_ways;
   cs.lidar.cov_cells_x = solver_settings.cov_cells_x;
   cs.lidar.cov_cells_y = solver_settings.cov_cells_y;
   cs.lidar.ring_cluster_rings = solver_settings.ring_cluster_rings;

@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 
 #include <opencv2/calib3d.hpp>
@@ -212,6 +213,8 @@ void requireUsableInputs(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
   if (!validSgbmPaths(s.sgbm_paths))
     throw DataError("stereo settings: sgbm_paths must be 3, 5 or 8 (got " +
                     std::to_string(s.sgbm_paths) + ")");
+  if (s.sgbm_both_ways && !(s.both_ways_max_diff_px >= 0))
+    throw DataError("stereo settings: both_ways_max_diff_px must be at least 0");
   if (s.num_disparities < 16 || s.num_disparities % 16 || s.sample_step < 1 || s.normal_scale < 1)
     throw DataError(
         "stereo settings: num_disparities must be a positive multiple of 16, sample_step and "
@@ -249,6 +252,21 @@ int sgbmMode(int paths) {
   return paths == 5 ? cv::StereoSGBM::MODE_SGBM : cv::StereoSGBM::MODE_SGBM_3WAY;
 }
 
+/// Where the pair matched upside down (SGBM's 16 x px disparity `flipped_disp16`, turned back)
+/// found a disparity within `max_diff_px` of the upright one, `disp16` takes their mean; elsewhere
+/// it becomes invalid (-1).
+void keepMeanOfBothWays(const cv::Mat& flipped_disp16, double max_diff_px, cv::Mat* disp16) {
+  const int max_diff = static_cast<int>(std::lround(16.0 * max_diff_px));
+  for (int v = 0; v < disp16->rows; ++v) {
+    int16_t* a = disp16->ptr<int16_t>(v);
+    const int16_t* b = flipped_disp16.ptr<int16_t>(disp16->rows - 1 - v);
+    for (int u = 0; u < disp16->cols; ++u) {
+      const bool both = a[u] > 0 && b[u] > 0 && std::abs(a[u] - b[u]) <= max_diff;
+      a[u] = both ? static_cast<int16_t>((a[u] + b[u] + 1) / 2) : int16_t{-1};
+    }
+  }
+}
+
 /// SGBM's disparity of the rectified pair in px, NaN where invalid (SGBM leaves the first
 /// num_disparities columns unmatched); its time goes to out->seconds_sgbm.
 cv::Mat sgbmDisparity(const cv::Mat& left, const cv::Mat& right, const StereoSettings& s,
@@ -260,6 +278,13 @@ cv::Mat sgbmDisparity(const cv::Mat& left, const cv::Mat& right, const StereoSet
                                      s.speckle_range, sgbmMode(s.sgbm_paths));
   cv::Mat disp16;
   sgbm->compute(left, right, disp16);
+  if (s.sgbm_both_ways) {
+    cv::Mat left_flipped, right_flipped, flipped_disp16;
+    cv::flip(left, left_flipped, 0);
+    cv::flip(right, right_flipped, 0);
+    sgbm->compute(left_flipped, right_flipped, flipped_disp16);
+    keepMeanOfBothWays(flipped_disp16, s.both_ways_max_diff_px, &disp16);
+  }
   out->seconds_sgbm = secondsSince(t_sgbm);
 
   cv::Mat disp(disp16.size(), CV_32F);
