@@ -176,54 +176,37 @@ TEST(StereoGenerated, SmoothedFirstRoundCorrectsMoreOfTheNoisyRoadBias) {
   EXPECT_LT(std::fabs(e_smoothed), 0.5 * std::fabs(e_one));  // two exact rounds: 0.62
 }
 
-TEST(StereoGenerated, EightPathsDoNotShiftTheRoadsMatchUpwards) {
+TEST(StereoGenerated, EightPathsAndMatchingBothWaysDoNotShiftTheRoadsMatch) {
   // SGBM with 3 (or 5) paths aggregates in one pass from the top row: the smoothness reaches a
   // pixel from the rows above alone, so the road, whose disparity grows with the row, matches
-  // short; with 8 paths (StereoSettings::sgbm_paths) the rows below pull back. Default noise.
+  // short. With 8 paths (StereoSettings::sgbm_paths) the rows below pull back; matching both
+  // ways (sgbm_both_ways) adds an upside-down pass whose match shifts the other way, and keeps
+  // the mean. Default noise, no refinement.
   SimOptions o;
   o.frames = 1;
   o.seed = 1;
   const Simulator sim(o);
-  StereoSettings three, eight;
-  three.refinement.iterations = eight.refinement.iterations = 0;
+  StereoSettings three, eight, both;
+  three.refinement.iterations = eight.refinement.iterations = both.refinement.iterations = 0;
   three.sgbm_both_ways = eight.sgbm_both_ways = false;
   eight.sgbm_paths = 8;
+  both.sgbm_both_ways = true;
   const double e_three = medianRoadDisparityError(sim, 0, three);
   const double e_eight = medianRoadDisparityError(sim, 0, eight);
-  std::cout << "[ road     ] noisy frame, SGBM's median road disparity error: 3 paths " << e_three
-            << " px, 8 paths " << e_eight << " px\n";
+  const double e_both = medianRoadDisparityError(sim, 0, both);
+  std::cout << "[ road     ] noisy frame, SGBM's median road disparity error: 3 paths upright "
+            << e_three << " px, 8 paths " << e_eight << " px, 3 paths both ways " << e_both
+            << " px\n";
   EXPECT_LT(e_three, -0.1);
   EXPECT_LT(std::fabs(e_eight), 0.5 * std::fabs(e_three));
-  StereoSettings bad;
-  bad.sgbm_paths = 4;
+  EXPECT_LT(std::fabs(e_both), 0.3 * std::fabs(e_three));
+  StereoSettings four_paths, negative_diff;
+  four_paths.sgbm_paths = 4;
+  negative_diff.both_ways_max_diff_px = -1;
   const Frame f = sim.renderFrame(0);
-  EXPECT_THROW(computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left, bad),
-               DataError);
-}
-
-TEST(StereoGenerated, MatchingBothWaysDoesNotShiftTheRoadsMatch) {
-  // The upside-down pass of StereoSettings::sgbm_both_ways aggregates from the bottom row: its
-  // road matches shift downwards as the upright pass's shift upwards, and their mean does not
-  // shift. Default noise, no refinement.
-  SimOptions o;
-  o.frames = 1;
-  o.seed = 1;
-  const Simulator sim(o);
-  StereoSettings upright, both;
-  upright.refinement.iterations = both.refinement.iterations = 0;
-  upright.sgbm_both_ways = false;
-  both.sgbm_both_ways = true;
-  const double e_upright = medianRoadDisparityError(sim, 0, upright);
-  const double e_both = medianRoadDisparityError(sim, 0, both);
-  std::cout << "[ road     ] noisy frame, SGBM's median road disparity error: upright " << e_upright
-            << " px, both ways " << e_both << " px\n";
-  EXPECT_LT(e_upright, -0.1);
-  EXPECT_LT(std::fabs(e_both), 0.3 * std::fabs(e_upright));
-  StereoSettings bad = both;
-  bad.both_ways_max_diff_px = -1;
-  const Frame f = sim.renderFrame(0);
-  EXPECT_THROW(computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left, bad),
-               DataError);
+  for (const StereoSettings& bad : {four_paths, negative_diff})
+    EXPECT_THROW(computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left, bad),
+                 DataError);
 }
 
 TEST(StereoGenerated, RefinementDoesNotDependOnWhatItRefinedBefore) {
