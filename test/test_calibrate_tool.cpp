@@ -802,14 +802,14 @@ TEST(EvalTool, WritesTheJsonOfTheContract) {
 }
 
 TEST(CalibrateTool, TheMonitorHoldsBackEstimatesOnceALidarBumpIsSuspected) {
-  // A generated drive (15 s) whose LiDAR turns 0.5 deg and moves 3 cm at 4 s: the monitor suspects
-  // the change within a few s, declares it `changed` and restarts the window; no estimate is
-  // published while the change is suspected or sustained (the straddling windows' among them), and
-  // one published after the restart is near the truth after the step. --json records every solve
-  // with the monitor's state.
+  // A generated drive whose LiDAR turns 0.5 deg and moves 3 cm at 4 s: the monitor suspects the
+  // change within a few s, declares it `changed` and restarts the window; no estimate is published
+  // while the change is suspected or sustained (the straddling windows' among them), and one
+  // published after the restart is near the truth after the step. --json records every solve with
+  // the monitor's state.
   TempDir tmp;
   SimOptions o;
-  o.frames = 150;
+  o.frames = 100;
   o.seed = 21;
   o.write_every = 5;
   o.step.at_s = 4.0;
