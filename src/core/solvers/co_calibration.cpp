@@ -33,6 +33,7 @@ LidarStereoSettings coLidarStereoSettings(const CoCalibrationSettings& s) {
   // every disparity, which the LiDAR would otherwise absorb along the optical axis; the yaw
   // itself stays the photometric solver's (with a good LiDAR it is far more precise).
   ls.estimate_stereo_yaw = s.lidar_estimates_stereo_yaw;
+  ls.fine_reassociations = std::min(ls.fine_reassociations, s.round_fine_reassociations);
   return ls;
 }
 

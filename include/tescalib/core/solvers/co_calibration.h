@@ -31,6 +31,12 @@ struct CoCalibrationSettings {
   PhotometricSettings stereo;
   StereoSettings stereo_cloud = coStereoCloudSettings();  ///< clouds matched again each round
   int max_rounds = 15;
+  /// At most this many re-associations of each round's LiDAR-stereo fine stage (less than a
+  /// lone solve's LidarStereoSettings::fine_reassociations): the next round starts from this
+  /// round's estimate, and a longer fine stage slides further along the valley where the clouds'
+  /// yaw and scale and the LiDAR's depth trade before the photometric solve corrects the pair
+  /// (with the pair's yaw 0.9 deg off, 20 re-associations run the LiDAR 1.3 m away).
+  int round_fine_reassociations = 12;
   /// Stability criterion (both must hold for both extrinsics): the last round moved the estimate
   /// by less than this, and so does the remaining distance to the fixed point predicted from the
   /// contraction of the last two rounds (step * rho / (1 - rho), rho = |step_k| / |step_k-1|).

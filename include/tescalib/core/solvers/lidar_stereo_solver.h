@@ -39,7 +39,10 @@ struct LidarStereoSettings {
   // Fine stage (eq. point_point_normal_obj, projective association).
   bool run_fine = true;
   int fine_faces_per_keyframe = 4000;  ///< from the mesh's sample, like the coarse faces
-  int fine_reassociations = 12;
+  /// At most this many projective re-associations; a fine stage that has not settled by then is
+  /// judged by where its last updates head (unsettledDrift). A coarse stage that leaves the
+  /// depth axis tens of centimetres off (a start 6 deg / 0.6 m away) needs about 15.
+  int fine_reassociations = 20;
   double fine_huber = 1.5;       ///< Huber threshold in sigma units
   double fine_gate_sigma = 8.0;  ///< associations beyond this many sigma are dropped
   double max_depth = 40.0;       ///< m; farther LiDAR faces are not associated
