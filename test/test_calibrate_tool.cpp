@@ -806,10 +806,11 @@ TEST(CalibrateTool, TheMonitorHoldsBackEstimatesOnceALidarBumpIsSuspected) {
   // change within a few s, declares it `changed` and restarts the window; no estimate is published
   // while the change is suspected or sustained (the straddling windows' among them), and one
   // published after the restart is near the truth after the step. --json records every solve with
-  // the monitor's state.
+  // the monitor's state. 12 s of driving: the change is declared 3-4 s after the suspicion (the
+  // CUSUM over fresh 5-keyframe windows), and the restarted window needs 2 s more.
   TempDir tmp;
   SimOptions o;
-  o.frames = 100;
+  o.frames = 120;
   o.seed = 21;
   o.write_every = 5;
   o.step.at_s = 4.0;

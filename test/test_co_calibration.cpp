@@ -97,8 +97,9 @@ CoCase coCase(int n, double stereo_rot_deg, double stereo_trans_m,
 }
 
 /// The LiDAR start of lidarStart (rng seed 3) and the hardest stereo start of the benchmark's kind:
-/// 1 deg off and the baseline 10 cm short (the benchmark's starts are 5-10 cm short); 8 keyframes
-/// of drive 1.
+/// 1 deg off and the baseline 10 cm short (the benchmark's starts are 5-10 cm short); 10 keyframes
+/// of drive 1 (the node's window; its first 8 leave the LiDAR's depth axis at its trust limit,
+/// 0.95-1.08x with either SGBM setting).
 CoCase shortBaselineCase() {
   std::mt19937_64 rng(3);
   CoCase c;
@@ -108,7 +109,7 @@ CoCase shortBaselineCase() {
   Vector6d stereo_delta = randomPerturbation(1.0 / kDegPerRad, 0.1, rng);
   stereo_delta.tail<3>() = Eigen::Vector3d(0.1, 0, 0);
   c.T_rl_init = perturb(c.truth.T_right_left, stereo_delta);
-  c.w = generatedWindow(8, 1, &c.T_cl_init);
+  c.w = generatedWindow(10, 1, &c.T_cl_init);
   return c;
 }
 
@@ -260,7 +261,7 @@ TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
 // The joint problem (--mode joint) from the same start: both extrinsics within the success
 // tolerances, and covariances that hold the joint model error and the error within 3 sigma.
 TEST(JointCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
-  CoCase c = coCase(8, 1.0, 0.1, 0);  // the joint problem needs every face's normal
+  CoCase c = coCase(10, 1.0, 0.1, 0);  // the joint problem needs every face's normal
   const JointCalibrationSettings js;
   const CoCalibrationResult r = jointCalibrate(c.w.window(), c.w.rig, c.T_cl_init, c.T_rl_init, js);
   const Vector6d el = poseError(r.lidar.T_cam_lidar, c.truth.T_cam_lidar);
@@ -320,7 +321,7 @@ TEST(JointCalibration, ACovarianceSolveThatDidNotConvergeIsNotAConvergedResult) 
 // window the joint problem otherwise converges on (the test above) is reported not converged
 // with the second opinion's reason; the joint estimate is kept.
 TEST(JointCalibration, AskedForASecondOpinionThatDisagreesTheResultIsNotConverged) {
-  CoCase c = coCase(8, 1.0, 0.1, 0);
+  CoCase c = coCase(10, 1.0, 0.1, 0);
   JointCalibrationSettings js;
   js.co.confirm_beyond_deg = 0, js.co.confirm_beyond_m = 0;
   js.co.confirm_disagree_deg = -1, js.co.confirm_disagree_m = -1;
@@ -534,6 +535,9 @@ TEST(CoCalibration, StopsWhenARejectedRoundWouldRepeatItself) {
   CoCalibrationSettings s;
   s.stereo_from_features = false;  // round 1 photometric
   s.max_rounds = 6;
+  // The clouds as that run matched them, one upright SGBM pass: matched both ways (the default)
+  // the solves on this window do not run away, and the rejections this test needs do not occur.
+  s.stereo_cloud.sgbm_both_ways = false;
   const CoCalibrationResult r = coCalibrate(window, w.rig, T_cl_init, T_rl_init, s);
   std::cout << "[ co       ] " << r.rounds << " rounds, " << r.rejected << " rejected, "
             << r.seconds << " s: " << r.message << "\n";

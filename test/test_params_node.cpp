@@ -88,8 +88,8 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_EQ(p.online.co.stereo_cloud.num_disparities, p.online.keyframe.stereo.num_disparities);
   EXPECT_EQ(p.online.keyframe.stereo.sgbm_paths, 3);
   EXPECT_EQ(p.online.co.stereo_cloud.sgbm_paths, p.online.keyframe.stereo.sgbm_paths);
-  EXPECT_FALSE(p.online.keyframe.stereo.sgbm_both_ways);
-  EXPECT_FALSE(p.online.co.stereo_cloud.sgbm_both_ways);
+  EXPECT_TRUE(p.online.keyframe.stereo.sgbm_both_ways);
+  EXPECT_TRUE(p.online.co.stereo_cloud.sgbm_both_ways);
 }
 
 TEST(Params, KittiYamlHoldsTheCompiledInDefaults) {

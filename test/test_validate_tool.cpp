@@ -97,18 +97,18 @@ TEST(ValidateTool, RanksTheRecordingsCalibrationAboveAMovedOneInTableAndJson) {
   EXPECT_NEAR(moved["difference_to_recording"]["translation_m"].get<double>(), 0.05, 1e-6);
   EXPECT_FALSE(rec.contains("optimum"));
 
-  // The optima searched on frame 0, scored on the frames 5 and 10 held out from the search.
+  // The optima searched on frame 5, scored on the frames 0 and 10 held out from the search.
   const std::string held = tmp.str() + "/held.json";
   ASSERT_EQ(
-      runValidate("--sequences " + drive + " --frames 5,10 --fit-frames 0 --json " + held, &out), 0)
+      runValidate("--sequences " + drive + " --frames 0,10 --fit-frames 5 --json " + held, &out), 0)
       << out;
   EXPECT_NE(out.find("the optima searched on 1 other frames, scored on these"), std::string::npos)
       << out;
   EXPECT_NE(out.find("held out from its search, it scores better by"), std::string::npos) << out;
   std::ifstream held_in(held);
   const nlohmann::json h = nlohmann::json::parse(held_in);
-  EXPECT_EQ(h["optima_fitted_on"], nlohmann::json::array({"drive:0"}));
-  EXPECT_EQ(h["frames"], nlohmann::json::array({"drive:5", "drive:10"}));
+  EXPECT_EQ(h["optima_fitted_on"], nlohmann::json::array({"drive:5"}));
+  EXPECT_EQ(h["frames"], nlohmann::json::array({"drive:0", "drive:10"}));
   const nlohmann::json& opt = h["calibrations"][0]["optimum"]["disparity_residual"];
   EXPECT_EQ(opt["frame_scores"].size(), 2u);
   // One frame pins the disparity residual's optimum near the truth.

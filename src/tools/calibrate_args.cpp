@@ -97,7 +97,7 @@ void addCalibrationOptions(CLI::App* app, Args* a) {
            "upwards, at about 3x the stereo time")
       ->group(g);
   cli::add(app, "--sgbm-both-ways", "0|1", cli::to(&a->sgbm_both_ways, cli::toSwitch),
-           "match each pair upright and upside down and keep the mean (default 0; the node's "
+           "match each pair upright and upside down and keep the mean (default 1; the node's "
            "stereo/sgbm_both_ways): the road's disparity does not shift, at 2x the matching time")
       ->group(g);
   cli::add(app, "--perturb-rot-deg", "R", cli::to(&a->perturb_rot_deg, cli::toDouble),

@@ -25,7 +25,7 @@ struct Args {
   int deskew = -1;     // -1: as the data say (KittiSequence::sweptScans)
   int align_rows = 1;  // OnlineSettings::align_rows
   int sgbm_paths = 3;  // StereoSettings::sgbm_paths (the keyframes' and co-calibration's clouds)
-  int sgbm_both_ways = 0;  // StereoSettings::sgbm_both_ways (the same clouds)
+  int sgbm_both_ways = 1;  // StereoSettings::sgbm_both_ways (the same clouds)
   std::string out;
   std::string lidar_frame;  // empty: the bag's cloud frame, velo_link for folders
   std::string overlay;      // PNG: the last keyframe with the scan drawn, initial guess vs result

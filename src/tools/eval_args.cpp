@@ -158,7 +158,7 @@ void addKeyframeStudyOptions(CLI::App* app, Args* a, const cli::ExpertOptions& e
       "stereo/sgbm_paths; 8 also aggregates from below)")
       ->group(g);
   add(app, "--sgbm-both-ways", "0|1", to(&a->sgbm_both_ways, cli::toSwitch),
-      "match every pair upright and upside down and keep the mean (default 0, as the node's "
+      "match every pair upright and upside down and keep the mean (default 1, as the node's "
       "stereo/sgbm_both_ways)")
       ->group(g);
   add(app, "--refine-smoothed-rounds", "N", to(&a->refine_smoothed, cli::atLeast(0)),

@@ -48,7 +48,7 @@ struct Args {
   int refine_iterations = -1;        ///< DisparityRefinementSettings::iterations; -1: the default
   int refine_smoothed = -1;          ///< DisparityRefinementSettings::smoothed_gradient_rounds
   int sgbm_paths = 3;                ///< StereoSettings::sgbm_paths of every stereo cloud
-  bool sgbm_both_ways = false;       ///< StereoSettings::sgbm_both_ways of every stereo cloud
+  bool sgbm_both_ways = true;        ///< StereoSettings::sgbm_both_ways of every stereo cloud
   /// De-skew the scans with the motion registered against a neighbouring frame: 0/1; -1: when
   /// the sequence's scans are swept (sweptScans).
   int deskew = -1;

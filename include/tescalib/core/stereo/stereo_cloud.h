@@ -32,10 +32,9 @@ struct StereoSettings {
   /// shift: with 3 paths the road's disparity error near the camera goes from -0.14 to +0.002 px
   /// on random rig 307 and from -0.03 to -0.005 px on the default rig (tescalib_error_budget,
   /// 6 keyframes), at twice the matching time of one pass and no more memory. Meant for 3 and 5
-  /// paths (8 do not shift: with 8 it only doubles the time). Off by default: the model-error
-  /// floors are fitted with one upright pass, and with both ways the default rig's 10-keyframe
-  /// windows can leave tz just beyond its trust limit (doc/limitations.md).
-  bool sgbm_both_ways = false;
+  /// paths (8 do not shift: with 8 it only doubles the time). Off: one upright pass, half the
+  /// matching time, with the road's shift (doc/limitations.md).
+  bool sgbm_both_ways = true;
   /// px; the two passes of `sgbm_both_ways` disagreeing by more: two different matches (a depth
   /// edge, a repeated texture), dropped. Their shifts differ by a fraction of a pixel.
   double both_ways_max_diff_px = 2.0;
