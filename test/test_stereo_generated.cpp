@@ -463,8 +463,9 @@ TEST(LidarStereoGenerated, CommonBiasesMoveTheEstimateAsTheSensitivitySays) {
   held.estimate_stereo_scale = false;
   LidarStereoSettings unmeasured = held;
   unmeasured.measure_disparity_offset = false;
-  // Nor on the split-window check: a window-common bias of this size can part the halves, which
-  // is that check's test (WindowHalvesReveal...), not this one's.
+  // The fine stage's fixed point is what is compared, so the split-window check is off: a
+  // window-common bias of this size can part the halves (that check's own test:
+  // WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow).
   unmeasured.check_window_halves = false;
   auto solve = [](const std::vector<Keyframe>& kfs, const Eigen::Isometry3d& init,
                   const LidarStereoSettings& settings) {
