@@ -37,8 +37,9 @@ const char* const kDescription =
     "alone and the LiDAR mesh's error alone (one Gauss-Newton step, camera axes), then both parts "
     "by surface (road: normal within 37 deg of vertical; facing: within 14 deg of the optical "
     "axis; lateral: within 45 deg of camera x; other) and depth; then how a disparity offset "
-    "of all stereo points and of the road's alone moves it, and the disparity error fitted "
-    "against the disparity's gradient.";
+    "of all stereo points, of the road's alone and a tilt across the image (an error of x px at "
+    "normalised column x) move it, and the disparity error fitted against the disparity's "
+    "gradient and the normalised column.";
 
 struct Args {
   SimOptions sim;
@@ -127,19 +128,26 @@ struct Budget {
   int skipped_edges = 0;
   /// sum w J dr/db for a disparity offset of every stereo point and of the road's alone
   Vector6d g_offset = Vector6d::Zero(), g_road_offset = Vector6d::Zero();
-  /// Normal equations of the disparity error fitted as a + b_u dd/du + b_v dd/dv
-  Eigen::Matrix3d slant_A = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d slant_y = Eigen::Vector3d::Zero();
+  /// sum w J dr/db for a disparity tilt b x across the image (x the normalised column)
+  Vector6d g_tilt = Vector6d::Zero(), g_road_tilt = Vector6d::Zero();
+  /// Normal equations of the road's disparity error fitted as a + b x
+  Eigen::Matrix2d road_A = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d road_y = Eigen::Vector2d::Zero();
+  /// Normal equations of the disparity error fitted as a + b_u dd/du + b_v dd/dv + b_x x, x the
+  /// rectified image's normalised column (a tilt of the error across the image)
+  Eigen::Matrix4d slant_A = Eigen::Matrix4d::Zero();
+  Eigen::Vector4d slant_y = Eigen::Vector4d::Zero();
 };
 
 /// Adds the disparity error `error` at rectified pixel `px` to the fit of the error against the
-/// disparity's own gradient (central differences over 4 px; steps across depth edges left out).
+/// disparity's own gradient (central differences over 4 px; steps across depth edges left out)
+/// and against the normalised column.
 void addSlantSample(const StereoCloud& st, const Eigen::Vector2d& px, double error, Budget* b) {
   double l, r, up, down;
   if (!st.disparityAt(px.x() - 2, px.y(), &l) || !st.disparityAt(px.x() + 2, px.y(), &r) ||
       !st.disparityAt(px.x(), px.y() - 2, &up) || !st.disparityAt(px.x(), px.y() + 2, &down))
     return;
-  const Eigen::Vector3d x(1.0, (r - l) / 4, (down - up) / 4);
+  const Eigen::Vector4d x(1.0, (r - l) / 4, (down - up) / 4, (px.x() - st.cx) / st.fx);
   if (std::fabs(x[1]) >= 1 || std::fabs(x[2]) >= 1 || std::fabs(error) >= 1) return;
   b->slant_A += x * x.transpose();
   b->slant_y += x * error;
@@ -210,6 +218,13 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
     const double dr_dd = m.dot(ps) / d * inv_sigma;  // per px of disparity
     b->g_offset += w * J * dr_dd;
     if (cls == kRoad) b->g_road_offset += w * J * dr_dd;
+    const double x_n = (px.x() - st.cx) / st.fx;
+    b->g_tilt += w * J * dr_dd * x_n;
+    if (cls == kRoad) {
+      b->g_road_tilt += w * J * dr_dd * x_n;
+      const Eigen::Vector2d xr(1.0, x_n);
+      b->road_A += xr * xr.transpose(), b->road_y += xr * (d - d_true);
+    }
     const int band = pt.z() < kDepthEdges[1] ? 0 : pt.z() < kDepthEdges[2] ? 1 : 2;
     Part& p = b->by_class[cls * 3 + band];
     p.g += w * J * r_stereo, p.disparity_error += d - d_true, ++p.n;
@@ -243,15 +258,24 @@ void printBudget(const Budget& b) {
 }
 
 /// What a disparity offset does (of every stereo point, of the road's alone) and the fit of the
-/// disparity error against the disparity's gradient (a matcher's bias on slanted surfaces).
+/// disparity error against the disparity's gradient (a matcher's bias on slanted surfaces) and
+/// the normalised column (a tilt across the image).
 void printSensitivities(const Budget& b) {
   const Matrix6d H_inv = b.H.inverse();
   std::printf("the estimate's move per px of disparity offset (camera axes x y z):\n");
   printPull("all", H_inv, b.g_offset);
   printPull("road", H_inv, b.g_road_offset);
-  const Eigen::Vector3d k = b.slant_A.ldlt().solve(b.slant_y);
-  std::printf("disparity error = %+.4f px %+.4f px * dd/du %+.4f px * dd/dv (%.0f stereo points)\n",
-              k[0], k[1], k[2], b.slant_A(0, 0));
+  std::printf("per px of disparity tilt (an error of x px at normalised column x):\n");
+  printPull("tilt", H_inv, b.g_tilt);
+  printPull("road", H_inv, b.g_road_tilt);
+  const Eigen::Vector4d k = b.slant_A.ldlt().solve(b.slant_y);
+  std::printf(
+      "disparity error = %+.4f px %+.4f px * dd/du %+.4f px * dd/dv %+.4f px * x (%.0f stereo "
+      "points)\n",
+      k[0], k[1], k[2], k[3], b.slant_A(0, 0));
+  const Eigen::Vector2d kr = b.road_A.ldlt().solve(b.road_y);
+  std::printf("the road's disparity error = %+.4f px %+.4f px * x (%.0f associations)\n", kr[0],
+              kr[1], b.road_A(0, 0));
 }
 
 }  // namespace
