@@ -59,6 +59,7 @@ Json extrinsicJson(const ExtrinsicOutcome& o) {
     j["bias_sensitivity_range_m"] = jsonArray(b + 6, 6);
     j["bias_sensitivity_disparity_scale"] = jsonArray(b + 12, 6);
     j["bias_sensitivity_ground_disparity_px"] = jsonArray(b + 18, 6);
+    j["bias_sensitivity_ground_tilt_px"] = jsonArray(b + 24, 6);
   }
   return j;
 }

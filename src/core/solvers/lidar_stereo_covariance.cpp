@@ -30,7 +30,8 @@ struct FineInformation {
   std::vector<Eigen::MatrixXd> ring_information;  ///< per ring group sum w J^T J
   std::map<std::pair<int, int>, Eigen::VectorXd> cell_ring_scores;
   /// sum w J dr/db for the window-common biases: disparity offset (px), LiDAR range offset (m),
-  /// disparity scale (relative: an error of f B), disparity offset of the ground alone (px).
+  /// disparity scale (relative: an error of f B), disparity offset of the ground alone (px), tilt
+  /// of the ground's disparity across the image (px per unit of normalised column).
   Eigen::MatrixXd jtd;
   double dtd = 0;                     ///< sum w D^2, D = dr / d(disparity offset)
   std::vector<double> offset_scores;  ///< per cluster sum w r D (with `scores`: the offset's share)
@@ -169,7 +170,10 @@ void accumulateFineInformation(const LidarStereoEstimate& est, const LidarStereo
     info->jtd.col(1) += w * J * (f.m.dot(f.q) / a0.p_l.norm() * a0.inv_sigma);
     // d (1 + k): ps / (1 + k), dr/dk = m.ps.
     info->jtd.col(2) += w * J * (f.m.dot(f.ps) * a0.inv_sigma);
-    if (onGround(f.m)) info->jtd.col(3) += w * J * D;
+    if (onGround(f.m)) {
+      info->jtd.col(3) += w * J * D;
+      info->jtd.col(4) += w * J * (D * a0.p_s.x() / a0.p_s.z());
+    }
     res->keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
         w * J.head<6>() * J.head<6>().transpose();
     info->scores[a0.cluster] += w * r * J;
@@ -216,10 +220,12 @@ bool covariancesFromInformation(const FineInformation& info, const LidarStereoSe
   res->covariance = robust.topLeftCorner<6, 6>();
   if (with_scale) {  // the common biases move the scale too
     res->stereo_scale_variance = robust(6, 6);
-    res->stereo_scale_variance += std::pow(disparityBiasSigma(*res, s) * bias_moves(6, 0), 2) +
-                                  std::pow(s.model_sigma_range_m * bias_moves(6, 1), 2) +
-                                  std::pow(s.model_sigma_disparity_scale * bias_moves(6, 2), 2) +
-                                  std::pow(s.model_sigma_ground_disparity_px * bias_moves(6, 3), 2);
+    res->stereo_scale_variance +=
+        std::pow(disparityBiasSigma(*res, s) * bias_moves(6, 0), 2) +
+        std::pow(s.model_sigma_range_m * bias_moves(6, 1), 2) +
+        std::pow(s.model_sigma_disparity_scale * bias_moves(6, 2), 2) +
+        std::pow(s.model_sigma_ground_disparity_px * bias_moves(6, 3), 2) +
+        std::pow(groundTiltSigma(*res, s) * bias_moves(6, 4), 2);
   }
   res->covariance_statistical = res->covariance;
   // Model error that more data does not average away (calibrated on generated drives, see
@@ -258,11 +264,16 @@ bool estimateLidarStereoCovariance(const LidarStereoEstimate& est, const LidarSt
 
 bool onGround(const Eigen::Vector3d& normal) { return std::fabs(normal.y()) > 0.8; }
 
+double groundTiltSigma(const LidarStereoResult& r, const LidarStereoSettings& s) {
+  return s.model_sigma_ground_tilt_px_per_deg * std::fabs(r.rectification_roll_deg);
+}
+
 Matrix6d withLidarStereoBiases(const LidarStereoResult& r, const LidarStereoSettings& s,
                                const LidarStereoBiasSensitivity& h) {
-  return withCommonBiases(r.covariance_statistical, h,
-                          {disparityBiasSigma(r, s), s.model_sigma_range_m,
-                           s.model_sigma_disparity_scale, s.model_sigma_ground_disparity_px});
+  return withCommonBiases(
+      r.covariance_statistical, h,
+      {disparityBiasSigma(r, s), s.model_sigma_range_m, s.model_sigma_disparity_scale,
+       s.model_sigma_ground_disparity_px, groundTiltSigma(r, s)});
 }
 
 Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {

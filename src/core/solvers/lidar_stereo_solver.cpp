@@ -49,6 +49,15 @@ const char* invalidInput(const std::vector<const Keyframe*>& window,
   return nullptr;
 }
 
+/// The roll about the optical axis (deg) by which the window's stereo clouds were rectified: the
+/// angle of their left->right baseline off the left camera's x axis in the image plane (the
+/// first keyframe's; 0 without keyframes).
+double rectificationRollDeg(const std::vector<const Keyframe*>& window) {
+  if (window.empty() || !window.front()) return 0.0;
+  const Eigen::Vector3d t = window.front()->T_right_left_used.translation();
+  return std::atan2(t.y(), -t.x()) * kDegPerRad;
+}
+
 /// The start: T_init, and the clouds' scale and yaw from the settings (1 and 0 when held).
 LidarStereoEstimate initialEstimate(const Eigen::Isometry3d& T_init, const LidarStereoSettings& s) {
   LidarStereoEstimate est;
@@ -221,6 +230,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     res.message = "Ceres could not solve an update (NaN residuals, or an infeasible bound)";
     return res;
   }
+  res.rectification_roll_deg = rectificationRollDeg(window);
   const bool covariance_holds = estimateLidarStereoCovariance(est, s, window.size(), &res);
   // A drift the covariance does not show is named as such; one it shows adds to its message.
   const bool drifting = !est.settled && flagDrift(est.fine_drift, s, &res);

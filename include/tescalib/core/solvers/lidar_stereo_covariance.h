@@ -51,4 +51,8 @@ Matrix6d constrainedCovariance(const LidarStereoResult& result,
 /// offset (LidarStereoSettings::model_sigma_ground_disparity_px): within 37 deg of camera y.
 bool onGround(const Eigen::Vector3d& normal);
 
+/// The sigma (px per unit of normalised column) of the ground's disparity tilt across the image
+/// for this result's rectification roll (LidarStereoSettings::model_sigma_ground_tilt_px_per_deg).
+double groundTiltSigma(const LidarStereoResult& result, const LidarStereoSettings& settings);
+
 }  // namespace tescalib

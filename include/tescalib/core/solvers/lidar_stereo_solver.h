@@ -143,6 +143,15 @@ struct LidarStereoSettings {
   /// where the LiDAR sits), through this window's geometry (bias_sensitivity column 3).
   /// Generated drives without noise show -0.03 to -0.06 px (tescalib_error_budget).
   double model_sigma_ground_disparity_px = 0.06;
+  /// 1-sigma (px per unit of normalised image column x, per degree of the rectification's roll)
+  /// of a tilt of the ground's disparity error across the image (an error of b x px): a pair
+  /// whose right camera sits off the left camera's x axis is rectified about the optical axis by
+  /// atan(t_y / B), and the matched road then tilts by about 0.1 px per degree of that roll
+  /// (tescalib_error_budget's road fit on generated rigs; none on a pair rectified as
+  /// delivered), which turns the estimate about the camera's z axis by 0.2-1.2 deg per px
+  /// (shorter baselines and focal lengths move it more), through this window's geometry
+  /// (bias_sensitivity column 4).
+  double model_sigma_ground_tilt_px_per_deg = 0.13;
   std::array<double, 3> model_sigma_rot_deg = {0.0112, 0.0077, 0.0112};
   std::array<double, 3> model_sigma_trans_m = {0.0021, 0.00105, 0.00455};
   double max_correction_rot_deg = 25.0;  ///< a larger correction from the start is divergence
@@ -184,7 +193,7 @@ struct LidarStereoSettings {
 
 /// How the window-common measurement biases move a LiDAR-stereo estimate: one column per bias
 /// (LidarStereoResult::bias_sensitivity).
-constexpr int kLidarStereoBiases = 4;
+constexpr int kLidarStereoBiases = 5;
 using LidarStereoBiasSensitivity = Eigen::Matrix<double, 6, kLidarStereoBiases>;
 
 struct LidarStereoResult {
@@ -241,9 +250,11 @@ struct LidarStereoResult {
   /// nuisance parameters marginalised): column 0 per px of disparity offset of every stereo
   /// point, column 1 per m of range offset of every LiDAR point, column 2 per unit of relative
   /// disparity scale (every disparity d read as d (1 + k): an error of the pair's f B), column 3
-  /// per px of disparity offset of the ground's stereo points alone. The published covariance
-  /// adds h h^T sigma_b^2 for each (LidarStereoSettings::model_sigma_disparity_px, _range_m,
-  /// _disparity_scale, _ground_disparity_px).
+  /// per px of disparity offset of the ground's stereo points alone, column 4 per px of a tilt of
+  /// the ground's disparity error across the image (b x px at normalised column x). The published
+  /// covariance adds h h^T sigma_b^2 for each (LidarStereoSettings::model_sigma_disparity_px,
+  /// _range_m, _disparity_scale, _ground_disparity_px, and _ground_tilt_px_per_deg times
+  /// `rectification_roll_deg`).
   LidarStereoBiasSensitivity bias_sensitivity = LidarStereoBiasSensitivity::Zero();
   /// The same with the stereo scale and yaw held at their estimates (equal to
   /// `bias_sensitivity` when neither is estimated). The nuisances absorb a perfectly uniform
@@ -253,6 +264,9 @@ struct LidarStereoResult {
   /// clouds' scale and yaw leave loose, the marginalised sensitivity would call tz trusted at
   /// 3-7 cm error (sigma 0.5-0.9 cm).
   LidarStereoBiasSensitivity bias_sensitivity_held = LidarStereoBiasSensitivity::Zero();
+  /// The roll (deg) about the optical axis by which the window's stereo clouds were rectified:
+  /// atan2(t_y, -t_x) of their left->right extrinsic (0 for a pair rectified as delivered).
+  double rectification_roll_deg = 0.0;
   /// Per axis: constrained within max_sigma_* (false: do not trust this axis of the estimate),
   /// judged with the common biases through `bias_sensitivity_held`.
   bool observable[6] = {false, false, false, false, false, false};
