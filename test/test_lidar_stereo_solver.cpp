@@ -13,6 +13,7 @@
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/io/kitti_reader.h"
 #include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/solvers/lidar_stereo_covariance.h"
 #include "tescalib/core/solvers/lidar_stereo_fine.h"
 #include "tescalib/core/solvers/lidar_stereo_solver.h"
 #include "tescalib/core/solvers/residuals/lidar_ring_offset_residual.h"
@@ -62,7 +63,8 @@ StereoRig kittiLikeRig() {
 Keyframe planeKeyframe(const std::vector<Plane>& planes, const StereoRig& rig, uint64_t seed,
                        double right_yaw = 0.0, double disparity_offset = 0.0,
                        double baseline_scale = 1.0,
-                       const std::vector<double>& ring_range_offsets = {}) {
+                       const std::vector<double>& ring_range_offsets = {},
+                       double ground_tilt = 0.0) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> range_noise(0.0, 0.01), disp_noise(0.0, 0.2);
   Keyframe kf;
@@ -101,8 +103,9 @@ Keyframe planeKeyframe(const std::vector<Plane>& planes, const StereoRig& rig, u
       if (!std::isfinite(t) || t > 40) continue;
       const double d_true = st.fx * baseline_scale * st.baseline / t;
       const double xr = (u - d_true - st.cx) / st.fx;
+      const double tilt = std::fabs(planes[hit].n.y()) > 0.8 ? ground_tilt * r.x() : 0.0;
       const double d =
-          d_true - st.fx * right_yaw * (1.0 + xr * xr) + disparity_offset + disp_noise(rng);
+          d_true - st.fx * right_yaw * (1.0 + xr * xr) + disparity_offset + tilt + disp_noise(rng);
       st.disparity.at<float>(v, u) = float(d);
       if (u % 4 == 0 && v % 4 == 0) {
         StereoPoint sp;
@@ -135,11 +138,12 @@ std::vector<Plane> streetCanyon(double shift) {
 std::vector<Keyframe> canyonKeyframes(const StereoRig& rig, uint64_t first_seed,
                                       double right_yaw = 0.0, double disparity_offset = 0.0,
                                       double baseline_scale = 1.0,
-                                      const std::vector<double>& ring_range_offsets = {}) {
+                                      const std::vector<double>& ring_range_offsets = {},
+                                      double ground_tilt = 0.0) {
   std::vector<Keyframe> kfs;
   for (int k = 0; k < 3; ++k)
     kfs.push_back(planeKeyframe(streetCanyon(0.7 * k), rig, first_seed + k, right_yaw,
-                                disparity_offset, baseline_scale, ring_range_offsets));
+                                disparity_offset, baseline_scale, ring_range_offsets, ground_tilt));
   return kfs;
 }
 
@@ -350,6 +354,42 @@ TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatADisparityOffsetDoes) {
   EXPECT_NEAR(moved[5], predicted[5], 0.2 * std::fabs(predicted[5]));
   EXPECT_LT((moved - predicted).head<3>().norm() * kDegPerRad, 0.01);
   EXPECT_LT((moved - predicted).tail<3>().norm(), 0.2 * predicted.tail<3>().norm());
+}
+
+TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatAGroundTiltDoes) {
+  // bias_sensitivity column 4: the move per px of a tilt of the ground's disparity across the
+  // image (b x px at normalised column x), which turns the estimate about the optical axis. The
+  // same window with the road's disparities tilted by 0.3 px per unit of x moves the estimate by
+  // h * 0.3. The covariance's sigma of that tilt grows with the rectification's roll, which is 0
+  // for these clouds (a pair rectified as delivered).
+  const StereoRig rig = kittiLikeRig();
+  LidarStereoSettings settings = testSettings();
+  settings.model_sigma_disparity_px = 0;
+  settings.measure_disparity_offset = false;
+  settings.check_window_halves = false;
+  std::mt19937_64 rng(7);
+  const Eigen::Isometry3d T_init =
+      perturb(rig.T_cam_lidar, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
+  const double tilt = 0.3;
+  const std::vector<Keyframe> plain = canyonKeyframes(rig, 11);
+  const std::vector<Keyframe> tilted = canyonKeyframes(rig, 11, 0.0, 0.0, 1.0, {}, tilt);
+  const LidarStereoResult a = solveLidarStereo(windowOf(plain), T_init, settings);
+  const LidarStereoResult b = solveLidarStereo(windowOf(tilted), T_init, settings);
+  ASSERT_TRUE(a.covariance_known && b.covariance_known) << a.message << " / " << b.message;
+  const Vector6d moved = poseError(b.T_cam_lidar, a.T_cam_lidar);
+  const Vector6d predicted = tilt * a.bias_sensitivity.col(4);
+  std::printf("rz moved %+.4f deg, predicted %+.4f deg; rotation moved %.4f deg, predicted %.4f\n",
+              moved[2] * kDegPerRad, predicted[2] * kDegPerRad, moved.head<3>().norm() * kDegPerRad,
+              predicted.head<3>().norm() * kDegPerRad);
+  EXPECT_GT(std::fabs(moved[2]) * kDegPerRad, 0.02);  // the tilt turns the estimate about z
+  EXPECT_NEAR(moved[2], predicted[2], 0.2 * std::fabs(predicted[2]));
+  EXPECT_LT((moved - predicted).head<3>().norm(), 0.2 * predicted.head<3>().norm());
+  EXPECT_EQ(a.rectification_roll_deg, 0.0);
+  EXPECT_EQ(groundTiltSigma(a, settings), 0.0);
+  LidarStereoResult rolled = a;
+  rolled.rectification_roll_deg = -0.5;
+  EXPECT_DOUBLE_EQ(groundTiltSigma(rolled, settings),
+                   0.5 * settings.model_sigma_ground_tilt_px_per_deg);
 }
 
 TEST(LidarStereoSolver, CoarseStageKeepsToItsWindowBudget) {

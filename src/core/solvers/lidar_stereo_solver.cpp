@@ -51,10 +51,11 @@ const char* invalidInput(const std::vector<const Keyframe*>& window,
 
 /// The roll about the optical axis (deg) by which the window's stereo clouds were rectified: the
 /// angle of their left->right baseline off the left camera's x axis in the image plane (the
-/// first keyframe's; 0 without keyframes).
+/// first keyframe's; 0 without keyframes or without a baseline along -x).
 double rectificationRollDeg(const std::vector<const Keyframe*>& window) {
   if (window.empty() || !window.front()) return 0.0;
   const Eigen::Vector3d t = window.front()->T_right_left_used.translation();
+  if (!(-t.x() > 0)) return 0.0;
   return std::atan2(t.y(), -t.x()) * kDegPerRad;
 }
 
