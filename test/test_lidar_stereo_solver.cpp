@@ -6,6 +6,7 @@
 #include <iostream>
 #include <limits>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -161,6 +162,23 @@ LidarStereoSettings testSettings() {
   s.lidar_range_sigma = 0.01;
   s.estimate_stereo_scale = false;
   return s;
+}
+
+/// The canyon window (seed 11) and `biased`, the same window with a common bias in its clouds,
+/// both solved from one start 3 deg / 0.3 m off (drawn from `start_seed`), with the model's
+/// disparity bias, its measurement and the split-window check off: what the bias alone moves.
+std::pair<LidarStereoResult, LidarStereoResult> solvedWithAndWithoutBias(
+    const StereoRig& rig, const std::vector<Keyframe>& biased, uint64_t start_seed) {
+  LidarStereoSettings settings = testSettings();
+  settings.model_sigma_disparity_px = 0;
+  settings.measure_disparity_offset = false;
+  settings.check_window_halves = false;
+  std::mt19937_64 rng(start_seed);
+  const Eigen::Isometry3d T_init =
+      perturb(rig.T_cam_lidar, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
+  const std::vector<Keyframe> plain = canyonKeyframes(rig, 11);
+  return {solveLidarStereo(windowOf(plain), T_init, settings),
+          solveLidarStereo(windowOf(biased), T_init, settings)};
 }
 
 }  // namespace
@@ -329,18 +347,8 @@ TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatADisparityOffsetDoes) {
   // bias sigma. Checked against the solver itself: the same window (same noise) with every
   // disparity 0.1 px larger moves the estimate by h * 0.1 (tz by about 2.4 cm here).
   const StereoRig rig = kittiLikeRig();
-  LidarStereoSettings settings = testSettings();
-  settings.model_sigma_disparity_px = 0;
-  settings.measure_disparity_offset = false;
-  settings.check_window_halves = false;
-  std::mt19937_64 rng(5);
-  const Eigen::Isometry3d T_init =
-      perturb(rig.T_cam_lidar, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
   const double offset = 0.1;
-  const std::vector<Keyframe> plain = canyonKeyframes(rig, 11);
-  const std::vector<Keyframe> shifted = canyonKeyframes(rig, 11, 0.0, offset);
-  const LidarStereoResult a = solveLidarStereo(windowOf(plain), T_init, settings);
-  const LidarStereoResult b = solveLidarStereo(windowOf(shifted), T_init, settings);
+  const auto [a, b] = solvedWithAndWithoutBias(rig, canyonKeyframes(rig, 11, 0.0, offset), 5);
   ASSERT_TRUE(a.covariance_known && b.covariance_known) << a.message << " / " << b.message;
   const Vector6d moved = poseError(b.T_cam_lidar, a.T_cam_lidar);
   const Vector6d predicted = offset * a.bias_sensitivity.col(0);
@@ -363,18 +371,10 @@ TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatAGroundTiltDoes) {
   // h * 0.3. The covariance's sigma of that tilt grows with the rectification's roll, which is 0
   // for these clouds (a pair rectified as delivered).
   const StereoRig rig = kittiLikeRig();
-  LidarStereoSettings settings = testSettings();
-  settings.model_sigma_disparity_px = 0;
-  settings.measure_disparity_offset = false;
-  settings.check_window_halves = false;
-  std::mt19937_64 rng(7);
-  const Eigen::Isometry3d T_init =
-      perturb(rig.T_cam_lidar, randomPerturbation(3.0 / kDegPerRad, 0.3, rng));
+  const LidarStereoSettings settings;
   const double tilt = 0.3;
-  const std::vector<Keyframe> plain = canyonKeyframes(rig, 11);
-  const std::vector<Keyframe> tilted = canyonKeyframes(rig, 11, 0.0, 0.0, 1.0, {}, tilt);
-  const LidarStereoResult a = solveLidarStereo(windowOf(plain), T_init, settings);
-  const LidarStereoResult b = solveLidarStereo(windowOf(tilted), T_init, settings);
+  const auto [a, b] =
+      solvedWithAndWithoutBias(rig, canyonKeyframes(rig, 11, 0.0, 0.0, 1.0, {}, tilt), 7);
   ASSERT_TRUE(a.covariance_known && b.covariance_known) << a.message << " / " << b.message;
   const Vector6d moved = poseError(b.T_cam_lidar, a.T_cam_lidar);
   const Vector6d predicted = tilt * a.bias_sensitivity.col(4);
