@@ -17,6 +17,13 @@
 namespace tescalib {
 namespace {
 
+/// The window-common biases' 1-sigma sizes, in the order of LidarStereoResult::bias_sensitivity's
+/// columns.
+std::vector<double> biasSigmas(const LidarStereoResult& r, const LidarStereoSettings& s) {
+  return {disparityBiasSigma(r, s), s.model_sigma_range_m, s.model_sigma_disparity_scale,
+          s.model_sigma_ground_disparity_px, groundTiltSigma(r, s)};
+}
+
 /// What the fine residuals at the estimate tell about the parameters: the pose, then the clouds'
 /// scale and yaw where they are estimated.
 struct FineInformation {
@@ -220,12 +227,9 @@ bool covariancesFromInformation(const FineInformation& info, const LidarStereoSe
   res->covariance = robust.topLeftCorner<6, 6>();
   if (with_scale) {  // the common biases move the scale too
     res->stereo_scale_variance = robust(6, 6);
-    res->stereo_scale_variance +=
-        std::pow(disparityBiasSigma(*res, s) * bias_moves(6, 0), 2) +
-        std::pow(s.model_sigma_range_m * bias_moves(6, 1), 2) +
-        std::pow(s.model_sigma_disparity_scale * bias_moves(6, 2), 2) +
-        std::pow(s.model_sigma_ground_disparity_px * bias_moves(6, 3), 2) +
-        std::pow(groundTiltSigma(*res, s) * bias_moves(6, 4), 2);
+    const std::vector<double> sigmas = biasSigmas(*res, s);
+    for (size_t j = 0; j < sigmas.size(); ++j)
+      res->stereo_scale_variance += std::pow(sigmas[j] * bias_moves(6, j), 2);
   }
   res->covariance_statistical = res->covariance;
   // Model error that more data does not average away (calibrated on generated drives, see
@@ -270,10 +274,7 @@ double groundTiltSigma(const LidarStereoResult& r, const LidarStereoSettings& s)
 
 Matrix6d withLidarStereoBiases(const LidarStereoResult& r, const LidarStereoSettings& s,
                                const LidarStereoBiasSensitivity& h) {
-  return withCommonBiases(
-      r.covariance_statistical, h,
-      {disparityBiasSigma(r, s), s.model_sigma_range_m, s.model_sigma_disparity_scale,
-       s.model_sigma_ground_disparity_px, groundTiltSigma(r, s)});
+  return withCommonBiases(r.covariance_statistical, h, biasSigmas(r, s));
 }
 
 Matrix6d constrainedCovariance(const LidarStereoResult& r, const LidarStereoSettings& s) {
