@@ -141,13 +141,14 @@ struct Budget {
 
 /// Adds the disparity error `error` at rectified pixel `px` to the fit of the error against the
 /// disparity's own gradient (central differences over 4 px; steps across depth edges left out)
-/// and against the normalised column.
-void addSlantSample(const StereoCloud& st, const Eigen::Vector2d& px, double error, Budget* b) {
+/// and against the normalised column `x_n`.
+void addSlantSample(const StereoCloud& st, const Eigen::Vector2d& px, double x_n, double error,
+                    Budget* b) {
   double l, r, up, down;
   if (!st.disparityAt(px.x() - 2, px.y(), &l) || !st.disparityAt(px.x() + 2, px.y(), &r) ||
       !st.disparityAt(px.x(), px.y() - 2, &up) || !st.disparityAt(px.x(), px.y() + 2, &down))
     return;
-  const Eigen::Vector4d x(1.0, (r - l) / 4, (down - up) / 4, (px.x() - st.cx) / st.fx);
+  const Eigen::Vector4d x(1.0, (r - l) / 4, (down - up) / 4, x_n);
   if (std::fabs(x[1]) >= 1 || std::fabs(x[2]) >= 1 || std::fabs(error) >= 1) return;
   b->slant_A += x * x.transpose();
   b->slant_y += x * error;
@@ -194,7 +195,8 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
       continue;
     }
     const double d_true = fb / (st.R_rect_left * pt).z();
-    addSlantSample(st, px, d - d_true, b);
+    const double x_n = (px.x() - st.cx) / st.fx;  // the normalised column
+    addSlantSample(st, px, x_n, d - d_true, b);
     const Eigen::Vector3d ps = st.pointAt(px.x(), px.y(), d);
     const Eigen::Vector3d m = T.linear() * f.normal.cast<double>();
     // The fine stage's noise model, gate and Huber weight (LidarStereoSettings defaults).
@@ -218,7 +220,6 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
     const double dr_dd = m.dot(ps) / d * inv_sigma;  // per px of disparity
     b->g_offset += w * J * dr_dd;
     if (cls == kRoad) b->g_road_offset += w * J * dr_dd;
-    const double x_n = (px.x() - st.cx) / st.fx;
     b->g_tilt += w * J * dr_dd * x_n;
     if (cls == kRoad) {
       b->g_road_tilt += w * J * dr_dd * x_n;
