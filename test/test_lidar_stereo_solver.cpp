@@ -56,16 +56,22 @@ StereoRig kittiLikeRig() {
   return rig;
 }
 
+/// Tilts of the disparity error across the image (px per unit of normalised column x) on the
+/// ground (normal within 37 deg of camera y) and on the lateral surfaces (within 45 deg of x).
+struct SurfaceTilts {
+  double ground = 0.0, lateral = 0.0;
+};
+
 /// A keyframe of the plane scene: LiDAR ray cast from the LiDAR, disparity ray cast from the
 /// camera (exact, plus Gaussian noise), stereo points with the plane normals. `right_yaw`: the
 /// true right camera is rotated by this (rad, about its y axis) from the one the disparities were
 /// rectified for, so they are short by f yaw (1 + x_r^2). `disparity_offset` (px) is added to
-/// every disparity.
+/// every disparity, `tilts` to the ground's and the lateral surfaces'.
 Keyframe planeKeyframe(const std::vector<Plane>& planes, const StereoRig& rig, uint64_t seed,
                        double right_yaw = 0.0, double disparity_offset = 0.0,
                        double baseline_scale = 1.0,
                        const std::vector<double>& ring_range_offsets = {},
-                       double ground_tilt = 0.0) {
+                       const SurfaceTilts& tilts = {}) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> range_noise(0.0, 0.01), disp_noise(0.0, 0.2);
   Keyframe kf;
@@ -104,7 +110,10 @@ Keyframe planeKeyframe(const std::vector<Plane>& planes, const StereoRig& rig, u
       if (!std::isfinite(t) || t > 40) continue;
       const double d_true = st.fx * baseline_scale * st.baseline / t;
       const double xr = (u - d_true - st.cx) / st.fx;
-      const double tilt = std::fabs(planes[hit].n.y()) > 0.8 ? ground_tilt * r.x() : 0.0;
+      const Eigen::Vector3d& n_hit = planes[hit].n;
+      const double tilt = std::fabs(n_hit.y()) > 0.8   ? tilts.ground * r.x()
+                          : std::fabs(n_hit.x()) > 0.7 ? tilts.lateral * r.x()
+                                                       : 0.0;
       const double d =
           d_true - st.fx * right_yaw * (1.0 + xr * xr) + disparity_offset + tilt + disp_noise(rng);
       st.disparity.at<float>(v, u) = float(d);
@@ -140,11 +149,11 @@ std::vector<Keyframe> canyonKeyframes(const StereoRig& rig, uint64_t first_seed,
                                       double right_yaw = 0.0, double disparity_offset = 0.0,
                                       double baseline_scale = 1.0,
                                       const std::vector<double>& ring_range_offsets = {},
-                                      double ground_tilt = 0.0) {
+                                      const SurfaceTilts& tilts = {}) {
   std::vector<Keyframe> kfs;
   for (int k = 0; k < 3; ++k)
     kfs.push_back(planeKeyframe(streetCanyon(0.7 * k), rig, first_seed + k, right_yaw,
-                                disparity_offset, baseline_scale, ring_range_offsets, ground_tilt));
+                                disparity_offset, baseline_scale, ring_range_offsets, tilts));
   return kfs;
 }
 
@@ -374,7 +383,7 @@ TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatAGroundTiltDoes) {
   const LidarStereoSettings settings;
   const double tilt = 0.3;
   const auto [a, b] =
-      solvedWithAndWithoutBias(rig, canyonKeyframes(rig, 11, 0.0, 0.0, 1.0, {}, tilt), 7);
+      solvedWithAndWithoutBias(rig, canyonKeyframes(rig, 11, 0.0, 0.0, 1.0, {}, {tilt, 0.0}), 7);
   ASSERT_TRUE(a.covariance_known && b.covariance_known) << a.message << " / " << b.message;
   const Vector6d moved = poseError(b.T_cam_lidar, a.T_cam_lidar);
   const Vector6d predicted = tilt * a.bias_sensitivity.col(4);
@@ -390,6 +399,31 @@ TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatAGroundTiltDoes) {
   rolled.rectification_roll_deg = -0.5;
   EXPECT_DOUBLE_EQ(groundTiltSigma(rolled, settings),
                    0.5 * settings.model_sigma_ground_tilt_px_per_deg);
+}
+
+TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatALateralTiltDoes) {
+  // bias_sensitivity column 6: the move per px of a tilt of the lateral surfaces' disparity
+  // across the image (b x px at normalised column x: the walls on the left against those on the
+  // right), which turns the estimate about the camera's y axis. The same window with the walls'
+  // disparities tilted by 0.5 px per unit of x moves the estimate by h * 0.5 (a smaller tilt
+  // moves it by less than the solver's own stopping noise); the ground's and the other
+  // surfaces' disparities are left as they are.
+  const StereoRig rig = kittiLikeRig();
+  const double tilt = 0.5;
+  const auto [a, b] =
+      solvedWithAndWithoutBias(rig, canyonKeyframes(rig, 11, 0.0, 0.0, 1.0, {}, {0.0, tilt}), 7);
+  ASSERT_TRUE(a.covariance_known && b.covariance_known) << a.message << " / " << b.message;
+  const Vector6d moved = poseError(b.T_cam_lidar, a.T_cam_lidar);
+  const Vector6d predicted = tilt * a.bias_sensitivity.col(6);
+  std::printf("ry moved %+.4f deg, predicted %+.4f deg; rotation moved %.4f deg, predicted %.4f\n",
+              moved[1] * kDegPerRad, predicted[1] * kDegPerRad, moved.head<3>().norm() * kDegPerRad,
+              predicted.head<3>().norm() * kDegPerRad);
+  EXPECT_GT(std::fabs(moved[1]) * kDegPerRad, 0.02);  // the tilt turns the estimate about y
+  EXPECT_NEAR(moved[1], predicted[1], 0.2 * std::fabs(predicted[1]));
+  EXPECT_LT((moved - predicted).head<3>().norm(), 0.2 * predicted.head<3>().norm());
+  // The lateral offset (column 5) is a column of its own, not the ground's (column 3).
+  EXPECT_GT((a.bias_sensitivity.col(5) - a.bias_sensitivity.col(3)).norm(),
+            0.5 * a.bias_sensitivity.col(5).norm());
 }
 
 TEST(LidarStereoSolver, CoarseStageKeepsToItsWindowBudget) {

@@ -38,8 +38,9 @@ const char* const kDescription =
     "by surface (road: normal within 37 deg of vertical; facing: within 14 deg of the optical "
     "axis; lateral: within 45 deg of camera x; other) and depth; then how a disparity offset "
     "of all stereo points, of the road's alone and a tilt across the image (an error of x px at "
-    "normalised column x) move it, and the disparity error fitted against the disparity's "
-    "gradient and the normalised column.";
+    "normalised column x) move it, and the same for the lateral surfaces; then the disparity "
+    "error fitted against the disparity's gradient and the normalised column, of all points, of "
+    "the road's and of the lateral surfaces'.";
 
 struct Args {
   SimOptions sim;
@@ -133,6 +134,10 @@ struct Budget {
   /// Normal equations of the road's disparity error fitted as a + b x
   Eigen::Matrix2d road_A = Eigen::Matrix2d::Zero();
   Eigen::Vector2d road_y = Eigen::Vector2d::Zero();
+  /// The lateral surfaces (onLateral): pull per px of offset and of tilt, the fit a + b x.
+  Vector6d g_lateral_offset = Vector6d::Zero(), g_lateral_tilt = Vector6d::Zero();
+  Eigen::Matrix2d lateral_A = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d lateral_y = Eigen::Vector2d::Zero();
   /// Normal equations of the disparity error fitted as a + b_u dd/du + b_v dd/dv + b_x x, x the
   /// rectified image's normalised column (a tilt of the error across the image)
   Eigen::Matrix4d slant_A = Eigen::Matrix4d::Zero();
@@ -226,6 +231,12 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
       const Eigen::Vector2d xr(1.0, x_n);
       b->road_A += xr * xr.transpose(), b->road_y += xr * (d - d_true);
     }
+    if (onLateral(m)) {
+      b->g_lateral_offset += w * J * dr_dd;
+      b->g_lateral_tilt += w * J * dr_dd * x_n;
+      const Eigen::Vector2d xr(1.0, x_n);
+      b->lateral_A += xr * xr.transpose(), b->lateral_y += xr * (d - d_true);
+    }
     const int band = pt.z() < kDepthEdges[1] ? 0 : pt.z() < kDepthEdges[2] ? 1 : 2;
     Part& p = b->by_class[cls * 3 + band];
     p.g += w * J * r_stereo, p.disparity_error += d - d_true, ++p.n;
@@ -243,18 +254,19 @@ void printBudget(const Budget& b) {
   std::printf(
       "by surface and depth: the stereo part (mean disparity error, pull) and the mesh\n"
       "part (mean error along the face normal, towards the sensor positive; pull)\n"
-      "  %-8s %-8s %6s %10s %8s %8s %9s %9s %8s %8s %9s\n",
-      "surface", "depth m", "assoc", "dd (px)", "tz mm", "ty mm", "rx deg", "mesh mm", "tz mm",
-      "ty mm", "rx deg");
+      "  %-8s %-8s %6s %10s %8s %8s %9s %9s %9s %9s %8s %8s %9s\n",
+      "surface", "depth m", "assoc", "dd (px)", "tz mm", "ty mm", "rx deg", "ry deg", "rz deg",
+      "mesh mm", "tz mm", "ty mm", "rx deg");
   for (int k = 0; k < kClasses * 3; ++k) {
     const Part& p = b.by_class[k];
     if (!p.n) continue;
     const Vector6d dx = -H_inv * p.g, dm = -H_inv * p.g_mesh;
     std::printf(
-        "  %-8s %2.0f-%-5.0f %6d %+10.4f %+8.2f %+8.2f %+9.4f %+9.2f %+8.2f %+8.2f %+9.4f\n",
+        "  %-8s %2.0f-%-5.0f %6d %+10.4f %+8.2f %+8.2f %+9.4f %+9.4f %+9.4f %+9.2f %+8.2f %+8.2f "
+        "%+9.4f\n",
         kClassName[k / 3], kDepthEdges[k % 3], kDepthEdges[k % 3 + 1], p.n, p.disparity_error / p.n,
-        dx[5] * 1e3, dx[4] * 1e3, dx[0] * kDegPerRad, p.mesh_error / p.n * 1e3, dm[5] * 1e3,
-        dm[4] * 1e3, dm[0] * kDegPerRad);
+        dx[5] * 1e3, dx[4] * 1e3, dx[0] * kDegPerRad, dx[1] * kDegPerRad, dx[2] * kDegPerRad,
+        p.mesh_error / p.n * 1e3, dm[5] * 1e3, dm[4] * 1e3, dm[0] * kDegPerRad);
   }
 }
 
@@ -269,6 +281,9 @@ void printSensitivities(const Budget& b) {
   std::printf("per px of disparity tilt (an error of x px at normalised column x):\n");
   printPull("tilt", H_inv, b.g_tilt);
   printPull("road", H_inv, b.g_road_tilt);
+  std::printf("per px of disparity offset and tilt of the lateral surfaces:\n");
+  printPull("offset", H_inv, b.g_lateral_offset);
+  printPull("tilt", H_inv, b.g_lateral_tilt);
   const Eigen::Vector4d k = b.slant_A.ldlt().solve(b.slant_y);
   std::printf(
       "disparity error = %+.4f px %+.4f px * dd/du %+.4f px * dd/dv %+.4f px * x (%.0f stereo "
@@ -277,6 +292,9 @@ void printSensitivities(const Budget& b) {
   const Eigen::Vector2d kr = b.road_A.ldlt().solve(b.road_y);
   std::printf("the road's disparity error = %+.4f px %+.4f px * x (%.0f associations)\n", kr[0],
               kr[1], b.road_A(0, 0));
+  const Eigen::Vector2d kl = b.lateral_A.ldlt().solve(b.lateral_y);
+  std::printf("the lateral surfaces' disparity error = %+.4f px %+.4f px * x (%.0f associations)\n",
+              kl[0], kl[1], b.lateral_A(0, 0));
 }
 
 }  // namespace

@@ -60,6 +60,8 @@ Json extrinsicJson(const ExtrinsicOutcome& o) {
     j["bias_sensitivity_disparity_scale"] = jsonArray(b + 12, 6);
     j["bias_sensitivity_ground_disparity_px"] = jsonArray(b + 18, 6);
     j["bias_sensitivity_ground_tilt_px"] = jsonArray(b + 24, 6);
+    j["bias_sensitivity_lateral_disparity_px"] = jsonArray(b + 30, 6);
+    j["bias_sensitivity_lateral_tilt_px"] = jsonArray(b + 36, 6);
   }
   return j;
 }

@@ -20,8 +20,10 @@ namespace {
 /// The window-common biases' 1-sigma sizes, in the order of LidarStereoResult::bias_sensitivity's
 /// columns.
 std::vector<double> biasSigmas(const LidarStereoResult& r, const LidarStereoSettings& s) {
-  return {disparityBiasSigma(r, s), s.model_sigma_range_m, s.model_sigma_disparity_scale,
-          s.model_sigma_ground_disparity_px, groundTiltSigma(r, s)};
+  return {disparityBiasSigma(r, s),      s.model_sigma_range_m,
+          s.model_sigma_disparity_scale, s.model_sigma_ground_disparity_px,
+          groundTiltSigma(r, s),         s.model_sigma_lateral_disparity_px,
+          s.model_sigma_lateral_tilt_px};
 }
 
 /// What the fine residuals at the estimate tell about the parameters: the pose, then the clouds'
@@ -38,7 +40,8 @@ struct FineInformation {
   std::map<std::pair<int, int>, Eigen::VectorXd> cell_ring_scores;
   /// sum w J dr/db for the window-common biases: disparity offset (px), LiDAR range offset (m),
   /// disparity scale (relative: an error of f B), disparity offset of the ground alone (px), tilt
-  /// of the ground's disparity across the image (px per unit of normalised column).
+  /// of the ground's disparity across the image (px per unit of normalised column), disparity
+  /// offset and tilt of the lateral surfaces (px, px per unit of normalised column).
   Eigen::MatrixXd jtd;
   double dtd = 0;                     ///< sum w D^2, D = dr / d(disparity offset)
   std::vector<double> offset_scores;  ///< per cluster sum w r D (with `scores`: the offset's share)
@@ -181,6 +184,10 @@ void accumulateFineInformation(const LidarStereoEstimate& est, const LidarStereo
       info->jtd.col(3) += w * J * D;
       info->jtd.col(4) += w * J * (D * a0.p_s.x() / a0.p_s.z());
     }
+    if (onLateral(f.m)) {
+      info->jtd.col(5) += w * J * D;
+      info->jtd.col(6) += w * J * (D * a0.p_s.x() / a0.p_s.z());
+    }
     res->keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
         w * J.head<6>() * J.head<6>().transpose();
     info->scores[a0.cluster] += w * r * J;
@@ -267,6 +274,10 @@ bool estimateLidarStereoCovariance(const LidarStereoEstimate& est, const LidarSt
 }
 
 bool onGround(const Eigen::Vector3d& normal) { return std::fabs(normal.y()) > 0.8; }
+
+bool onLateral(const Eigen::Vector3d& normal) {
+  return !onGround(normal) && std::fabs(normal.x()) > 0.7;
+}
 
 double groundTiltSigma(const LidarStereoResult& r, const LidarStereoSettings& s) {
   return s.model_sigma_ground_tilt_px_per_deg * std::fabs(r.rectification_roll_deg);

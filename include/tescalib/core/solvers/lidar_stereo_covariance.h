@@ -51,6 +51,11 @@ Matrix6d constrainedCovariance(const LidarStereoResult& result,
 /// offset (LidarStereoSettings::model_sigma_ground_disparity_px): within 37 deg of camera y.
 bool onGround(const Eigen::Vector3d& normal);
 
+/// Whether a surface normal (camera frame) is a lateral surface's for the covariance's lateral
+/// disparity offset and tilt (LidarStereoSettings::model_sigma_lateral_*): not the ground's, and
+/// within 45 deg of camera x.
+bool onLateral(const Eigen::Vector3d& normal);
+
 /// The sigma (px per unit of normalised column) of the ground's disparity tilt across the image
 /// for this result's rectification roll (LidarStereoSettings::model_sigma_ground_tilt_px_per_deg).
 double groundTiltSigma(const LidarStereoResult& result, const LidarStereoSettings& settings);
