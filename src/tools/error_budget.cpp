@@ -122,22 +122,30 @@ constexpr const char* kClassName[kClasses] = {"road", "facing", "lateral", "othe
 constexpr double kDepthEdges[] = {0, 10, 20, 40};
 
 /// The fine stage's normal equations at the ground truth and the pulls of their parts.
+/// One kind of surface's common biases: the pulls per px of a disparity offset and of a tilt b x
+/// across the image (x the normalised column), and its disparity error fitted as a + b x.
+struct SurfaceBias {
+  Vector6d g_offset = Vector6d::Zero(), g_tilt = Vector6d::Zero();
+  Eigen::Matrix2d A = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d y = Eigen::Vector2d::Zero();
+
+  /// `g`: w J dr/dd of one association at normalised column `x`, disparity error `error`.
+  void add(const Vector6d& g, double x, double error) {
+    g_offset += g, g_tilt += g * x;
+    const Eigen::Vector2d xr(1.0, x);
+    A += xr * xr.transpose(), y += xr * error;
+  }
+  Eigen::Vector2d fit() const { return A.ldlt().solve(y); }
+};
+
 struct Budget {
   Matrix6d H = Matrix6d::Zero();
   Part all, stereo, mesh;
   std::vector<Part> by_class = std::vector<Part>(kClasses * 3);
   int skipped_edges = 0;
-  /// sum w J dr/db for a disparity offset of every stereo point and of the road's alone
-  Vector6d g_offset = Vector6d::Zero(), g_road_offset = Vector6d::Zero();
-  /// sum w J dr/db for a disparity tilt b x across the image (x the normalised column)
-  Vector6d g_tilt = Vector6d::Zero(), g_road_tilt = Vector6d::Zero();
-  /// Normal equations of the road's disparity error fitted as a + b x
-  Eigen::Matrix2d road_A = Eigen::Matrix2d::Zero();
-  Eigen::Vector2d road_y = Eigen::Vector2d::Zero();
-  /// The lateral surfaces (onLateral): pull per px of offset and of tilt, the fit a + b x.
-  Vector6d g_lateral_offset = Vector6d::Zero(), g_lateral_tilt = Vector6d::Zero();
-  Eigen::Matrix2d lateral_A = Eigen::Matrix2d::Zero();
-  Eigen::Vector2d lateral_y = Eigen::Vector2d::Zero();
+  /// sum w J dr/db for a disparity offset of every stereo point and a tilt b x across the image
+  Vector6d g_offset = Vector6d::Zero(), g_tilt = Vector6d::Zero();
+  SurfaceBias road, lateral;  ///< the road's (onGround) and the lateral surfaces' (onLateral)
   /// Normal equations of the disparity error fitted as a + b_u dd/du + b_v dd/dv + b_x x, x the
   /// rectified image's normalised column (a tilt of the error across the image)
   Eigen::Matrix4d slant_A = Eigen::Matrix4d::Zero();
@@ -224,19 +232,9 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
                                               : kOther;
     const double dr_dd = m.dot(ps) / d * inv_sigma;  // per px of disparity
     b->g_offset += w * J * dr_dd;
-    if (cls == kRoad) b->g_road_offset += w * J * dr_dd;
     b->g_tilt += w * J * dr_dd * x_n;
-    if (cls == kRoad) {
-      b->g_road_tilt += w * J * dr_dd * x_n;
-      const Eigen::Vector2d xr(1.0, x_n);
-      b->road_A += xr * xr.transpose(), b->road_y += xr * (d - d_true);
-    }
-    if (onLateral(m)) {
-      b->g_lateral_offset += w * J * dr_dd;
-      b->g_lateral_tilt += w * J * dr_dd * x_n;
-      const Eigen::Vector2d xr(1.0, x_n);
-      b->lateral_A += xr * xr.transpose(), b->lateral_y += xr * (d - d_true);
-    }
+    if (cls == kRoad) b->road.add(w * J * dr_dd, x_n, d - d_true);
+    if (onLateral(m)) b->lateral.add(w * J * dr_dd, x_n, d - d_true);
     const int band = pt.z() < kDepthEdges[1] ? 0 : pt.z() < kDepthEdges[2] ? 1 : 2;
     Part& p = b->by_class[cls * 3 + band];
     p.g += w * J * r_stereo, p.disparity_error += d - d_true, ++p.n;
@@ -277,24 +275,23 @@ void printSensitivities(const Budget& b) {
   const Matrix6d H_inv = b.H.inverse();
   std::printf("the estimate's move per px of disparity offset (camera axes x y z):\n");
   printPull("all", H_inv, b.g_offset);
-  printPull("road", H_inv, b.g_road_offset);
+  printPull("road", H_inv, b.road.g_offset);
   std::printf("per px of disparity tilt (an error of x px at normalised column x):\n");
   printPull("tilt", H_inv, b.g_tilt);
-  printPull("road", H_inv, b.g_road_tilt);
+  printPull("road", H_inv, b.road.g_tilt);
   std::printf("per px of disparity offset and tilt of the lateral surfaces:\n");
-  printPull("offset", H_inv, b.g_lateral_offset);
-  printPull("tilt", H_inv, b.g_lateral_tilt);
+  printPull("offset", H_inv, b.lateral.g_offset);
+  printPull("tilt", H_inv, b.lateral.g_tilt);
   const Eigen::Vector4d k = b.slant_A.ldlt().solve(b.slant_y);
   std::printf(
       "disparity error = %+.4f px %+.4f px * dd/du %+.4f px * dd/dv %+.4f px * x (%.0f stereo "
       "points)\n",
       k[0], k[1], k[2], k[3], b.slant_A(0, 0));
-  const Eigen::Vector2d kr = b.road_A.ldlt().solve(b.road_y);
+  const Eigen::Vector2d kr = b.road.fit(), kl = b.lateral.fit();
   std::printf("the road's disparity error = %+.4f px %+.4f px * x (%.0f associations)\n", kr[0],
-              kr[1], b.road_A(0, 0));
-  const Eigen::Vector2d kl = b.lateral_A.ldlt().solve(b.lateral_y);
+              kr[1], b.road.A(0, 0));
   std::printf("the lateral surfaces' disparity error = %+.4f px %+.4f px * x (%.0f associations)\n",
-              kl[0], kl[1], b.lateral_A(0, 0));
+              kl[0], kl[1], b.lateral.A(0, 0));
 }
 
 }  // namespace
