@@ -373,26 +373,40 @@ TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatADisparityOffsetDoes) {
   EXPECT_LT((moved - predicted).tail<3>().norm(), 0.2 * predicted.tail<3>().norm());
 }
 
+namespace {
+
+/// The canyon window solved with and without the disparity `tilts` (px per unit of normalised
+/// column; `size` the one that is not 0): bias_sensitivity column `column` times `size` predicts
+/// the move about rotation axis `axis` (which moves by more than 0.02 deg) within 20 %, and of the
+/// whole rotation within 20 %. Returns the solve without the tilts.
+LidarStereoResult expectTiltMovesAsPredicted(const SurfaceTilts& tilts, double size, int column,
+                                             int axis) {
+  const StereoRig rig = kittiLikeRig();
+  const auto [a, b] =
+      solvedWithAndWithoutBias(rig, canyonKeyframes(rig, 11, 0.0, 0.0, 1.0, {}, tilts), 7);
+  EXPECT_TRUE(a.covariance_known && b.covariance_known) << a.message << " / " << b.message;
+  const Vector6d moved = poseError(b.T_cam_lidar, a.T_cam_lidar);
+  const Vector6d predicted = size * a.bias_sensitivity.col(column);
+  std::printf("r%c moved %+.4f deg, predicted %+.4f deg; rotation moved %.4f deg, predicted %.4f\n",
+              "xyz"[axis], moved[axis] * kDegPerRad, predicted[axis] * kDegPerRad,
+              moved.head<3>().norm() * kDegPerRad, predicted.head<3>().norm() * kDegPerRad);
+  EXPECT_GT(std::fabs(moved[axis]) * kDegPerRad, 0.02);
+  EXPECT_NEAR(moved[axis], predicted[axis], 0.2 * std::fabs(predicted[axis]));
+  EXPECT_LT((moved - predicted).head<3>().norm(), 0.2 * predicted.head<3>().norm());
+  return a;
+}
+
+}  // namespace
+
 TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatAGroundTiltDoes) {
   // bias_sensitivity column 4: the move per px of a tilt of the ground's disparity across the
   // image (b x px at normalised column x), which turns the estimate about the optical axis. The
   // same window with the road's disparities tilted by 0.3 px per unit of x moves the estimate by
   // h * 0.3. The covariance's sigma of that tilt grows with the rectification's roll, which is 0
   // for these clouds (a pair rectified as delivered).
-  const StereoRig rig = kittiLikeRig();
   const LidarStereoSettings settings;
   const double tilt = 0.3;
-  const auto [a, b] =
-      solvedWithAndWithoutBias(rig, canyonKeyframes(rig, 11, 0.0, 0.0, 1.0, {}, {tilt, 0.0}), 7);
-  ASSERT_TRUE(a.covariance_known && b.covariance_known) << a.message << " / " << b.message;
-  const Vector6d moved = poseError(b.T_cam_lidar, a.T_cam_lidar);
-  const Vector6d predicted = tilt * a.bias_sensitivity.col(4);
-  std::printf("rz moved %+.4f deg, predicted %+.4f deg; rotation moved %.4f deg, predicted %.4f\n",
-              moved[2] * kDegPerRad, predicted[2] * kDegPerRad, moved.head<3>().norm() * kDegPerRad,
-              predicted.head<3>().norm() * kDegPerRad);
-  EXPECT_GT(std::fabs(moved[2]) * kDegPerRad, 0.02);  // the tilt turns the estimate about z
-  EXPECT_NEAR(moved[2], predicted[2], 0.2 * std::fabs(predicted[2]));
-  EXPECT_LT((moved - predicted).head<3>().norm(), 0.2 * predicted.head<3>().norm());
+  const LidarStereoResult a = expectTiltMovesAsPredicted({tilt, 0.0}, tilt, 4, 2);
   EXPECT_EQ(a.rectification_roll_deg, 0.0);
   EXPECT_EQ(groundTiltSigma(a, settings), 0.0);
   LidarStereoResult rolled = a;
@@ -408,19 +422,8 @@ TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatALateralTiltDoes) {
   // disparities tilted by 0.5 px per unit of x moves the estimate by h * 0.5 (a smaller tilt
   // moves it by less than the solver's own stopping noise); the ground's and the other
   // surfaces' disparities are left as they are.
-  const StereoRig rig = kittiLikeRig();
   const double tilt = 0.5;
-  const auto [a, b] =
-      solvedWithAndWithoutBias(rig, canyonKeyframes(rig, 11, 0.0, 0.0, 1.0, {}, {0.0, tilt}), 7);
-  ASSERT_TRUE(a.covariance_known && b.covariance_known) << a.message << " / " << b.message;
-  const Vector6d moved = poseError(b.T_cam_lidar, a.T_cam_lidar);
-  const Vector6d predicted = tilt * a.bias_sensitivity.col(6);
-  std::printf("ry moved %+.4f deg, predicted %+.4f deg; rotation moved %.4f deg, predicted %.4f\n",
-              moved[1] * kDegPerRad, predicted[1] * kDegPerRad, moved.head<3>().norm() * kDegPerRad,
-              predicted.head<3>().norm() * kDegPerRad);
-  EXPECT_GT(std::fabs(moved[1]) * kDegPerRad, 0.02);  // the tilt turns the estimate about y
-  EXPECT_NEAR(moved[1], predicted[1], 0.2 * std::fabs(predicted[1]));
-  EXPECT_LT((moved - predicted).head<3>().norm(), 0.2 * predicted.head<3>().norm());
+  const LidarStereoResult a = expectTiltMovesAsPredicted({0.0, tilt}, tilt, 6, 1);
   // The lateral offset (column 5) is a column of its own, not the ground's (column 3).
   EXPECT_GT((a.bias_sensitivity.col(5) - a.bias_sensitivity.col(3)).norm(),
             0.5 * a.bias_sensitivity.col(5).norm());
