@@ -410,13 +410,15 @@ TEST(LidarStereoGenerated, HighwayIsWeakInTheDirectionsThePaperNames) {
   EXPECT_LT(u.weakest().ratio, 1.0);
   EXPECT_GT(h.weakest().ratio, 1.3 * u.weakest().ratio);
   const Vector6d hd = h.weakest().direction;
-  // The two weakest highway directions lie in the paper's weak axes (ry, tx, tz; measured: 0.94 tz
-  // - 0.32 tx at 1.74x, 0.86 tx - 0.42 ry + 0.30 tz at 0.68x; urban's second 0.26x).
+  // The two weakest highway directions lie in the paper's weak axes (ry, tx, tz; measured: 0.95 tz
+  // - 0.29 tx at 1.70x, 0.89 tx - 0.34 ry + 0.27 tz at 0.58x; urban's second, 0.61 tx - 0.59 ry
+  // + ..., at 0.30x: the walls' disparity bias, which urban has and the highway hardly, moves
+  // urban's ry and tx, so its second direction is not twice as tight as it is without that term).
   for (int k = 0; k < 2; ++k) {
     const Vector6d& d = h.weak_directions[k].direction;
     EXPECT_GT(d(1) * d(1) + d(3) * d(3) + d(5) * d(5), 0.9) << k << ": " << d.transpose();
   }
-  EXPECT_GT(h.weak_directions[1].ratio, 2 * u.weak_directions[1].ratio);
+  EXPECT_GT(h.weak_directions[1].ratio, 1.5 * u.weak_directions[1].ratio);
   EXPECT_NE(h.message.find("weakest direction " + describeDirection(hd)), std::string::npos)
       << h.message;
   for (int weak : {1, 3, 5}) {
