@@ -228,13 +228,13 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
     b->mesh.g += w * J * r_mesh;
     const int cls = onGround(m)               ? kRoad
                     : std::fabs(m.z()) > 0.97 ? kFacing
-                    : std::fabs(m.x()) > 0.7  ? kLateral
+                    : onLateral(m)            ? kLateral
                                               : kOther;
     const double dr_dd = m.dot(ps) / d * inv_sigma;  // per px of disparity
     b->g_offset += w * J * dr_dd;
     b->g_tilt += w * J * dr_dd * x_n;
     if (cls == kRoad) b->road.add(w * J * dr_dd, x_n, d - d_true);
-    if (onLateral(m)) b->lateral.add(w * J * dr_dd, x_n, d - d_true);
+    if (cls == kLateral) b->lateral.add(w * J * dr_dd, x_n, d - d_true);
     const int band = pt.z() < kDepthEdges[1] ? 0 : pt.z() < kDepthEdges[2] ? 1 : 2;
     Part& p = b->by_class[cls * 3 + band];
     p.g += w * J * r_stereo, p.disparity_error += d - d_true, ++p.n;

@@ -180,13 +180,11 @@ void accumulateFineInformation(const LidarStereoEstimate& est, const LidarStereo
     info->jtd.col(1) += w * J * (f.m.dot(f.q) / a0.p_l.norm() * a0.inv_sigma);
     // d (1 + k): ps / (1 + k), dr/dk = m.ps.
     info->jtd.col(2) += w * J * (f.m.dot(f.ps) * a0.inv_sigma);
-    if (onGround(f.m)) {
-      info->jtd.col(3) += w * J * D;
-      info->jtd.col(4) += w * J * (D * a0.p_s.x() / a0.p_s.z());
-    }
-    if (onLateral(f.m)) {
-      info->jtd.col(5) += w * J * D;
-      info->jtd.col(6) += w * J * (D * a0.p_s.x() / a0.p_s.z());
+    // The ground's (columns 3 and 4) or the lateral surfaces' (5 and 6) offset and tilt.
+    const int surface = onGround(f.m) ? 3 : onLateral(f.m) ? 5 : -1;
+    if (surface > 0) {
+      info->jtd.col(surface) += w * J * D;
+      info->jtd.col(surface + 1) += w * J * (D * a0.p_s.x() / a0.p_s.z());
     }
     res->keyframe_information[a0.cluster / (s.cov_cells_x * s.cov_cells_y)] +=
         w * J.head<6>() * J.head<6>().transpose();
