@@ -225,6 +225,11 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
       "the fine stage estimates a range offset per LiDAR ring with this prior sigma (m; default 0: "
       "not estimated; 0.1 for a LiDAR whose lasers disagree)")
       ->group(g);
+  add(app, "--fine-gain-probe", "F", to(&a->fine_gain_probe, cli::toNonNegative),
+      "the covariance and the trust flags follow the fine stage's re-association to its fixed "
+      "point, measured with probes of F times the trust limits per axis (0.5 is the studied "
+      "size; default 0: one Gauss-Newton step's covariance)")
+      ->group(g);
   add(app, "--cov-model-scale", "K", to(&a->cov_model_scale, cli::toNonNegative),
       "scales the covariance's model error (the common biases and per-axis floor; default 1, 0: "
       "without it)")

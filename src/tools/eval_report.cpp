@@ -63,6 +63,8 @@ Json extrinsicJson(const ExtrinsicOutcome& o) {
     j["bias_sensitivity_lateral_disparity_px"] = jsonArray(b + 30, 6);
     j["bias_sensitivity_lateral_tilt_px"] = jsonArray(b + 36, 6);
   }
+  if (std::isfinite(o.fixed_point_contraction))
+    j["fixed_point_contraction"] = o.fixed_point_contraction;
   return j;
 }
 

@@ -38,6 +38,7 @@ LidarStereoSettings lidarSettings(const Args& args, const KeyframeSettings& kfs)
   if (args.cov_cells_y > 0) solver_settings.cov_cells_y = args.cov_cells_y;
   if (args.ring_clusters >= 0) solver_settings.ring_cluster_rings = args.ring_clusters;
   if (args.ring_range_sigma >= 0) solver_settings.ring_range_sigma_m = args.ring_range_sigma;
+  if (args.fine_gain_probe >= 0) solver_settings.fine_gain_probe = args.fine_gain_probe;
   if (args.cov_model_scale >= 0) {
     for (double& v : solver_settings.model_sigma_rot_deg) v *= args.cov_model_scale;
     for (double& v : solver_settings.model_sigma_trans_m) v *= args.cov_model_scale;
@@ -192,6 +193,8 @@ Eigen::Isometry3d solveLidar(const LidarStereoSettings& solver_settings,
   tr.lidar.cov = r.covariance_known ? r.covariance : Matrix6d::Constant(std::nan(""));
   tr.lidar.cov_stat = r.covariance_known ? r.covariance_statistical : tr.lidar.cov;
   tr.lidar.bias = r.bias_sensitivity;
+  if (solver_settings.fine_gain_probe > 0 && r.covariance_known)
+    tr.lidar.fixed_point_contraction = r.fixed_point_contraction;
   if (r.covariance_known) tr.lidar_cov_model = r.covariance_model;
   tr.halves = r.halves;
   tr.lidar_weakest = r.weakest();

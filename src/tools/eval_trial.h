@@ -33,6 +33,8 @@ struct ExtrinsicOutcome {
   Matrix6d cov_stat = Matrix6d::Constant(std::nan(""));
   /// Pose shift per px of common disparity offset and per m of common LiDAR range offset.
   LidarStereoBiasSensitivity bias = LidarStereoBiasSensitivity::Constant(std::nan(""));
+  /// LidarStereoResult::fixed_point_contraction where the gain was measured (--fine-gain-probe).
+  double fixed_point_contraction = std::nan("");
   /// Within the success thresholds of the evaluation contract: < 0.2 deg and < 3 cm.
   bool success() const {
     return err.head<3>().norm() * kDegPerRad < 0.2 && err.tail<3>().norm() < 0.03;

@@ -211,10 +211,12 @@ void measureDisparityOffset(const FineInformation& info, LidarStereoResult* res)
                  res->disparity_offset_sigma_px);
 }
 
-/// The covariances from an invertible information matrix; returns whether every axis is
+/// The covariances from an invertible information matrix, the pose's carried to the fine stage's
+/// fixed point by its gains (lidar_stereo_fixed_point.h); returns whether every axis is
 /// constrained.
-bool covariancesFromInformation(const FineInformation& info, const LidarStereoSettings& s,
-                                LidarStereoResult* res) {
+bool covariancesFromInformation(const FineInformation& info, const FixedPointGain& fixed_point,
+                                const LidarStereoSettings& s, LidarStereoResult* res) {
+  const Matrix6d& gain = fixed_point.gain;
   const bool with_scale = s.estimate_stereo_scale;
   const Eigen::MatrixXd H_inv_full = info.H.inverse();
   const Matrix6d H_inv = H_inv_full.topLeftCorner<6, 6>();
@@ -222,14 +224,14 @@ bool covariancesFromInformation(const FineInformation& info, const LidarStereoSe
   res->covariance_known = true;
   res->covariance_model = H_inv;
   const Eigen::MatrixXd bias_moves = biasSensitivity(H_inv_full, info.jtd);  // pose and nuisances
-  res->bias_sensitivity = bias_moves.topRows<6>();
+  res->bias_sensitivity = gain * bias_moves.topRows<6>();
   if (info.H.rows() == 6)
     res->bias_sensitivity_held = res->bias_sensitivity;
   else
-    res->bias_sensitivity_held = heldBiasSensitivity(info.H, info.jtd);
+    res->bias_sensitivity_held = fixed_point.gain_held * heldBiasSensitivity(info.H, info.jtd);
   if (s.measure_disparity_offset && !s.estimate_stereo_yaw) measureDisparityOffset(info, res);
   const Eigen::MatrixXd robust = robustCovariance(H_inv_full, info, res->residual_scale);
-  res->covariance = robust.topLeftCorner<6, 6>();
+  res->covariance = gain * robust.topLeftCorner<6, 6>() * gain.transpose();
   if (with_scale) {  // the common biases move the scale too
     res->stereo_scale_variance = robust(6, 6);
     const std::vector<double> sigmas = biasSigmas(*res, s);
@@ -268,7 +270,9 @@ bool estimateLidarStereoCovariance(const LidarStereoEstimate& est, const LidarSt
         Matrix6d::Identity() * 1e6;
     return false;
   }
-  return covariancesFromInformation(info, s, res);
+  res->fixed_point_gain = est.fixed_point.gain;
+  res->fixed_point_contraction = est.fixed_point.contraction;
+  return covariancesFromInformation(info, est.fixed_point, s, res);
 }
 
 bool onGround(const Eigen::Vector3d& normal) { return std::fabs(normal.y()) > 0.8; }

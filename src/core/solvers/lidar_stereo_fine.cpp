@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "tescalib/core/solvers/lidar_stereo_association.h"
+#include "tescalib/core/solvers/lidar_stereo_fixed_point.h"
 #include "tescalib/core/uncertainty/trust.h"
 
 namespace tescalib {
@@ -86,6 +87,8 @@ bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoS
     d_prev = d;
   }
   est->fine_drift = est->settled ? Vector6d::Zero() : unsettledDrift(updates, s);
+  if (est->settled && s.fine_gain_probe > 0)
+    est->fixed_point = fineFixedPointGain(association, s, *est);
   return true;
 }
 

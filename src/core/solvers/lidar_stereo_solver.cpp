@@ -153,6 +153,11 @@ void judgeConvergence(const Eigen::Isometry3d& T_init, const LidarStereoSettings
   else if (drifting)
     res->message = "the fine stage keeps moving: the window does not hold the estimate" +
                    scaleClause(*res, s) + weakestClause(res->weak_directions);
+  else if (res->fixed_point_contraction >= 1.0)
+    res->message =
+        "the fine stage's re-association does not contract: the window does not hold its fixed "
+        "point" +
+        weakestClause(res->weak_directions);
   else if (!all_observable) {
     res->message = unconstrainedMessage(*res, s);
     res->only_unconstrained = settled;

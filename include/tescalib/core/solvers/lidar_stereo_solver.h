@@ -87,6 +87,16 @@ struct LidarStereoSettings {
   double converge_trans_m = 2e-5;
   double fine_settle_rot_deg = 1e-3;  ///< the fine stage has settled below this update
   double fine_settle_trans_m = 3e-4;
+  /// The fine stage's fixed-point gain (lidar_stereo_fixed_point.h) is measured with probes of
+  /// this fraction of the trust limits max_sigma_* per axis and carries the covariance, the bias
+  /// sensitivities and so the trust flags to the fixed point; 0 (the default): not measured, the
+  /// covariance of one Gauss-Newton step at the end point, with which the per-axis floors and
+  /// the trust limits were set (doc/limitations.md, "The fine stage walks further than one step").
+  double fine_gain_probe = 0.0;
+  /// Eigenvalues of the fine stage's iteration Jacobian M below this magnitude are the probes'
+  /// jitter, not feedback, and are left out of the gain: on planes, where M is 0, the probes
+  /// measure up to 0.22 (LidarStereoSolver.ReassociationOnPlanesDoesNotMoveTheFixedPoint).
+  double fine_gain_noise_floor = 0.3;
   int min_inliers = 300;
   /// An axis whose sigma is looser than this (1 sigma; the statistical part plus the common
   /// biases through this window's sensitivity with the clouds' scale and yaw held,
@@ -259,6 +269,13 @@ struct LidarStereoResult {
   /// `covariance` without the model error: what this window's residuals alone constrain (scene
   /// comparisons use it; the `observable` flags add the bias terms, see max_sigma_*).
   Matrix6d covariance_statistical = Matrix6d::Identity();
+  /// The fine stage's fixed-point gain (I - M)^-1 (lidar_stereo_fixed_point.h): `covariance`,
+  /// `covariance_statistical` and the bias sensitivities are carried through it (the identity when
+  /// it is not measured or not determined), and the contraction of its re-association, the
+  /// spectral radius of M (0: re-association does not feed back; 1 or more: the window does not
+  /// hold the fixed point, and the result is not converged).
+  Matrix6d fixed_point_gain = Matrix6d::Identity();
+  double fixed_point_contraction = 0.0;
   /// How window-common measurement biases move the estimate ([phi; tau] per unit bias, the
   /// nuisance parameters marginalised): column 0 per px of disparity offset of every stereo
   /// point, column 1 per m of range offset of every LiDAR point, column 2 per unit of relative

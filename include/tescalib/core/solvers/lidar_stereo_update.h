@@ -10,6 +10,7 @@
 
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/solvers/lidar_stereo_association.h"
+#include "tescalib/core/solvers/lidar_stereo_fixed_point.h"
 #include "tescalib/core/solvers/lidar_stereo_solver.h"
 
 namespace tescalib {
@@ -32,6 +33,9 @@ struct LidarStereoEstimate {
   /// are) the fine stage estimated with T (LidarStereoSettings::ring_range_sigma_m; empty when it
   /// does not).
   std::vector<double> ring_offsets;
+  /// The fine stage's fixed-point gain where it settled (lidar_stereo_fixed_point.h; the
+  /// identity, not determined, when not measured).
+  FixedPointGain fixed_point;
 };
 
 /// Which objective an update minimises.
