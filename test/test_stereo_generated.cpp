@@ -66,8 +66,8 @@ Simulator noiseFreeFrame() {
   return Simulator(o);
 }
 
-/// Keyframes 0.5 s apart of a generated drive with exact ground truth (its rig in `*rig`).
-/// Every fifth frame of the drive `o` as a keyframe at its true extrinsics (0.5 s apart).
+/// Every fifth frame of the drive `o` as a keyframe at its true extrinsics (0.5 s apart; its rig
+/// in `*rig`).
 std::vector<Keyframe> everyFifthFrame(const SimOptions& o, StereoRig* rig = nullptr) {
   const Simulator sim(o);
   if (rig) *rig = sim.rig();
@@ -78,6 +78,7 @@ std::vector<Keyframe> everyFifthFrame(const SimOptions& o, StereoRig* rig = null
   return kfs;
 }
 
+/// Keyframes 0.5 s apart of a generated drive with exact ground truth (its rig in `*rig`).
 std::vector<Keyframe> generatedWindow(Scenario scenario, int keyframes, uint64_t seed,
                                       StereoRig* rig = nullptr) {
   SimOptions o;
