@@ -26,6 +26,14 @@ std::vector<double> biasSigmas(const LidarStereoResult& r, const LidarStereoSett
           s.model_sigma_lateral_tilt_px};
 }
 
+/// A per-axis floor for this window's f B (LidarStereoSettings::model_floor_focal_baseline_px_m).
+std::array<double, 3> scaledFloor(std::array<double, 3> floor, const LidarStereoResult& r,
+                                  const LidarStereoSettings& s) {
+  if (!(r.focal_baseline_px_m > 0)) return floor;
+  for (double& v : floor) v *= s.model_floor_focal_baseline_px_m / r.focal_baseline_px_m;
+  return floor;
+}
+
 /// What the fine residuals at the estimate tell about the parameters: the pose, then the clouds'
 /// scale and yaw where they are estimated.
 struct FineInformation {
@@ -248,7 +256,8 @@ bool covariancesFromInformation(const FineInformation& info, const FixedPointGai
   const bool all_observable = trustFlags(constrained, s, res->observable);
   res->weak_directions = weakDirections(constrained, s.max_sigma_rot_deg, s.max_sigma_trans_m);
   res->covariance = withLidarStereoBiases(*res, s, res->bias_sensitivity);
-  addAxisVariances(&res->covariance, s.model_sigma_rot_deg, s.model_sigma_trans_m);
+  addAxisVariances(&res->covariance, scaledFloor(s.model_sigma_rot_deg, *res, s),
+                   scaledFloor(s.model_sigma_trans_m, *res, s));
   return all_observable;
 }
 

@@ -175,8 +175,14 @@ struct LidarStereoSettings {
   /// and 6).
   double model_sigma_lateral_disparity_px = 0.015;
   double model_sigma_lateral_tilt_px = 0.03;
-  std::array<double, 3> model_sigma_rot_deg = {0.0112, 0.0077, 0.0112};
-  std::array<double, 3> model_sigma_trans_m = {0.0021, 0.00105, 0.00455};
+  /// The per-axis floors hold for a pair with f B = `model_floor_focal_baseline_px_m` (px m, the
+  /// default rig's 718.9 px x 0.54 m); a window's floors scale with that over its own f B (the
+  /// first keyframe's rectified focal length times baseline): a disparity error of a given size
+  /// moves depth, and through it the estimate, by 1 / (f B). Fitted on generated urban windows of
+  /// the default rig and of random rigs (doc/limitations.md).
+  std::array<double, 3> model_sigma_rot_deg = {0.0056, 0.00385, 0.0056};
+  std::array<double, 3> model_sigma_trans_m = {0.00105, 0.000525, 0.002275};
+  double model_floor_focal_baseline_px_m = 388.2;
   double max_correction_rot_deg = 25.0;  ///< a larger correction from the start is divergence
   double max_correction_trans_m = 2.5;
   /// Split-window check of the noise model (checkWindowHalves), run after a converged solve:
@@ -297,6 +303,8 @@ struct LidarStereoResult {
   /// The roll (deg) about the optical axis by which the window's stereo clouds were rectified:
   /// atan2(t_y, -t_x) of their left->right extrinsic (0 for a pair rectified as delivered).
   double rectification_roll_deg = 0.0;
+  /// The window's rectified focal length times baseline (px m, the first keyframe's; 0 without).
+  double focal_baseline_px_m = 0.0;
   /// Per axis: constrained within max_sigma_* (false: do not trust this axis of the estimate),
   /// judged with the common biases through `bias_sensitivity_held`.
   bool observable[6] = {false, false, false, false, false, false};
