@@ -214,6 +214,7 @@ void readSolversAndStart(Visit& get, NodeParams* p) {
   get("lidar_stereo/consistent_sample", &p->online.keyframe.mesh.consistent_sample);
   get("lidar_stereo/ring_clusters", &p->online.co.lidar.ring_cluster_rings);
   get("lidar_stereo/ring_range_sigma", &p->online.co.lidar.ring_range_sigma_m);
+  get("lidar_stereo/fine_stereo_normal_px", &p->online.co.lidar.fine_stereo_normal_px);
   get("photometric/pyramid_levels", &p->online.co.stereo.pyramid_levels);
   get("photometric/huber", &p->online.co.stereo.huber);
   get("initial/T_cam_lidar", &p->initial_T_cam_lidar);
@@ -368,6 +369,9 @@ void checkSolvers(const OnlineSettings& o, std::ostringstream& e) {
       << "); ";
   if (o.co.lidar.ring_cluster_rings < 0)
     e << "lidar_stereo/ring_clusters must be >= 0 (got " << o.co.lidar.ring_cluster_rings << "); ";
+  if (o.co.lidar.fine_stereo_normal_px < 0)
+    e << "lidar_stereo/fine_stereo_normal_px must be >= 0 (got " << o.co.lidar.fine_stereo_normal_px
+      << "); ";
   if (!(o.co.lidar.ring_range_sigma_m >= 0))
     e << "lidar_stereo/ring_range_sigma must be >= 0 m (got " << o.co.lidar.ring_range_sigma_m
       << "); ";

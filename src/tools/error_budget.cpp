@@ -25,6 +25,7 @@
 #include "tescalib/core/solvers/keyframe.h"
 #include "tescalib/core/solvers/lidar_stereo_covariance.h"
 #include "tescalib/core/solvers/lidar_stereo_solver.h"
+#include "tescalib/core/stereo/stereo_surface_normal.h"
 
 using namespace tescalib;
 
@@ -211,12 +212,14 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
     const double x_n = (px.x() - st.cx) / st.fx;  // the normalised column
     addSlantSample(st, px, x_n, d - d_true, b);
     const Eigen::Vector3d ps = st.pointAt(px.x(), px.y(), d);
-    const Eigen::Vector3d m = T.linear() * f.normal.cast<double>();
-    // The fine stage's noise model, gate and Huber weight (LidarStereoSettings defaults).
+    Eigen::Vector3d m = T.linear() * f.normal.cast<double>();
+    // The fine stage's noise model, gate, residual normal and Huber weight (LidarStereoSettings
+    // defaults).
     const double inv_sigma =
         pointPlaneInvSigma(m, c.normalized(), f.range, ps, d, 1.0, s.disparity_sigma, s);
     const double r = m.dot(c - ps) * inv_sigma;
     if (std::fabs(r) > s.fine_gate_sigma) continue;
+    fineResidualNormal(st, px.x(), px.y(), s.fine_stereo_normal_px, c.normalized(), &m);
     const double w = std::fabs(r) <= s.fine_huber ? 1.0 : s.fine_huber / std::fabs(r);
     Vector6d J;
     J.head<3>() = m.cross(T.translation() - ps) * inv_sigma;
@@ -226,10 +229,10 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
     b->all.g += w * J * r, ++b->all.n;
     b->stereo.g += w * J * r_stereo;
     b->mesh.g += w * J * r_mesh;
-    const int cls = onGround(m)               ? kRoad
-                    : std::fabs(m.z()) > 0.97 ? kFacing
-                    : onLateral(m)            ? kLateral
-                                              : kOther;
+    const int cls = onGround(m)                            ? kRoad
+                    : std::fabs(m.normalized().z()) > 0.97 ? kFacing
+                    : onLateral(m)                         ? kLateral
+                                                           : kOther;
     const double dr_dd = m.dot(ps) / d * inv_sigma;  // per px of disparity
     b->g_offset += w * J * dr_dd;
     b->g_tilt += w * J * dr_dd * x_n;

@@ -216,6 +216,10 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
       "the covariance's sandwich also clusters the residuals by groups of N LiDAR rings (default "
       "2; 0: by image cell alone)")
       ->group(g);
+  add(app, "--fine-stereo-normal", "H", to(&a->fine_stereo_normal_px, cli::atLeast(0)),
+      "the fine residual's normal: the stereo surface's, fitted over (2H+1)^2 pixels (default 6; "
+      "0: the LiDAR face's)")
+      ->group(g);
   add(app, "--align-rows", "0|1", to(&a->align_rows, cli::toSwitch),
       "lidar_stereo mode: measure how far the right image's rows lie from where the calibration "
       "puts them on keyframe 0 and match every pair again re-rectified for the right camera's "

@@ -23,9 +23,10 @@ struct Args {
   std::string score_estimates;  ///< tescalib_calibrate --json FILE to score instead of trials
   std::string stages = "coarse,fine";
   int cov_cells_x = -1, cov_cells_y = -1;  ///< -1: the solver default
-  double ring_range_sigma = -1;  ///< LidarStereoSettings::ring_range_sigma_m; < 0: default
-  double fine_gain_probe = -1;   ///< LidarStereoSettings::fine_gain_probe; < 0: default
-  int ring_clusters = -1;        ///< LidarStereoSettings::ring_cluster_rings; -1: default
+  double ring_range_sigma = -1;    ///< LidarStereoSettings::ring_range_sigma_m; < 0: default
+  double fine_gain_probe = -1;     ///< LidarStereoSettings::fine_gain_probe; < 0: default
+  int fine_stereo_normal_px = -1;  ///< LidarStereoSettings::fine_stereo_normal_px; < 0: default
+  int ring_clusters = -1;          ///< LidarStereoSettings::ring_cluster_rings; -1: default
   int align_rows = 1;  ///< 1: re-rectify with the rows of keyframe 0 (rowAlignedExtrinsic)
   int smooth_keypoints_px = -1;  ///< photometric smooth_depth_radius_px; -1: the solver default
   double depth_prior = -1;       ///< photometric depth_prior_sigma; < 0: the solver default

@@ -39,6 +39,8 @@ LidarStereoSettings lidarSettings(const Args& args, const KeyframeSettings& kfs)
   if (args.ring_clusters >= 0) solver_settings.ring_cluster_rings = args.ring_clusters;
   if (args.ring_range_sigma >= 0) solver_settings.ring_range_sigma_m = args.ring_range_sigma;
   if (args.fine_gain_probe >= 0) solver_settings.fine_gain_probe = args.fine_gain_probe;
+  if (args.fine_stereo_normal_px >= 0)
+    solver_settings.fine_stereo_normal_px = args.fine_stereo_normal_px;
   if (args.cov_model_scale >= 0) {
     for (double& v : solver_settings.model_sigma_rot_deg) v *= args.cov_model_scale;
     for (double& v : solver_settings.model_sigma_trans_m) v *= args.cov_model_scale;

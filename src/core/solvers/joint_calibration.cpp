@@ -19,6 +19,7 @@
 #include "tescalib/core/solvers/residuals/joint_residuals.h"
 #include "tescalib/core/solvers/residuals/point_plane_distance.h"
 #include "tescalib/core/solvers/shared_loss_options.h"
+#include "tescalib/core/stereo/stereo_surface_normal.h"
 
 namespace tescalib {
 namespace {
@@ -187,10 +188,11 @@ int addLidarResiduals(JointProblem* jp, const std::vector<Keyframe*>& window, co
       double d;
       if (!sc.disparityAt(u, v, &d)) continue;
       const Eigen::Vector3d p_s = sc.pointAt(u, v, d);
-      const Eigen::Vector3d m = R * f.normal.cast<double>();
+      Eigen::Vector3d m = R * f.normal.cast<double>();
       const double inv_sigma = pointPlaneInvSigma(m, c.normalized(), f.range, p_s, d, scale,
                                                   s.stereo_cloud.disparity_sigma, ls);
       if (std::fabs(m.dot(c - scale * p_s)) * inv_sigma > ls.fine_gate_sigma) continue;
+      fineResidualNormal(sc, u, v, ls.fine_stereo_normal_px, c.normalized(), &m);
       auto* lr = new JointLidarResidual;
       lr->q = q, lr->m = m, lr->t = T_cl.translation();
       lr->u = u, lr->v = v, lr->d = d;

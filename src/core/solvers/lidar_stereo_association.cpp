@@ -9,6 +9,7 @@
 
 #include "tescalib/core/common/pinhole.h"
 #include "tescalib/core/solvers/residuals/point_plane_distance.h"
+#include "tescalib/core/stereo/stereo_surface_normal.h"
 
 namespace tescalib {
 namespace {
@@ -176,7 +177,7 @@ void ProjectiveAssociation::associateKeyframe(size_t kf, const Eigen::Isometry3d
     if (!projectInDepthRange(st, c, s.max_depth, &u, &v)) continue;
     if (!st.disparityAt(u, v, &d)) continue;
     const Eigen::Vector3d ps = st.pointAt(u, v, d);  // unscaled; the residual scales it
-    const Eigen::Vector3d m = R * f.normal.cast<double>();
+    Eigen::Vector3d m = R * f.normal.cast<double>();
     const double g = stereoYawGain(st, u, d);
     const double k = correctedStereoScale(&scale, &yaw, d, g);
     // The point sits at the yaw-corrected disparity (the clamp of correctedStereoScale): its
@@ -185,14 +186,15 @@ void ProjectiveAssociation::associateKeyframe(size_t kf, const Eigen::Isometry3d
     const double inv_sigma = pointPlaneInvSigma(
         m, c.normalized(), f.range, ps, std::max(d + g * yaw, 0.1 * d), k, s.disparity_sigma, s);
     if (std::fabs(m.dot(c - k * ps)) * inv_sigma > s.fine_gate_sigma) continue;
+    fineResidualNormal(st, u, v, s.fine_stereo_normal_px, c.normalized(), &m);
     const int cell =
         std::clamp(static_cast<int>(u * s.cov_cells_x / st.disparity.cols), 0, s.cov_cells_x - 1) +
         s.cov_cells_x * std::clamp(static_cast<int>(v * s.cov_cells_y / st.disparity.rows), 0,
                                    s.cov_cells_y - 1);
-    out->push_back({q, m, f.centroid.cast<double>(), f.normal.cast<double>(), ps,
-                    Eigen::Vector3d::Zero(), inv_sigma, static_cast<int>(kf) * cells + cell, d, g,
+    out->push_back({q, m, f.centroid.cast<double>(), R.transpose() * m, ps, Eigen::Vector3d::Zero(),
+                    inv_sigma, static_cast<int>(kf) * cells + cell, d, g,
                     static_cast<int>(f.key >> 16), (f.key & 1u) ? 1.0 / 3 : 2.0 / 3,
-                    f.normal.cast<double>().dot(f.centroid.cast<double>()) / f.range});
+                    m.dot(q) / f.range});
   }
 }
 

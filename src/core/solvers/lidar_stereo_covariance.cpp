@@ -284,10 +284,10 @@ bool estimateLidarStereoCovariance(const LidarStereoEstimate& est, const LidarSt
   return covariancesFromInformation(info, est.fixed_point, s, res);
 }
 
-bool onGround(const Eigen::Vector3d& normal) { return std::fabs(normal.y()) > 0.8; }
+bool onGround(const Eigen::Vector3d& normal) { return std::fabs(normal.y()) > 0.8 * normal.norm(); }
 
 bool onLateral(const Eigen::Vector3d& normal) {
-  return !onGround(normal) && std::fabs(normal.x()) > 0.7;
+  return !onGround(normal) && std::fabs(normal.x()) > 0.7 * normal.norm();
 }
 
 double groundTiltSigma(const LidarStereoResult& r, const LidarStereoSettings& s) {

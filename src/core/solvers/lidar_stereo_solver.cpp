@@ -31,6 +31,7 @@ const char* invalidInput(const std::vector<const Keyframe*>& window,
   if (s.cov_cells_x < 1 || s.cov_cells_y < 1 || s.ceres_iterations < 1 || s.threads < 1)
     return "cov_cells_x, cov_cells_y, ceres_iterations and threads must be at least 1";
   if (s.ring_cluster_rings < 0) return "ring_cluster_rings must be 0 or more";
+  if (s.fine_stereo_normal_px < 0) return "fine_stereo_normal_px must be 0 or more";
   // Non-finite or non-positive limits pass every gate (NaN compares false); bounds of zero width
   // make Ceres fail.
   for (const double v : {s.normal_weight, s.coarse_loss_scale, s.fine_huber, s.fine_gate_sigma,

@@ -47,13 +47,14 @@ Matrix6d withLidarStereoBiases(const LidarStereoResult& result, const LidarStere
 Matrix6d constrainedCovariance(const LidarStereoResult& result,
                                const LidarStereoSettings& settings);
 
-/// Whether a surface normal (camera frame) is the ground's for the covariance's ground disparity
-/// offset (LidarStereoSettings::model_sigma_ground_disparity_px): within 37 deg of camera y.
+/// Whether a surface normal (camera frame, of any length) is the ground's for the covariance's
+/// ground disparity offset (LidarStereoSettings::model_sigma_ground_disparity_px): within 37 deg of
+/// camera y.
 bool onGround(const Eigen::Vector3d& normal);
 
-/// Whether a surface normal (camera frame) is a lateral surface's for the covariance's lateral
-/// disparity offset and tilt (LidarStereoSettings::model_sigma_lateral_*): not the ground's, and
-/// within 45 deg of camera x.
+/// Whether a surface normal (camera frame, of any length) is a lateral surface's for the
+/// covariance's lateral disparity offset and tilt (LidarStereoSettings::model_sigma_lateral_*): not
+/// the ground's, and within 45 deg of camera x.
 bool onLateral(const Eigen::Vector3d& normal);
 
 /// The sigma (px per unit of normalised column) of the ground's disparity tilt across the image

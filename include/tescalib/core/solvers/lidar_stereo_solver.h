@@ -45,7 +45,17 @@ struct LidarStereoSettings {
   int fine_reassociations = 20;
   double fine_huber = 1.5;       ///< Huber threshold in sigma units
   double fine_gate_sigma = 8.0;  ///< associations beyond this many sigma are dropped
-  double max_depth = 40.0;       ///< m; farther LiDAR faces are not associated
+  /// px; > 0: the fine residual's derivative follows the stereo surface (fineResidualNormal). As
+  /// the estimate moves, a face's projection slides along the stereo surface, and where that
+  /// surface is tilted against the face (grazing walls, depth edges, the mesh's chords) the
+  /// distance to the face changes with it. With the face's normal alone (0, the default) the
+  /// solve does not see this, each re-association moves the estimate on in the direction of the
+  /// last (0.8-0.95 of each update on some random rigs) and the fine stage settles beyond what one
+  /// step's covariance allows. The stereo surface's normal comes from a weighted affine fit of the
+  /// disparity over the (2 h + 1)^2 pixels around the projection (stereoSurfaceNormal; 6 is the
+  /// size studied, doc/limitations.md); the ground's faces keep their own normal.
+  int fine_stereo_normal_px = 0;
+  double max_depth = 40.0;  ///< m; farther LiDAR faces are not associated
   /// Also estimate a scale of the stereo clouds (= true baseline / the baseline they were
   /// computed with): a real pair's f x B is known to about 1 % (the KITTI recordings' stereo
   /// disparity exceeds the LiDAR-predicted one by 0.8-2.0 %), and held at 1 that error moves the
