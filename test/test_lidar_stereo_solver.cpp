@@ -445,8 +445,7 @@ TEST(LidarStereoSolver, ReassociationOnPlanesDoesNotMoveTheFixedPoint) {
   // In units of the trust limits; the probes' own jitter (the stereo noise at the pixels a face
   // lands on, over a 3-keyframe window) leaves a few tenths. A drive whose re-association feeds
   // back shows contractions of 0.5-0.95 and gains of 2-20.
-  const Vector6d k = limitScale(0.1, 0.01);
-  const Matrix6d scaled = k.asDiagonal() * r.fixed_point_gain * k.cwiseInverse().asDiagonal();
+  const Matrix6d scaled = inLimitUnits(r.fixed_point_gain, limitScale(0.1, 0.01));
   const double largest = (scaled - Matrix6d::Identity()).cwiseAbs().maxCoeff();
   std::printf("contraction %.3f, largest entry of gain - I (trust-limit units) %.3f\n",
               r.fixed_point_contraction, largest);

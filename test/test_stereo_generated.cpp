@@ -325,8 +325,7 @@ WalkFromTruth walkFromTruth(const std::vector<const Keyframe*>& window,
   WalkFromTruth w;
   w.first_step = poseError(first.T_cam_lidar, truth).cwiseProduct(k);
   w.fixed_point = poseError(fixed.T_cam_lidar, truth).cwiseProduct(k);
-  w.predicted =
-      k.asDiagonal() * fixed.fixed_point_gain * k.cwiseInverse().asDiagonal() * w.first_step;
+  w.predicted = inLimitUnits(fixed.fixed_point_gain, k) * w.first_step;
   w.contraction = fixed.fixed_point_contraction;
   w.settled = fixed.settled;
   std::cout << "[ gain     ] normal " << normal_px << " px: contraction " << w.contraction

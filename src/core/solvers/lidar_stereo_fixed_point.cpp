@@ -52,8 +52,7 @@ std::optional<Matrix6d> iterationJacobian(const ProjectiveAssociation& associati
 
 void printGain(const char* what, const Matrix6d& gain, double contraction,
                const LidarStereoSettings& s) {
-  const Vector6d k = limitScale(s.max_sigma_rot_deg, s.max_sigma_trans_m);
-  const Matrix6d scaled = k.asDiagonal() * gain * k.cwiseInverse().asDiagonal();
+  const Matrix6d scaled = inLimitUnits(gain, limitScale(s.max_sigma_rot_deg, s.max_sigma_trans_m));
   std::fprintf(stderr, "fine fixed point%s: contraction %.3f, gain (trust-limit units)\n", what,
                contraction);
   for (int i = 0; i < 6; ++i)

@@ -69,6 +69,10 @@ Vector6d limitScale(double max_sigma_rot_deg, double max_sigma_trans_m) {
   return scale;
 }
 
+Matrix6d inLimitUnits(const Matrix6d& map, const Vector6d& scale) {
+  return scale.asDiagonal() * map * scale.cwiseInverse().asDiagonal();
+}
+
 WeakDirection weakDirectionAlong(const Vector6d& v) {
   WeakDirection w;
   w.ratio = v.norm();

@@ -45,6 +45,10 @@ struct WeakDirection {
 /// over `max_sigma_rot_deg`, translations over `max_sigma_trans_m`).
 Vector6d limitScale(double max_sigma_rot_deg, double max_sigma_trans_m);
 
+/// A linear map of [phi; tau] displacements (a gain, a Jacobian) with its input and output in
+/// units of the trust limits: diag(scale) map diag(scale)^-1, `scale` from limitScale.
+Matrix6d inLimitUnits(const Matrix6d& map, const Vector6d& scale);
+
 /// A displacement `v` already in units of the limits as a weak direction: ratio |v|, direction
 /// v / |v| with its largest component positive (ratio 0 and no direction when v is zero).
 WeakDirection weakDirectionAlong(const Vector6d& v);
