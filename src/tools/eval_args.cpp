@@ -217,8 +217,8 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
       "2; 0: by image cell alone)")
       ->group(g);
   add(app, "--fine-stereo-normal", "H", to(&a->fine_stereo_normal_px, cli::atLeast(0)),
-      "the fine residual's normal: the stereo surface's, fitted over (2H+1)^2 pixels (default 6; "
-      "0: the LiDAR face's)")
+      "H > 0: the fine residual's derivative follows the stereo surface, its normal fitted over "
+      "(2H+1)^2 pixels (6 is the size studied; default 0: the LiDAR face's normal alone)")
       ->group(g);
   add(app, "--align-rows", "0|1", to(&a->align_rows, cli::toSwitch),
       "lidar_stereo mode: measure how far the right image's rows lie from where the calibration "
