@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <Eigen/Geometry>
 
+#include "tescalib/core/solvers/lidar_stereo_association.h"
 #include "tescalib/core/stereo/stereo_surface_normal.h"
 
 using namespace tescalib;

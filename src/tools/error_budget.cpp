@@ -23,9 +23,9 @@
 #include "tescalib/core/sim/simulator.h"
 #include "tescalib/core/sim/simulator_camera.h"
 #include "tescalib/core/solvers/keyframe.h"
+#include "tescalib/core/solvers/lidar_stereo_association.h"
 #include "tescalib/core/solvers/lidar_stereo_covariance.h"
 #include "tescalib/core/solvers/lidar_stereo_solver.h"
-#include "tescalib/core/stereo/stereo_surface_normal.h"
 
 using namespace tescalib;
 

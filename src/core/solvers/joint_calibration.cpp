@@ -16,10 +16,10 @@
 #include "tescalib/core/common/timing.h"
 #include "tescalib/core/lidar/mesh_depth.h"
 #include "tescalib/core/solvers/joint_covariance.h"
+#include "tescalib/core/solvers/lidar_stereo_association.h"
 #include "tescalib/core/solvers/residuals/joint_residuals.h"
 #include "tescalib/core/solvers/residuals/point_plane_distance.h"
 #include "tescalib/core/solvers/shared_loss_options.h"
-#include "tescalib/core/stereo/stereo_surface_normal.h"
 
 namespace tescalib {
 namespace {

@@ -8,6 +8,7 @@
 #include <pcl/point_types.h>
 
 #include "tescalib/core/common/pinhole.h"
+#include "tescalib/core/solvers/lidar_stereo_covariance.h"
 #include "tescalib/core/solvers/residuals/point_plane_distance.h"
 #include "tescalib/core/stereo/stereo_surface_normal.h"
 
@@ -47,6 +48,22 @@ double stereoYawGain(const StereoCloud& st, double u, double d) {
 
 Eigen::Vector3d correctedPoint(const LidarStereoAssociation& a, double scale, double yaw) {
   return correctedStereoScale(&scale, &yaw, a.d, a.g) * a.p_s;
+}
+
+bool fineResidualNormal(const StereoCloud& cloud, double u, double v, int h,
+                        const Eigen::Vector3d& ray, Eigen::Vector3d* face_normal) {
+  constexpr double kMaxFacingRatio = 3.0;
+  // The ground keeps its own normal: seen at grazing angles, the road's stereo surface is the
+  // noisiest, and with its normal a highway window (road and guard rails) claims to hold the
+  // optical axis that it cannot hold.
+  if (h <= 0 || onGround(*face_normal)) return false;
+  Eigen::Vector3d n;
+  if (!stereoSurfaceNormal(cloud, u, v, h, &n)) return false;
+  if (n.dot(*face_normal) < 0) n = -n;
+  const double lambda = face_normal->dot(ray) / n.dot(ray);
+  if (!(lambda > 0) || !std::isfinite(lambda)) return false;  // facing it from the other side
+  *face_normal = std::clamp(lambda, 1 / kMaxFacingRatio, kMaxFacingRatio) * n;
+  return true;
 }
 
 // ------------------------------------------------------------------ eq. KD6 (coarse stage)

@@ -1,6 +1,5 @@
 #include "tescalib/core/stereo/stereo_surface_normal.h"
 
-#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Cholesky>
@@ -43,22 +42,6 @@ bool stereoSurfaceNormal(const StereoCloud& cloud, double u, double v, int h,
                                d0 + a * (cloud.cx - u) + c * (cloud.cy - v));
   if (!(n_rect.norm() > 0) || !n_rect.allFinite()) return false;
   *normal = (cloud.R_rect_left.transpose() * n_rect).normalized();
-  return true;
-}
-
-bool fineResidualNormal(const StereoCloud& cloud, double u, double v, int h,
-                        const Eigen::Vector3d& ray, Eigen::Vector3d* face_normal) {
-  constexpr double kMaxFacingRatio = 3.0;
-  // The ground keeps its own normal (within 37 deg of camera y, as onGround): seen at grazing
-  // angles, the road's stereo surface is the noisiest, and with its normal a highway window
-  // (road and guard rails) claims to hold the optical axis that it cannot hold.
-  if (h <= 0 || std::fabs(face_normal->y()) > 0.8 * face_normal->norm()) return false;
-  Eigen::Vector3d n;
-  if (!stereoSurfaceNormal(cloud, u, v, h, &n)) return false;
-  if (n.dot(*face_normal) < 0) n = -n;
-  const double lambda = face_normal->dot(ray) / n.dot(ray);
-  if (!(lambda > 0) || !std::isfinite(lambda)) return false;  // facing it from the other side
-  *face_normal = std::clamp(lambda, 1 / kMaxFacingRatio, kMaxFacingRatio) * n;
   return true;
 }
 

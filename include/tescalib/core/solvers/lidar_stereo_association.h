@@ -56,6 +56,21 @@ size_t ringOffsetCount(const std::vector<LidarStereoAssociation>& associations);
 /// correctedStereoScale): f (1 + x_r^2), x_r the normalised right image coordinate.
 double stereoYawGain(const StereoCloud& st, double u, double d);
 
+/// The vector a fine LiDAR-stereo residual is measured along (LidarStereoSettings::
+/// fine_stereo_normal_px), for a LiDAR face with normal `*face_normal` (left camera frame) whose
+/// centroid projects to rectified pixel (u, v) along the camera ray `ray` (unit), where the
+/// residual is the stereo point's distance to the face, f^T (c - p_s). As the estimate moves c,
+/// p_s slides along the stereo surface (it stays on the ray through c), and the residual changes
+/// by lambda n_s^T dc, n_s the stereo surface's normal (oriented like the face's) and
+/// lambda = (f^T ray) / (n_s^T ray): the residual's derivative, which replaces `*face_normal`.
+/// Its value at the association is the same (c - p_s lies along the ray). lambda is held within
+/// 1/3 - 3 (beyond, a depth edge or a surface seen at a grazing angle: the stereo surface's
+/// normal is not the surface's there). Returns whether it replaced the face's normal: not with
+/// h = 0, on the ground's faces (onGround), where the disparity shows no
+/// surface (stereoSurfaceNormal) nor where the two surfaces face the camera from opposite sides.
+bool fineResidualNormal(const StereoCloud& cloud, double u, double v, int h,
+                        const Eigen::Vector3d& ray, Eigen::Vector3d* face_normal);
+
 /// The stereo point of `a` as the clouds' scale and yaw place it.
 Eigen::Vector3d correctedPoint(const LidarStereoAssociation& a, double scale, double yaw);
 
