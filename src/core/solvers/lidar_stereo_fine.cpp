@@ -51,6 +51,8 @@ bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoS
                   LidarStereoEstimate* est, LidarStereoResult* res) {
   const ProjectiveAssociation association(window, s);
   std::vector<LidarStereoAssociation>& as = est->fine_associations;
+  constexpr double kCycleOfLimits = 0.1;
+  const Vector6d limit = limitScale(s.max_sigma_rot_deg, s.max_sigma_trans_m);
   Vector6d d_prev = Vector6d::Zero();
   std::vector<Vector6d> updates;
   for (int it = 0; it < s.fine_reassociations; ++it) {
@@ -77,9 +79,12 @@ bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoS
       break;
     }
     // Re-association can alternate between two association sets (a 2-cycle, seen with the
-    // stereo scale and yaw free): then the net move over the last two updates is what must be
-    // small, and the midpoint is kept.
-    if (it > 0 && belowSettleLimits(d + d_prev, s) && belowSettleLimits(0.2 * d, s)) {
+    // stereo scale and yaw free, and with the stereo surface's derivative on windows of a few
+    // keyframes): then the net move over the last two updates is what must be small, and the
+    // midpoint is kept, within half the cycle of either end (at most kCycleOfLimits of the
+    // trust limits: well inside any covariance that passes them).
+    if (it > 0 && belowSettleLimits(d + d_prev, s) &&
+        0.5 * d.cwiseProduct(limit).norm() < kCycleOfLimits) {
       est->T = perturb(est->T, -0.5 * d);
       est->settled = true;
       break;
