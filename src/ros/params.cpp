@@ -179,6 +179,7 @@ void readCoCalibrationAndStereo(Visit& get, NodeParams* p) {
   get("co_calibration/rematch_deg", &p->online.co.rematch_deg);
   get("co_calibration/yaw_handover_deg", &p->online.co.yaw_handover_deg);
   get("co_calibration/stereo_from_features", &p->online.co.stereo_from_features);
+  get("co_calibration/fine_stereo_normal_px", &p->online.co.fine_stereo_normal_px);
   get("stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
   get("stereo/block_size", &p->online.keyframe.stereo.block_size);
   get("stereo/sgbm_paths", &p->online.keyframe.stereo.sgbm_paths);
@@ -355,6 +356,9 @@ void checkSolvers(const OnlineSettings& o, std::ostringstream& e) {
          "co_calibration/estimate_stereo: true; ";
   if (o.warm_co_rounds < 1) e << "co_calibration/warm_co_rounds must be >= 1; ";
   if (o.co.free_depth_rounds < 0) e << "co_calibration/free_depth_rounds must be >= 0; ";
+  if (o.co.fine_stereo_normal_px < 0)
+    e << "co_calibration/fine_stereo_normal_px must be >= 0 (got " << o.co.fine_stereo_normal_px
+      << "); ";
   if (o.co.rematch_deg == 0 || !std::isfinite(o.co.rematch_deg))
     e << "co_calibration/rematch_deg must be > 0 (< 0: always match); ";
   if (o.co.yaw_handover_deg == 0 || !std::isfinite(o.co.yaw_handover_deg))

@@ -218,7 +218,8 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
       ->group(g);
   add(app, "--fine-stereo-normal", "H", to(&a->fine_stereo_normal_px, cli::atLeast(0)),
       "H > 0: the fine residual's derivative follows the stereo surface, its normal fitted over "
-      "(2H+1)^2 pixels (6 is the size studied; default 0: the LiDAR face's normal alone)")
+      "(2H+1)^2 pixels (6 is the size studied; 0: the LiDAR face's normal alone). Default: 0 for "
+      "the LiDAR-stereo solves, 6 for co and joint (co_calibration/fine_stereo_normal_px)")
       ->group(g);
   add(app, "--align-rows", "0|1", to(&a->align_rows, cli::toSwitch),
       "lidar_stereo mode: measure how far the right image's rows lie from where the calibration "

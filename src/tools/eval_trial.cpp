@@ -70,11 +70,13 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
   cs.lidar.check_window_halves = solver_settings.check_window_halves;
   cs.lidar.coarse_estimates_stereo_nuisances = solver_settings.coarse_estimates_stereo_nuisances;
   cs.lidar.measure_disparity_offset = solver_settings.measure_disparity_offset;
+  cs.lidar.fine_gain_probe = solver_settings.fine_gain_probe;
   if (args.smooth_keypoints_px >= 0) cs.stereo.smooth_depth_radius_px = args.smooth_keypoints_px;
   if (args.depth_prior >= 0) cs.free_depth_prior_sigma = args.depth_prior;
   if (args.free_depth_rounds >= 0) cs.free_depth_rounds = args.free_depth_rounds;
   if (args.lidar_first >= 0) cs.lidar_first_fallback = args.lidar_first > 0;
   if (args.features >= 0) cs.stereo_from_features = args.features > 0;
+  if (args.fine_stereo_normal_px >= 0) cs.fine_stereo_normal_px = args.fine_stereo_normal_px;
   if (args.propagate_stereo >= 0) cs.propagate_stereo_into_lidar = args.propagate_stereo > 0;
   cs.lidar.search_step_deg = solver_settings.search_step_deg;
   if (!args.coarse_gates.empty()) cs.lidar.coarse_gates = args.coarse_gates;

@@ -34,6 +34,7 @@ LidarStereoSettings coLidarStereoSettings(const CoCalibrationSettings& s) {
   // itself stays the photometric solver's (with a good LiDAR it is far more precise).
   ls.estimate_stereo_yaw = s.lidar_estimates_stereo_yaw;
   ls.fine_reassociations = std::min(ls.fine_reassociations, s.round_fine_reassociations);
+  ls.fine_stereo_normal_px = s.fine_stereo_normal_px;
   return ls;
 }
 

@@ -192,7 +192,7 @@ int addLidarResiduals(JointProblem* jp, const std::vector<Keyframe*>& window, co
       const double inv_sigma = pointPlaneInvSigma(m, c.normalized(), f.range, p_s, d, scale,
                                                   s.stereo_cloud.disparity_sigma, ls);
       if (std::fabs(m.dot(c - scale * p_s)) * inv_sigma > ls.fine_gate_sigma) continue;
-      fineResidualNormal(sc, u, v, ls.fine_stereo_normal_px, c.normalized(), &m);
+      fineResidualNormal(sc, u, v, s.fine_stereo_normal_px, c.normalized(), &m);
       auto* lr = new JointLidarResidual;
       lr->q = q, lr->m = m, lr->t = T_cl.translation();
       lr->u = u, lr->v = v, lr->d = d;

@@ -37,6 +37,13 @@ struct CoCalibrationSettings {
   /// yaw and scale and the LiDAR's depth trade before the photometric solve corrects the pair
   /// (with the pair's yaw 0.9 deg off, 20 re-associations run the LiDAR 1.3 m away).
   int round_fine_reassociations = 12;
+  /// LidarStereoSettings::fine_stereo_normal_px of the alternation's LiDAR-stereo solves (and of
+  /// the joint problem's LiDAR residuals), which replaces `lidar`'s. Here the clouds' scale is
+  /// free, and with the faces' normals alone each re-association moves the estimate on along the
+  /// valley where that scale and the LiDAR's depth trade (0.4 mm per re-association, every
+  /// round the same way, up to 7 cm on some random rigs); the stereo surface's derivative stops
+  /// the walk. 0: the faces' normals.
+  int fine_stereo_normal_px = 6;
   /// Stability criterion (both must hold for both extrinsics): the last round moved the estimate
   /// by less than this, and so does the remaining distance to the fixed point predicted from the
   /// contraction of the last two rounds (step * rho / (1 - rho), rho = |step_k| / |step_k-1|).
