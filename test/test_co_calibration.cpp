@@ -522,6 +522,19 @@ TEST(CoCalibration, RunawayLidarEstimatesAreNotTaken) {
   EXPECT_LT(poseError(ok.lidar.T_cam_lidar, truth.T_cam_lidar).tail<3>().norm(), 0.05);
 }
 
+TEST(CoCalibration, TheAlternationsSolvesFollowTheStereoSurfaceByDefault) {
+  // LiDAR-stereo alone keeps the faces' normals; the alternation's solves, where the clouds' scale
+  // is free, take co-calibration's own setting.
+  CoCalibrationSettings s;
+  EXPECT_EQ(s.lidar.fine_stereo_normal_px, 0);
+  EXPECT_EQ(s.fine_stereo_normal_px, 6);
+  EXPECT_EQ(coLidarStereoSettings(s).fine_stereo_normal_px, 6);
+  EXPECT_TRUE(coLidarStereoSettings(s).estimate_stereo_scale);
+  s.fine_stereo_normal_px = 0;
+  s.lidar.fine_stereo_normal_px = 4;
+  EXPECT_EQ(coLidarStereoSettings(s).fine_stereo_normal_px, 0);
+}
+
 TEST(CoCalibration, StopsWhenARejectedRoundWouldRepeatItself) {
   // Trial 0 of `tescalib_eval --mode co --init-rot-deg 10 --init-trans-m 1 --init-stereo-rot-deg 1
   // --init-stereo-trans-m 0.1 --seed 1 --window 10`: window 0
