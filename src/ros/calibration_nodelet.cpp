@@ -37,6 +37,7 @@ CalibrationNodelet::~CalibrationNodelet() {
   cv_.notify_all();
   if (preprocess_thread_.joinable()) preprocess_thread_.join();
   if (solve_thread_.joinable()) solve_thread_.join();
+  quality_prep_.reset();  // after the thread that feeds it, before what its jobs use
 }
 
 void CalibrationNodelet::stayInert(const std::string& why) {
@@ -354,14 +355,9 @@ void CalibrationNodelet::preprocessLoop() {
         solve_requested_ = true;
       }
       cv_.notify_all();
-      // While the solve runs: what the quality scores need of the keyframe, so that the
-      // published estimate waits only for its own scores.
-      if (kf && quality_) {
-        const ros::WallTime q0 = ros::WallTime::now();
-        quality_->prepare(kf);
-        std::lock_guard<std::mutex> lock(mutex_);
-        quality_prepare_time_.add((ros::WallTime::now() - q0).toSec());
-      }
+      // What the quality scores need of the keyframe, prepared on the cores the keyframes and
+      // the solves leave idle, so that the published estimate waits only for its own scores.
+      if (kf && quality_prep_) quality_prep_->push(kf);
     } else if (r == FrameResult::kReset) {
       NODELET_WARN("tescalib: %s", msg.c_str());
       noteProblem(msg);

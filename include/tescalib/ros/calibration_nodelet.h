@@ -35,6 +35,7 @@
 #include <tescalib/CalibrationStatus.h>
 #include <tescalib/Save.h>
 
+#include "tescalib/core/common/background_worker.h"
 #include "tescalib/core/online/online_calibrator.h"
 #include "tescalib/core/validation/window_quality.h"
 #include "tescalib/ros/frame_intake.h"
@@ -172,9 +173,13 @@ class CalibrationNodelet : public nodelet::Nodelet {
   void publishEstimateMsgs(const OnlineEstimate& e, const std_msgs::Header& h,
                            const ros::Publisher& lidar, const ros::Publisher& stereo,
                            const WindowQualityScores* quality = nullptr);
-  /// Made with the calibrator (quality/enabled): keyframes prepared by the preprocessing thread,
-  /// estimates scored by the solve thread.
+  /// Made with the calibrator (quality/enabled): keyframes prepared by quality_prep_, estimates
+  /// scored by the solve thread.
   std::unique_ptr<WindowQuality> quality_;
+  /// quality_->prepare() of each new keyframe, off the keyframe and solve threads, at a lower
+  /// priority than theirs (the nice steps below): they keep up with the sensors first.
+  std::unique_ptr<BackgroundWorker<std::shared_ptr<const Keyframe>>> quality_prep_;
+  static constexpr int kQualityPreparationNice = 10;
   /// The published estimate's quality scores, for /diagnostics. GUARDED_BY(mutex_).
   std::optional<WindowQualityScores> published_quality_;
   /// Each new keyframe's stereo cloud (left camera frame) and LiDAR mesh, for rviz: computed for
