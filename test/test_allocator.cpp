@@ -22,13 +22,15 @@ int mmappedBlocksOfASecondAllocation(size_t bytes) {
   return blocks;
 }
 
-TEST(Allocator, LargeBlocksStayMappedAfterOneWasFreed) {
-  const int base = mallinfo2().hblks;
-  // By default the second block comes from the heap, which keeps it.
-  EXPECT_EQ(mmappedBlocksOfASecondAllocation(4 << 20), base);
+TEST(Allocator, MidSizedBlocksComeFromTheHeapAndHugeOnesAreMapped) {
   ASSERT_TRUE(keepResidentMemoryFlat());
-  // Larger than what the heap holds free after the first: mapped, and returned when freed.
-  EXPECT_EQ(mmappedBlocksOfASecondAllocation(16 << 20), base + 1);
+  const int base = mallinfo2().hblks;
+  // An image-sized block is used again from the heap (no page faults when it is touched again).
+  EXPECT_EQ(mmappedBlocksOfASecondAllocation(1 << 20), base);
+  EXPECT_EQ(mmappedBlocksOfASecondAllocation(kMmapThresholdBytes / 2), base);
+  // Beyond the fixed threshold: mapped, and returned when freed, however often one was freed.
+  EXPECT_EQ(mmappedBlocksOfASecondAllocation(kMmapThresholdBytes + (4 << 20)), base + 1);
+  EXPECT_EQ(mallinfo2().hblks, base);
 }
 #endif
 

@@ -347,7 +347,7 @@ void CalibrationNodelet::preprocessLoop() {
         NODELET_WARN("tescalib: %s", msg.c_str());
         noteProblem(msg);
       }
-      ++keyframes_;
+      if (++keyframes_ % kKeyframesPerTrim == 0) returnFreeMemory();
       {
         // Under the lock the solve thread waits with: the wake-up cannot fall between its check
         // of the flag and its wait.

@@ -15,6 +15,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "tescalib/core/common/allocator.h"
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/eval/overlay.h"
@@ -129,7 +130,7 @@ struct Session {
     }
     if (r == FrameResult::kReset) std::printf("  %s: %s\n", label.c_str(), msg.c_str());
     if (r != FrameResult::kKeyframe) return;
-    ++keyframes;
+    if (++keyframes % kKeyframesPerTrim == 0) returnFreeMemory();
     if (keep_last_keyframe) last_keyframe = frame;
     window_keyframes.push_back(frame);
     if (static_cast<int>(window_keyframes.size()) > settings.window_size)
