@@ -4,7 +4,8 @@
 # BENCH=sim|kitti|all (default all) selects the generated-drive or the real-KITTI part; BENCH=core
 # runs only the rows of doc/benchmarks.md's main table, one per benchmark target (about 25 minutes);
 # BENCH=rigs only the random-rig rows (the RIG_SEEDS rigs drawn by tescalib_simulate --rig random:
-# LiDAR-stereo from 3 deg / 0.3 m and 10 deg / 1 m, co; about 3 minutes per rig). BENCH=monitor
+# LiDAR-stereo from 3 deg / 0.3 m and 10 deg / 1 m, co; on residential and highway drives
+# LiDAR-stereo from 3 deg; about 5 minutes per rig). BENCH=monitor
 # runs the calibration monitor's rows (scripts/bench_monitor.sh, about 3 minutes per 60 s drive). BENCH=realism runs the rows of real sensors' errors
 # (tescalib_simulate --realism kitti): urban drives of the default rig (REALISM_SEEDS) and of random
 # rigs (REALISM_RIG_SEEDS), the rings' range offsets held (the default) and estimated, and each error
@@ -74,17 +75,17 @@ case $BENCH in
      exit 2 ;;
 esac
 RIG_SEEDS=${RIG_SEEDS:-"301 302 303 304 305 306 307 308 309 310"}
-# name rot-deg trans-m [options...]: three starts on each random rig's urban drive; the options
-# default to LiDAR-stereo with the first 20 keyframes.
+# name rot-deg trans-m [options...]: three starts on each random rig's drive ($RIG_SCENE, default
+# urban); the options default to LiDAR-stereo with the first 20 keyframes.
 random_rigs() {
-  local name=$1 rot=$2 trans=$3 files=()
+  local name=$1 rot=$2 trans=$3 files=() scene=${RIG_SCENE:-urban}
   shift 3
   local opts=("$@")
   [ ${#opts[@]} -gt 0 ] || opts=(--mode lidar_stereo --window 20)
   for seed in $RIG_SEEDS; do
-    local dir="$OUT/sim_urban_rig$seed"
-    [ -f "$dir/sim_info.txt" ] || rosrun tescalib tescalib_simulate --scenario urban --seed "$seed" \
-      --frames 100 --rig random --out "$dir" > /dev/null || exit 1
+    local dir="$OUT/sim_${scene}_rig$seed"
+    [ -f "$dir/sim_info.txt" ] || rosrun tescalib tescalib_simulate --scenario "$scene" \
+      --seed "$seed" --frames 100 --rig random --out "$dir" > /dev/null || exit 1
     rosrun tescalib tescalib_eval --sequences "$dir" --trials 3 --init-rot-deg "$rot" \
       --init-trans-m "$trans" --seed 1 "${opts[@]}" --json "$OUT/${name}_rig$seed.json" \
       > /dev/null || { echo "[bench] $name rig $seed failed" >&2; STATUS=1; }
@@ -99,10 +100,17 @@ random_rigs_co() {
   random_rigs sim_urban_random_rigs_co 3 0.3 --mode co --init-stereo-rot-deg 1 \
     --init-stereo-trans-m 0.1 --window 10 --windows disjoint
 }
+# LiDAR-stereo from 3 deg / 0.3 m on the same rigs' residential and highway drives: whether the
+# covariance stays honest and the highway's weak directions are flagged (not declared converged).
+random_rigs_scenes() {
+  RIG_SCENE=residential random_rigs sim_residential_random_rigs_3deg 3 0.3
+  RIG_SCENE=highway random_rigs sim_highway_random_rigs_3deg 3 0.3
+}
 if [ "$BENCH" = rigs ]; then
   random_rigs sim_urban_random_rigs_3deg 3 0.3
   random_rigs sim_urban_random_rigs_10deg 10 1.0
   random_rigs_co
+  random_rigs_scenes
   exit $STATUS
 fi
 if [ "$BENCH" = core ]; then
@@ -132,6 +140,7 @@ if [ "$BENCH" != kitti ]; then
   random_rigs sim_urban_random_rigs_3deg 3 0.3
   random_rigs sim_urban_random_rigs_10deg 10 1.0
   random_rigs_co
+  random_rigs_scenes
   echo "=== tescalib_simulate speed"
   bash "$ROOT/scripts/bench_simulate.sh"
   URBAN=$(simulate urban 1 100)

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Pools tescalib_eval JSON files of several rigs (make bench's random-rig rows) into one table row:
 converged and successful trials, per-axis median and worst |error| and mean NEES (6 DoF) of the
-converged trials, of the LiDAR extrinsic and, where the pair is estimated (co, joint), the pair's.
+converged trials, of the LiDAR extrinsic and, where the pair is estimated (co, joint), the pair's;
+of the trials not declared converged, the weakest direction they flag and their NEES.
 Usage: rig_summary.py NAME FILE.json [FILE.json ...]"""
 import json
 import statistics
@@ -47,6 +48,26 @@ def print_extrinsic(label, conv, extrinsic, digits):
               f"{statistics.mean(values):.2f} ({len(values)} trials)")
 
 
+def print_flags(trials):
+    """The trials not declared converged: how many are within the targets anyway, their weakest
+    direction (what the estimate flags) and the mean NEES of those with a covariance."""
+    flagged = [t for t in trials if not t["converged"]]
+    if not flagged:
+        return
+    ok = sum(1 for t in flagged if t["success"])
+    words = {}
+    for t in flagged:
+        w = t.get("lidar_weakest_direction") or {}
+        top = (w.get("in_words") or "?").split(" + ")[0].split(" - ")[0]
+        words.setdefault(top.split()[-1], []).append(w.get("ratio", float("nan")))
+    print(f"  not converged: {len(flagged)} ({ok} of them within the targets anyway); weakest "
+          "direction's main axis (count, trust-limit ratios): " +
+          ", ".join(f"{k} {len(v)} ({min(v):.1f}-{max(v):.1f}x)" for k, v in sorted(words.items())))
+    values = [v for v in (nees(t) for t in flagged) if v is not None]
+    if values:
+        print(f"  not converged: mean NEES {statistics.mean(values):.2f} ({len(values)} trials)")
+
+
 def main():
     name, files = sys.argv[1], sys.argv[2:]
     trials = [t for f in files for t in json.load(open(f))["trials"]]
@@ -55,6 +76,7 @@ def main():
     print(f"{name}: {len(files)} rigs, {len(trials)} trials, converged {len(conv)}, "
           f"success {succ} ({100.0 * succ / max(len(trials), 1):.0f} %)")
     print_extrinsic("LiDAR", conv, "lidar", 3)
+    print_flags(trials)
     if any(t["stereo"].get("estimated") for t in trials):
         print_extrinsic("pair", conv, "stereo", 4)
 
