@@ -32,6 +32,13 @@ TEST(Allocator, MidSizedBlocksComeFromTheHeapAndHugeOnesAreMapped) {
   EXPECT_EQ(mmappedBlocksOfASecondAllocation(kMmapThresholdBytes + (4 << 20)), base + 1);
   EXPECT_EQ(mallinfo2().hblks, base);
 }
+
+TEST(Allocator, FreeMemoryGoesBackEveryTwentiethKeyframe) {
+  for (int k : {1, kKeyframesPerTrim - 1, kKeyframesPerTrim + 1})
+    EXPECT_FALSE(returnFreeMemoryAfterKeyframe(k)) << k;
+  for (int k : {kKeyframesPerTrim, 2 * kKeyframesPerTrim})
+    EXPECT_TRUE(returnFreeMemoryAfterKeyframe(k)) << k;
+}
 #endif
 
 }  // namespace tescalib

@@ -347,7 +347,7 @@ void CalibrationNodelet::preprocessLoop() {
         NODELET_WARN("tescalib: %s", msg.c_str());
         noteProblem(msg);
       }
-      if (++keyframes_ % kKeyframesPerTrim == 0) returnFreeMemory();
+      const int built = ++keyframes_;
       {
         // Under the lock the solve thread waits with: the wake-up cannot fall between its check
         // of the flag and its wait.
@@ -358,6 +358,7 @@ void CalibrationNodelet::preprocessLoop() {
       // What the quality scores need of the keyframe, prepared on the cores the keyframes and
       // the solves leave idle, so that the published estimate waits only for its own scores.
       if (kf && quality_prep_) quality_prep_->push(kf);
+      returnFreeMemoryAfterKeyframe(built);  // once the solve is on its way
     } else if (r == FrameResult::kReset) {
       NODELET_WARN("tescalib: %s", msg.c_str());
       noteProblem(msg);

@@ -130,7 +130,7 @@ struct Session {
     }
     if (r == FrameResult::kReset) std::printf("  %s: %s\n", label.c_str(), msg.c_str());
     if (r != FrameResult::kKeyframe) return;
-    if (++keyframes % kKeyframesPerTrim == 0) returnFreeMemory();
+    returnFreeMemoryAfterKeyframe(++keyframes);
     if (keep_last_keyframe) last_keyframe = frame;
     window_keyframes.push_back(frame);
     if (static_cast<int>(window_keyframes.size()) > settings.window_size)

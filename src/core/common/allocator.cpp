@@ -29,4 +29,8 @@ bool returnFreeMemory() {
 #endif
 }
 
+bool returnFreeMemoryAfterKeyframe(int keyframes) {
+  return keyframes % kKeyframesPerTrim == 0 && returnFreeMemory();
+}
+
 }  // namespace tescalib

@@ -22,10 +22,12 @@ constexpr size_t kMmapThresholdBytes = size_t{32} << 20;
 bool keepResidentMemoryFlat();
 
 /// Returns the arenas' free pages to the system (glibc's malloc_trim), wherever they are in the
-/// heap: what the arenas' fragmentation would otherwise keep resident. A long-running calibrator
-/// calls it every kKeyframesPerTrim keyframes; the pages come back with a page fault each when
-/// used again. False where the C library has no such call.
+/// heap: what the arenas' fragmentation would otherwise keep resident. The pages come back with a
+/// page fault each when used again. False where the C library has no such call.
 bool returnFreeMemory();
+/// What a long-running calibrator calls after each new keyframe, `keyframes` counting them:
+/// returnFreeMemory() every kKeyframesPerTrim keyframes. True when it trimmed.
+bool returnFreeMemoryAfterKeyframe(int keyframes);
 constexpr int kKeyframesPerTrim = 20;
 
 }  // namespace tescalib
