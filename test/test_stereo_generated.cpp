@@ -657,6 +657,53 @@ TEST(LidarStereoGenerated, WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow) {
   EXPECT_GE(std::sqrt(u.dot(b.covariance * u)), 0.5 * e.norm());
 }
 
+TEST(LidarStereoGenerated, AnEstimateItsHalvesDoNotComeBackToIsRefused) {
+  // A window that settled in a minimum its data do not single out (a highway's yaw / lateral /
+  // depth valley): here a converged solve's estimate moved 5 cm along the optical axis. Its
+  // halves, started from it, walk back toward the truth and leave it; solved again from the
+  // initial guess they do not come back to it, and the solve is refused with the covariance
+  // widened along the farther half. The solve's own estimate passes the same check.
+  SimOptions o;
+  o.frames = 36;
+  o.seed = 3;
+  const Simulator sim(o);
+  const StereoRig& rig = sim.rig();
+  std::vector<Keyframe> kfs;
+  for (int i = 0; i < o.frames; i += 5)
+    kfs.push_back(makeKeyframe(sim.renderFrame(i), rig, rig.T_cam_lidar, rig.T_right_left));
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : kfs) window.push_back(&kf);
+  LidarStereoSettings settings;
+  settings.halves_start = HalvesStart::kEstimateThenInitialGuess;
+  const Eigen::Isometry3d T_init =
+      perturb(rig.T_cam_lidar, (Vector6d() << 0.02, -0.015, 0.01, 0.1, -0.08, 0.12).finished());
+  const LidarStereoResult r = solveLidarStereo(window, T_init, settings);
+  ASSERT_TRUE(r.converged) << r.message;
+  ASSERT_TRUE(r.halves.tested);
+  EXPECT_LT(r.halves.chi2_window, settings.halves_chi2_limit);
+  EXPECT_EQ(r.halves.chi2_independent, 0.0);  // not needed: not solved again
+
+  LidarStereoResult moved = r;
+  moved.T_cam_lidar = perturb(r.T_cam_lidar, (Vector6d() << 0, 0, 0, 0, 0, 0.05).finished());
+  LidarStereoSettings from_estimate = settings;
+  from_estimate.halves_start = HalvesStart::kEstimate;
+  LidarStereoResult widened = moved;
+  checkWindowHalves(window, from_estimate, T_init, &widened);
+  checkWindowHalves(window, settings, T_init, &moved);
+  std::cout << "[ halves   ] moved 5 cm along z: halves " << moved.halves.chi2 << " apart, "
+            << moved.halves.chi2_window << " from it; from the initial guess "
+            << moved.halves.chi2_independent << "; " << moved.message << "\n";
+  EXPECT_GT(moved.halves.chi2_window, settings.halves_chi2_limit);
+  EXPECT_GT(moved.halves.chi2_independent, settings.halves_chi2_limit);
+  EXPECT_FALSE(moved.converged);
+  EXPECT_NE(moved.message.find("more than one minimum"), std::string::npos) << moved.message;
+  EXPECT_FALSE(moved.observable[5]);  // along z the window knows no better than the 5 cm
+  EXPECT_GT(std::sqrt(moved.covariance(5, 5)), 0.03);
+  // Halves from the estimate alone do not refuse it: they agree with each other.
+  EXPECT_TRUE(widened.converged) << widened.message;
+  EXPECT_EQ(widened.halves.chi2_independent, 0.0);
+}
+
 TEST(LidarStereoGenerated, AWindowStraddlingALidarBumpSolvesItsNewerHalfToTheNewTruth) {
   // A window whose first half comes from before a LiDAR bump (0.5 deg / 3 cm) and whose second
   // half from after it: its halves disagree, and the second half's own solve, which the

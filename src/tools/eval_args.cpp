@@ -1,10 +1,12 @@
 #include "eval_args.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <iostream>
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "cli.h"
 #include "tescalib/core/solvers/lidar_stereo_solver.h"
@@ -203,6 +205,18 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
   add(app, "--check-halves", "0|1", to(&a->check_halves, cli::toSwitch),
       "after a converged solve, solve each half of the window again; disagreeing halves widen the "
       "covariance (default 1)")
+      ->group(g);
+  add(
+      app, "--halves-start", "estimate|recheck|initial",
+      [a](const std::string& v) {
+        const std::vector<std::string> names = {"estimate", "recheck", "initial"};
+        const auto it = std::find(names.begin(), names.end(), v);
+        if (it == names.end()) throw std::invalid_argument(v);
+        a->halves_start = int(it - names.begin());
+      },
+      "where the window's halves start: its estimate (the default); its estimate and, when they "
+      "disagree or both leave it, again from the initial guess, refusing an estimate they do not "
+      "come back to (recheck); the initial guess (initial)")
       ->group(g);
   add(app, "--measure-offset", "0|1", to(&a->measure_offset, cli::toSwitch),
       "measure the disparity offset the residuals show and widen the covariance's bias term with "

@@ -43,6 +43,7 @@ struct Args {
   int stereo_yaw = -1;      ///< LiDAR-stereo estimates the right camera's yaw: 0/1; -1: the default
   int stereo_scale = -1;    ///< LiDAR-stereo mode estimates the clouds' scale: 0/1; -1: the default
   int check_halves = -1;    ///< LidarStereoSettings::check_window_halves: 0/1; -1: the default
+  int halves_start = -1;    ///< LidarStereoSettings::halves_start (HalvesStart); -1: the default
   int measure_offset = -1;  ///< LidarStereoSettings::measure_disparity_offset: 0/1; -1: the default
   int coarse_nuisances = -1;  ///< LidarStereoSettings::coarse_estimates_stereo_nuisances: 0/1
   std::vector<double> coarse_gates;  ///< LidarStereoSettings::coarse_gates; empty: the default

@@ -280,6 +280,8 @@ void addSolverOutputs(const Trial& tr, Json* js) {
                 {"in_words", describeDirection(w->direction)}};
   if (tr.halves.tested)
     j["halves"] = {{"chi2", jsonNumber(tr.halves.chi2)},
+                   {"chi2_window", jsonNumber(tr.halves.chi2_window)},
+                   {"chi2_independent", jsonNumber(tr.halves.chi2_independent)},
                    {"covariance_scale", jsonNumber(tr.halves.covariance_scale)},
                    {"seconds", jsonNumber(tr.halves.seconds)}};
 }

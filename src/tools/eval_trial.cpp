@@ -30,6 +30,7 @@ LidarStereoSettings lidarSettings(const Args& args, const KeyframeSettings& kfs)
   if (args.stereo_yaw >= 0) solver_settings.estimate_stereo_yaw = args.stereo_yaw > 0;
   if (args.stereo_scale >= 0) solver_settings.estimate_stereo_scale = args.stereo_scale > 0;
   if (args.check_halves >= 0) solver_settings.check_window_halves = args.check_halves > 0;
+  if (args.halves_start >= 0) solver_settings.halves_start = HalvesStart(args.halves_start);
   if (args.measure_offset >= 0) solver_settings.measure_disparity_offset = args.measure_offset > 0;
   if (args.coarse_nuisances >= 0)
     solver_settings.coarse_estimates_stereo_nuisances = args.coarse_nuisances > 0;

@@ -1,10 +1,13 @@
 // The split-window check of the LiDAR-stereo calibration's noise model
 // (LidarStereoSettings::check_window_halves): the window's two halves solved on their own must
 // agree within their covariances.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <initializer_list>
+#include <vector>
 
 #include "tescalib/core/common/parallel.h"
 #include "tescalib/core/common/timing.h"
@@ -15,13 +18,13 @@
 namespace tescalib {
 namespace {
 
-void printHalves(double chi2, const Vector6d& e, const LidarStereoResult& a,
+void printHalves(double chi2, double chi2_window, const Vector6d& e, const LidarStereoResult& a,
                  const LidarStereoResult& b) {
   std::fprintf(stderr,
-               "window halves: chi2 %.1f, difference rot [%.4f %.4f %.4f] deg, "
-               "t [%.2f %.2f %.2f] cm\n",
-               chi2, e[0] * kDegPerRad, e[1] * kDegPerRad, e[2] * kDegPerRad, e[3] * 100,
-               e[4] * 100, e[5] * 100);
+               "window halves: chi2 %.1f (the window's estimate against a half's: %.1f), "
+               "difference rot [%.4f %.4f %.4f] deg, t [%.2f %.2f %.2f] cm\n",
+               chi2, chi2_window, e[0] * kDegPerRad, e[1] * kDegPerRad, e[2] * kDegPerRad,
+               e[3] * 100, e[4] * 100, e[5] * 100);
   for (const LidarStereoResult* h : {&a, &b}) {
     const Vector6d sd = h->covariance.diagonal().cwiseSqrt();
     std::fprintf(stderr,
@@ -39,47 +42,139 @@ bool windowHalvesDue(const LidarStereoResult& r, const LidarStereoSettings& s) {
   return r.converged || (s.halves_when_unsettled && !r.settled && r.fine_inliers >= s.min_inliers);
 }
 
+namespace {
+
+/// Solves the window's two halves on their own: from the window's estimate (fine stage only, its
+/// stereo scale and yaw), or from `T_initial` (both stages, the nuisances from their initial
+/// values). False when a half has no covariance to compare (a cancelled or failed half returns
+/// its start and a placeholder, which would pass as agreement).
+bool solveHalves(const std::vector<const Keyframe*>& window, const LidarStereoSettings& s,
+                 const LidarStereoResult& full, const Eigen::Isometry3d* T_initial,
+                 LidarStereoResult halves[2]) {
+  LidarStereoSettings hs = s;
+  hs.check_window_halves = false;
+  if (!T_initial) {
+    hs.run_coarse = false;
+    hs.initial_stereo_yaw_rad = full.stereo_yaw_rad;
+    hs.initial_stereo_scale = full.stereo_scale;
+  }
+  const Eigen::Isometry3d start = T_initial ? *T_initial : full.T_cam_lidar;
+  // A half constrains less than the window: its fine stage may need longer to settle.
+  hs.fine_reassociations = 2 * s.fine_reassociations;
+  const size_t half = window.size() / 2;
+  const std::vector<const Keyframe*> first(window.begin(), window.begin() + half),
+      second(window.begin() + half, window.end());
+  // The two halves are independent solves: side by side.
+  parallelFor(2, s.threads,
+              [&](int h) { halves[h] = solveLidarStereo(h == 0 ? first : second, start, hs); });
+  for (int h = 0; h < 2; ++h)
+    if (halves[h].fine_inliers < s.min_inliers || !halves[h].covariance_known || s.cancelled())
+      return false;
+  return true;
+}
+
+/// Scales `full`'s covariances by k, adds `added`, and judges the axes again; a converged solve
+/// that then loses an axis, or any converged one when `refuse`, is no longer converged, and its
+/// message is `why` (a printf format with one %.1f value per `values`) and the weakest direction.
+void widenAndJudge(double k, const Matrix6d& added, bool refuse, const char* why,
+                   std::initializer_list<double> values, const LidarStereoSettings& s,
+                   LidarStereoResult* full) {
+  const Matrix6d constrained = k * constrainedCovariance(*full, s) + added;
+  full->covariance = k * full->covariance + added;
+  full->covariance_statistical = k * full->covariance_statistical + added;
+  full->stereo_scale_variance *= k;
+  full->weak_directions = weakDirections(constrained, s.max_sigma_rot_deg, s.max_sigma_trans_m);
+  const bool all_trusted = trustFlags(constrained, s, full->observable);
+  if (!full->converged || (all_trusted && !refuse)) return;
+  full->converged = false;
+  char buf[320];
+  const std::vector<double> v(values);
+  std::snprintf(buf, sizeof buf, why, v.size() > 0 ? v[0] : 0.0, v.size() > 1 ? v[1] : 0.0,
+                v.size() > 2 ? v[2] : 0.0, v.size() > 3 ? v[3] : 0.0);
+  full->message = buf + weakestClause(full->weak_directions);
+}
+
+/// The window's estimate against each half's (Halves::chi2_window), and the difference to the
+/// half that is farther from it.
+double windowAgainstHalves(const LidarStereoResult& full, const LidarStereoResult halves[2],
+                           Vector6d* farther) {
+  double worst = 0;
+  for (int h = 0; h < 2; ++h) {
+    const Vector6d eh = poseError(halves[h].T_cam_lidar, full.T_cam_lidar);
+    const double c = eh.dot(halves[h].covariance.ldlt().solve(eh));
+    if (!(c <= worst)) worst = c, *farther = eh;
+  }
+  return worst;
+}
+
+/// Halves solved again from the initial guess after halves from the estimate disagreed or left
+/// it: when they
+/// do not come back to the window's estimate, the window settled in a minimum its data do not
+/// single out (a valley of several minima), and the solve is refused rather than widened.
+/// Returns whether it refused.
+bool refuseOutsideIndependentHalves(const std::vector<const Keyframe*>& window,
+                                    const LidarStereoSettings& s,
+                                    const Eigen::Isometry3d& T_initial, LidarStereoResult* full) {
+  LidarStereoResult halves[2];
+  if (!solveHalves(window, s, *full, &T_initial, halves)) return false;
+  Vector6d farther = Vector6d::Zero();
+  const double c = windowAgainstHalves(*full, halves, &farther);
+  full->halves.chi2_independent = c;
+  if (std::getenv("TESCALIB_DEBUG"))
+    std::fprintf(stderr,
+                 "window halves from the initial guess: the estimate against a half's: "
+                 "chi2 %.1f\n",
+                 c);
+  if (!(c > s.halves_chi2_limit)) return false;
+  // The farther half's difference is a minimum as likely as the window's: along it the window
+  // knows the extrinsic no better than that.
+  widenAndJudge(1.0, farther * farther.transpose(), true,
+                "the window's halves, solved on their own from the initial guess, do not come "
+                "back to its estimate (chi2 %.1f > %.1f, 6 DoF; from the estimate: halves %.1f "
+                "apart, %.1f from it): the window holds more than one minimum",
+                {c, s.halves_chi2_limit, full->halves.chi2, full->halves.chi2_window}, s, full);
+  return true;
+}
+
+}  // namespace
+
 void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarStereoSettings& s,
-                       LidarStereoResult* full) {
+                       const Eigen::Isometry3d& T_initial, LidarStereoResult* full) {
   const auto t0 = std::chrono::steady_clock::now();
   full->halves = LidarStereoResult::Halves();
   const size_t half = window.size() / 2;
   if (s.min_keyframes_per_half < 1 || half < static_cast<size_t>(s.min_keyframes_per_half)) return;
-  LidarStereoSettings hs = s;
-  hs.run_coarse = false;
-  hs.check_window_halves = false;
-  hs.initial_stereo_yaw_rad = full->stereo_yaw_rad;
-  hs.initial_stereo_scale = full->stereo_scale;
-  // A half constrains less than the window: its fine stage may need longer to settle.
-  hs.fine_reassociations = 2 * s.fine_reassociations;
-  const std::vector<const Keyframe*> first(window.begin(), window.begin() + half),
-      second(window.begin() + half, window.end());
-  // The two halves are independent solves: side by side.
+  const bool from_initial = s.halves_start == HalvesStart::kInitialGuess;
   LidarStereoResult halves[2];
-  parallelFor(2, s.threads, [&](int h) {
-    halves[h] = solveLidarStereo(h == 0 ? first : second, full->T_cam_lidar, hs);
-  });
+  const bool compared = solveHalves(window, s, *full, from_initial ? &T_initial : nullptr, halves);
+  full->halves.seconds = secondsSince(t0);
+  if (!compared) return;
   const LidarStereoResult& a = halves[0];
   const LidarStereoResult& b = halves[1];
-  full->halves.seconds = secondsSince(t0);
-  // Only halves with a covariance are compared (a cancelled or failed half returns its start and
-  // a placeholder, which would pass as agreement).
-  for (const LidarStereoResult* r : {&a, &b})
-    if (r->fine_inliers < s.min_inliers || !r->covariance_known || s.cancelled()) return;
   const Vector6d e = poseError(a.T_cam_lidar, b.T_cam_lidar);
   const Matrix6d S = a.covariance + b.covariance;
   const double chi2 = e.dot(S.ldlt().solve(e));
   if (!std::isfinite(chi2)) return;
-  if (std::getenv("TESCALIB_DEBUG")) printHalves(chi2, e, a, b);
+  Vector6d farther = Vector6d::Zero();
+  const double chi2_window = windowAgainstHalves(*full, halves, &farther);
+  if (std::getenv("TESCALIB_DEBUG")) printHalves(chi2, chi2_window, e, a, b);
   full->halves.tested = true;
   full->halves.chi2 = chi2;
+  full->halves.chi2_window = chi2_window;
   full->halves.difference = e;
   full->halves.second_T = b.T_cam_lidar;
   full->halves.second_covariance = b.covariance;
   full->halves.second_settled = b.settled;
   full->halves.second_trusted = b.converged;
   full->halves.second_begin = half;
-  if (chi2 <= s.halves_chi2_limit) return;
+  // Halves from the estimate that disagree, or that both leave it: solved again from the initial
+  // guess, do they come back to it?
+  const bool doubt = chi2 > s.halves_chi2_limit || chi2_window > s.halves_chi2_limit;
+  const bool refused = doubt && full->converged &&
+                       s.halves_start == HalvesStart::kEstimateThenInitialGuess &&
+                       refuseOutsideIndependentHalves(window, s, T_initial, full);
+  full->halves.seconds = secondsSince(t0);
+  if (refused || chi2 <= s.halves_chi2_limit) return;
   // The halves disagree beyond what the covariances allow: the data hold an error the model
   // does not know (on real KITTI, sequences of one day differ by 3-6 sigma). Scale the
   // covariances by the observed disagreement (chi2 / DoF), add the disagreement itself along its
@@ -88,22 +183,11 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   // again.
   const double k = chi2 / 6.0;
   full->halves.covariance_scale = k;
-  const Matrix6d spread = 0.25 * e * e.transpose();
-  const Matrix6d constrained = k * constrainedCovariance(*full, s) + spread;
-  full->covariance = k * full->covariance + spread;
-  full->covariance_statistical = k * full->covariance_statistical + spread;
-  full->stereo_scale_variance *= k;
-  full->weak_directions = weakDirections(constrained, s.max_sigma_rot_deg, s.max_sigma_trans_m);
-  if (!trustFlags(constrained, s, full->observable) && full->converged) {
-    full->converged = false;
-    char buf[200];
-    std::snprintf(buf, sizeof buf,
-                  "the window's two halves disagree (chi2 %.1f > %.1f, 6 DoF): covariance scaled "
-                  "by %.1f and widened along their difference, and then the window does not "
-                  "constrain every axis",
-                  chi2, s.halves_chi2_limit, k);
-    full->message = buf + weakestClause(full->weak_directions);
-  }
+  widenAndJudge(k, 0.25 * e * e.transpose(), false,
+                "the window's two halves disagree (chi2 %.1f > %.1f, 6 DoF): covariance scaled "
+                "by %.1f and widened along their difference, and then the window does not "
+                "constrain every axis",
+                {chi2, s.halves_chi2_limit, k}, s, full);
 }
 
 }  // namespace tescalib

@@ -246,7 +246,7 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
   const bool all_observable =
       std::all_of(res.observable, res.observable + 6, [](bool b) { return b; });
   judgeConvergence(T_init, s, all_observable, est.settled, drifting && covariance_holds, &res);
-  if (windowHalvesDue(res, s)) checkWindowHalves(window, s, &res);
+  if (windowHalvesDue(res, s)) checkWindowHalves(window, s, T_init, &res);
   // Cancelled at any point (a stage, or the halves): not converged, whatever it reached (the
   // header's promise; a cancel during the halves would otherwise leave a "tested" check).
   if (s.cancelled()) {

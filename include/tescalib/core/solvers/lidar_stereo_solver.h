@@ -19,6 +19,19 @@
 
 namespace tescalib {
 
+/// Where the split-window check (checkWindowHalves) starts the window's two halves.
+enum class HalvesStart {
+  /// From the window's estimate, fine stage only: tests the noise model around its minimum.
+  kEstimate,
+  /// From the estimate and, when those halves disagree or both leave the estimate (beyond
+  /// halves_chi2_limit), again from the window's initial guess (both stages): halves that then
+  /// do not come back to the estimate show a window with more than one minimum, and the solve is
+  /// refused (its covariance widened along the farther half) rather than its covariance scaled.
+  kEstimateThenInitialGuess,
+  /// From the initial guess (both stages): two calibrations independent of the window's path.
+  kInitialGuess,
+};
+
 struct LidarStereoSettings {
   // Coarse stage (eq. KD6 association, eq. point_plane_normal_obj).
   bool run_coarse = true;
@@ -207,6 +220,13 @@ struct LidarStereoSettings {
   /// where the extrinsic went (Halves::second_T). The online calibrator sets it once an estimate
   /// is published, for its monitor.
   bool halves_when_unsettled = false;
+  /// Where the halves start (HalvesStart): from the window's estimate (the default); from the
+  /// estimate and, when they disagree or leave it, again from the initial guess; or from the
+  /// initial guess. The two others are studies (tescalib_eval --halves-start): on a generated
+  /// 5-keyframe window of the default rig 1 cm from the truth, halves of 2 and 3 keyframes
+  /// solved from a 3 deg guess do not come back to it, and the recheck refuses a good estimate
+  /// (doc/limitations.md).
+  HalvesStart halves_start = HalvesStart::kEstimate;
   int min_keyframes_per_half = 2;
   double halves_chi2_limit = 22.46;
   /// Wide-basin search (solveLidarStereoSearch; 0: off; co-calibration's LiDAR-stereo solves do
@@ -334,7 +354,14 @@ struct LidarStereoResult {
   /// keyframes).
   struct Halves {
     bool tested = false;
-    double chi2 = 0;                         ///< (x_a - x_b)^T (P_a + P_b)^-1 (x_a - x_b), 6 DoF
+    double chi2 = 0;  ///< (x_a - x_b)^T (P_a + P_b)^-1 (x_a - x_b), 6 DoF
+    /// The window's estimate against each half's: max over the halves h of
+    /// (x_h - x)^T P_h^-1 (x_h - x), 6 DoF (P_h bounds the difference's covariance, P_h - P, from
+    /// above). Large when both halves leave the window's minimum.
+    double chi2_window = 0;
+    /// The same for halves solved again from the initial guess after the halves from the
+    /// estimate disagreed or left it (HalvesStart::kEstimateThenInitialGuess; 0: not solved).
+    double chi2_independent = 0;
     double covariance_scale = 1.0;           ///< applied to the covariances (1: consistent)
     Vector6d difference = Vector6d::Zero();  ///< first half's estimate minus the second's
     double seconds = 0;
@@ -409,8 +436,10 @@ bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& settings,
 /// `covariance_statistical` are scaled by chi2 / 6 (`covariance_model`, the paper's formula, is
 /// kept), the trust flags are evaluated again, and a solve that loses one is no longer converged.
 /// Real KITTI windows fail it (sequences of one day disagree by 3-6 sigma), generated ones pass.
+/// `T_initial` is the window's initial guess (LidarStereoSettings::halves_from_initial_guess).
 void checkWindowHalves(const std::vector<const Keyframe*>& window,
-                       const LidarStereoSettings& settings, LidarStereoResult* full);
+                       const LidarStereoSettings& settings, const Eigen::Isometry3d& T_initial,
+                       LidarStereoResult* full);
 
 /// Whether the split-window check runs on `result`: the check is on and the solve converged or,
 /// with LidarStereoSettings::halves_when_unsettled, its fine stage did not settle with enough
