@@ -666,11 +666,8 @@ TEST(LidarStereoGenerated, AnEstimateItsHalvesDoNotComeBackToIsRefused) {
   SimOptions o;
   o.frames = 36;
   o.seed = 3;
-  const Simulator sim(o);
-  const StereoRig& rig = sim.rig();
-  std::vector<Keyframe> kfs;
-  for (int i = 0; i < o.frames; i += 5)
-    kfs.push_back(makeKeyframe(sim.renderFrame(i), rig, rig.T_cam_lidar, rig.T_right_left));
+  StereoRig rig;
+  const std::vector<Keyframe> kfs = everyFifthFrame(o, &rig);
   std::vector<const Keyframe*> window;
   for (const auto& kf : kfs) window.push_back(&kf);
   LidarStereoSettings settings;

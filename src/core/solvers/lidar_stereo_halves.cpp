@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <initializer_list>
+#include <string>
 #include <vector>
 
 #include "tescalib/core/common/parallel.h"
@@ -73,12 +73,19 @@ bool solveHalves(const std::vector<const Keyframe*>& window, const LidarStereoSe
   return true;
 }
 
+/// printf into a string (the checks' messages).
+template <typename... Values>
+std::string formatted(const char* format, Values... values) {
+  char buf[320];
+  std::snprintf(buf, sizeof buf, format, values...);
+  return buf;
+}
+
 /// Scales `full`'s covariances by k, adds `added`, and judges the axes again; a converged solve
 /// that then loses an axis, or any converged one when `refuse`, is no longer converged, and its
-/// message is `why` (a printf format with one %.1f value per `values`) and the weakest direction.
-void widenAndJudge(double k, const Matrix6d& added, bool refuse, const char* why,
-                   std::initializer_list<double> values, const LidarStereoSettings& s,
-                   LidarStereoResult* full) {
+/// message is `why` and the weakest direction.
+void widenAndJudge(double k, const Matrix6d& added, bool refuse, const std::string& why,
+                   const LidarStereoSettings& s, LidarStereoResult* full) {
   const Matrix6d constrained = k * constrainedCovariance(*full, s) + added;
   full->covariance = k * full->covariance + added;
   full->covariance_statistical = k * full->covariance_statistical + added;
@@ -87,11 +94,7 @@ void widenAndJudge(double k, const Matrix6d& added, bool refuse, const char* why
   const bool all_trusted = trustFlags(constrained, s, full->observable);
   if (!full->converged || (all_trusted && !refuse)) return;
   full->converged = false;
-  char buf[320];
-  const std::vector<double> v(values);
-  std::snprintf(buf, sizeof buf, why, v.size() > 0 ? v[0] : 0.0, v.size() > 1 ? v[1] : 0.0,
-                v.size() > 2 ? v[2] : 0.0, v.size() > 3 ? v[3] : 0.0);
-  full->message = buf + weakestClause(full->weak_directions);
+  full->message = why + weakestClause(full->weak_directions);
 }
 
 /// The window's estimate against each half's (Halves::chi2_window), and the difference to the
@@ -129,10 +132,12 @@ bool refuseOutsideIndependentHalves(const std::vector<const Keyframe*>& window,
   // The farther half's difference is a minimum as likely as the window's: along it the window
   // knows the extrinsic no better than that.
   widenAndJudge(1.0, farther * farther.transpose(), true,
-                "the window's halves, solved on their own from the initial guess, do not come "
-                "back to its estimate (chi2 %.1f > %.1f, 6 DoF; from the estimate: halves %.1f "
-                "apart, %.1f from it): the window holds more than one minimum",
-                {c, s.halves_chi2_limit, full->halves.chi2, full->halves.chi2_window}, s, full);
+                formatted("the window's halves, solved on their own from the initial guess, do "
+                          "not come back to its estimate (chi2 %.1f > %.1f, 6 DoF; from the "
+                          "estimate: halves %.1f apart, %.1f from it): the window holds more "
+                          "than one minimum",
+                          c, s.halves_chi2_limit, full->halves.chi2, full->halves.chi2_window),
+                s, full);
   return true;
 }
 
@@ -184,10 +189,11 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   const double k = chi2 / 6.0;
   full->halves.covariance_scale = k;
   widenAndJudge(k, 0.25 * e * e.transpose(), false,
-                "the window's two halves disagree (chi2 %.1f > %.1f, 6 DoF): covariance scaled "
-                "by %.1f and widened along their difference, and then the window does not "
-                "constrain every axis",
-                {chi2, s.halves_chi2_limit, k}, s, full);
+                formatted("the window's two halves disagree (chi2 %.1f > %.1f, 6 DoF): "
+                          "covariance scaled by %.1f and widened along their difference, and "
+                          "then the window does not constrain every axis",
+                          chi2, s.halves_chi2_limit, k),
+                s, full);
 }
 
 }  // namespace tescalib
