@@ -25,6 +25,8 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   p.online.co.stereo_from_features = false;
   p.online.co.lidar.check_window_halves = false;
   p.online.co.lidar.halves_chi2_limit = 30.0;
+  p.halves_start = "initial";
+  p.online.co.lidar.halves_start = tescalib::HalvesStart::kInitialGuess;
   p.online.co.lidar.measure_disparity_offset = false;
   p.online.co.lidar.search_step_deg = 5.0;
   p.online.search_min_keyframes = 4;
@@ -62,6 +64,8 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_TRUE(p.online.co.stereo_from_features);
   EXPECT_TRUE(p.online.co.lidar.check_window_halves);
   EXPECT_DOUBLE_EQ(p.online.co.lidar.halves_chi2_limit, 22.46);
+  EXPECT_EQ(p.halves_start, "recheck");
+  EXPECT_EQ(p.online.co.lidar.halves_start, tescalib::HalvesStart::kEstimateThenInitialGuess);
   EXPECT_TRUE(p.online.co.lidar.measure_disparity_offset);
   EXPECT_DOUBLE_EQ(p.online.co.lidar.search_step_deg, 10.0);
   EXPECT_EQ(p.online.search_min_keyframes, 8);
@@ -193,6 +197,7 @@ TEST(Params, InvalidValuesAreNamed) {
   pnh.setParam("co_calibration/yaw_handover_deg", 0.0);
   pnh.setParam("co_calibration/joint", true);  // without estimate_stereo (false by default)
   pnh.setParam("lidar_stereo/halves_chi2_limit", -1.0);
+  pnh.setParam("lidar_stereo/halves_start", std::string("initial_guess"));
   pnh.setParam("deskew/max_dt", 0.0);
   pnh.setParam("deskew/rate_hz", -10.0);
   pnh.setParam("stereo/refine_iterations", 1);
@@ -216,6 +221,10 @@ TEST(Params, InvalidValuesAreNamed) {
   EXPECT_NE(error.find("images/max_clipped_difference must be in (0, 1]"), std::string::npos)
       << error;
   EXPECT_NE(error.find("lidar_stereo/halves_chi2_limit"), std::string::npos) << error;
+  EXPECT_NE(error.find("lidar_stereo/halves_start must be recheck, estimate or initial (got "
+                       "'initial_guess')"),
+            std::string::npos)
+      << error;
   EXPECT_NE(error.find("image_transport must be a transport's name"), std::string::npos) << error;
   EXPECT_NE(error.find("deskew/max_dt must be > 0"), std::string::npos) << error;
   EXPECT_NE(error.find("deskew/rate_hz must be > 0"), std::string::npos) << error;

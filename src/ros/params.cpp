@@ -208,6 +208,7 @@ void readSolversAndStart(Visit& get, NodeParams* p) {
   get("lidar_stereo/max_depth", &p->online.co.lidar.max_depth);
   get("lidar_stereo/check_window_halves", &p->online.co.lidar.check_window_halves);
   get("lidar_stereo/halves_chi2_limit", &p->online.co.lidar.halves_chi2_limit);
+  get("lidar_stereo/halves_start", &p->halves_start);
   get("lidar_stereo/measure_disparity_offset", &p->online.co.lidar.measure_disparity_offset);
   get("lidar_stereo/estimate_stereo_scale", &p->online.co.lidar.estimate_stereo_scale);
   get("lidar_stereo/search_deg", &p->online.co.lidar.search_step_deg);
@@ -263,6 +264,7 @@ bool loadNodeParams(const ros::NodeHandle& pnh, NodeParams* p, std::string* erro
   readCoCalibrationAndStereo(get, p);
   readSolversAndStart(get, p);
   if (unknown) *unknown = unknownNames(pnh, get.names, p->image_transport);
+  halvesStartFromName(p->halves_start, &p->online.co.lidar.halves_start);
   const bool valid = validateNodeParams(*p, error);
   *error = get.wrong_type.str() + *error;
   return valid && get.wrong_type.str().empty();
@@ -458,6 +460,10 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   checkStereo(p.online, e);
   checkSolvers(p.online, e);
   checkStartAndFrames(p, e);
+  HalvesStart start;
+  if (!halvesStartFromName(p.halves_start, &start))
+    e << "lidar_stereo/halves_start must be recheck, estimate or initial (got '" << p.halves_start
+      << "'); ";
   *error = e.str();
   return error->empty();
 }

@@ -207,16 +207,15 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
       "covariance (default 1)")
       ->group(g);
   add(
-      app, "--halves-start", "estimate|recheck|initial",
+      app, "--halves-start", "recheck|estimate|initial",
       [a](const std::string& v) {
-        const std::vector<std::string> names = {"estimate", "recheck", "initial"};
-        const auto it = std::find(names.begin(), names.end(), v);
-        if (it == names.end()) throw std::invalid_argument(v);
-        a->halves_start = int(it - names.begin());
+        HalvesStart start;
+        if (!halvesStartFromName(v, &start)) throw std::invalid_argument(v);
+        a->halves_start = int(start);
       },
-      "where the window's halves start: its estimate (the default); its estimate and, when they "
-      "disagree or both leave it, again from the initial guess, refusing an estimate they do not "
-      "come back to (recheck); the initial guess (initial)")
+      "where the window's halves start: its estimate and, when they disagree or both leave it, "
+      "again from the initial guess, refusing the estimate when a half then settles elsewhere "
+      "(recheck, the default); its estimate only (estimate); the initial guess (initial)")
       ->group(g);
   add(app, "--measure-offset", "0|1", to(&a->measure_offset, cli::toSwitch),
       "measure the disparity offset the residuals show and widen the covariance's bias term with "

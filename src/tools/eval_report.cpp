@@ -256,6 +256,7 @@ void addSolverOutputs(const Trial& tr, Json* js) {
   if (tr.rematches >= 0) j["rematches"] = tr.rematches;
   if (tr.yaw_handovers >= 0) j["yaw_handovers"] = tr.yaw_handovers;
   if (tr.lidar_first >= 0) j["lidar_first"] = tr.lidar_first != 0;
+  if (tr.search_starts >= 0) j["search_starts"] = tr.search_starts;
   if (std::isfinite(tr.stereo_scale)) {
     j["stereo_scale"] = jsonNumber(tr.stereo_scale);
     j["stereo_scale_sigma"] = jsonNumber(tr.stereo_scale_sigma);
@@ -301,6 +302,7 @@ Json trialJson(const Args& args, const Estimated& estimated, const Trial& tr) {
   j["nees"] = jsonNumber(tr.nees);
   j["nees_model"] = jsonNumber(tr.nees_model);
   j["iterations"] = tr.iterations;
+  j["message"] = tr.message;
   addSolverOutputs(tr, &j);
   Json seconds = {{"preprocess", jsonNumber(tr.preprocess)},
                   {"solve", jsonNumber(tr.solve)},

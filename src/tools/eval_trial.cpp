@@ -194,6 +194,7 @@ Eigen::Isometry3d solveLidar(const LidarStereoSettings& solver_settings,
                              const Eigen::Isometry3d& T_init, Trial& tr) {
   const LidarStereoResult r = solveLidarStereoSearch(window, T_init, solver_settings);
   tr.converged = r.converged;
+  tr.search_starts = r.search_starts;
   tr.iterations = r.iterations;
   tr.lidar.cov = r.covariance_known ? r.covariance : Matrix6d::Constant(std::nan(""));
   tr.lidar.cov_stat = r.covariance_known ? r.covariance_statistical : tr.lidar.cov;

@@ -54,6 +54,7 @@ struct Trial {
   int rematches = -1;      ///< co/joint: keyframe clouds matched again (SGBM)
   int yaw_handovers = -1;  ///< co: restarts at the LiDAR-stereo yaw (CoCalibrationResult)
   int lidar_first = -1;    ///< co: 1 when the LiDAR-first fallback ran (CoCalibrationResult)
+  int search_starts = -1;  ///< lidar_stereo: LidarStereoResult::search_starts
   double stereo_scale = std::nan(""), stereo_scale_sigma = std::nan("");  ///< when estimated
   double stereo_yaw_deg = std::nan("");  ///< the clouds' yaw, when LiDAR-stereo mode estimates it
   double disparity_offset_px = std::nan("");  ///< LidarStereoResult::disparity_offset_px, measured

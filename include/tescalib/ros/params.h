@@ -39,6 +39,9 @@ struct NodeParams {
   double initial_perturb_trans_m = 0;
   int initial_perturb_seed = 1;
   std::string save_path = "tescalib_calibration";
+  /// lidar_stereo/halves_start: where the split-window check's halves start (recheck, estimate or
+  /// initial; halvesStartFromName), applied to online.co.lidar.halves_start by loadNodeParams.
+  std::string halves_start = "recheck";
   /// Score each published estimate and the initial guess on its keyframes with the validation
   /// criteria (WindowQuality: about 0.05 s per keyframe in the keyframe thread, 0.02 s per
   /// estimate in the solve thread, 0.07 s per co-calibrated one, on 2 cores) for

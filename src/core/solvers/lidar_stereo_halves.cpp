@@ -11,7 +11,7 @@
 
 #include "tescalib/core/common/parallel.h"
 #include "tescalib/core/common/timing.h"
-#include "tescalib/core/solvers/lidar_stereo_covariance.h"
+#include "tescalib/core/solvers/lidar_stereo_judge.h"
 #include "tescalib/core/solvers/lidar_stereo_solver.h"
 #include "tescalib/core/uncertainty/trust.h"
 
@@ -36,6 +36,13 @@ void printHalves(double chi2, double chi2_window, const Vector6d& e, const Lidar
 }
 
 }  // namespace
+
+bool halvesStartFromName(const std::string& name, HalvesStart* start) {
+  if (name == "recheck") return *start = HalvesStart::kEstimateThenInitialGuess, true;
+  if (name == "estimate") return *start = HalvesStart::kEstimate, true;
+  if (name == "initial") return *start = HalvesStart::kInitialGuess, true;
+  return false;
+}
 
 bool windowHalvesDue(const LidarStereoResult& r, const LidarStereoSettings& s) {
   if (!s.check_window_halves || s.cancelled()) return false;
@@ -73,30 +80,6 @@ bool solveHalves(const std::vector<const Keyframe*>& window, const LidarStereoSe
   return true;
 }
 
-/// printf into a string (the checks' messages).
-template <typename... Values>
-std::string formatted(const char* format, Values... values) {
-  char buf[320];
-  std::snprintf(buf, sizeof buf, format, values...);
-  return buf;
-}
-
-/// Scales `full`'s covariances by k, adds `added`, and judges the axes again; a converged solve
-/// that then loses an axis, or any converged one when `refuse`, is no longer converged, and its
-/// message is `why` and the weakest direction.
-void widenAndJudge(double k, const Matrix6d& added, bool refuse, const std::string& why,
-                   const LidarStereoSettings& s, LidarStereoResult* full) {
-  const Matrix6d constrained = k * constrainedCovariance(*full, s) + added;
-  full->covariance = k * full->covariance + added;
-  full->covariance_statistical = k * full->covariance_statistical + added;
-  full->stereo_scale_variance *= k;
-  full->weak_directions = weakDirections(constrained, s.max_sigma_rot_deg, s.max_sigma_trans_m);
-  const bool all_trusted = trustFlags(constrained, s, full->observable);
-  if (!full->converged || (all_trusted && !refuse)) return;
-  full->converged = false;
-  full->message = why + weakestClause(full->weak_directions);
-}
-
 /// The window's estimate against each half's (Halves::chi2_window), and the difference to the
 /// half that is farther from it.
 double windowAgainstHalves(const LidarStereoResult& full, const LidarStereoResult halves[2],
@@ -110,32 +93,33 @@ double windowAgainstHalves(const LidarStereoResult& full, const LidarStereoResul
   return worst;
 }
 
-/// Halves solved again from the initial guess after halves from the estimate disagreed or left
-/// it: when they
-/// do not come back to the window's estimate, the window settled in a minimum its data do not
-/// single out (a valley of several minima), and the solve is refused rather than widened.
-/// Returns whether it refused.
-bool refuseOutsideIndependentHalves(const std::vector<const Keyframe*>& window,
-                                    const LidarStereoSettings& s,
-                                    const Eigen::Isometry3d& T_initial, LidarStereoResult* full) {
-  LidarStereoResult halves[2];
-  if (!solveHalves(window, s, *full, &T_initial, halves)) return false;
-  Vector6d farther = Vector6d::Zero();
-  const double c = windowAgainstHalves(*full, halves, &farther);
+/// Halves solved again from the initial guess after the halves from the estimate disagreed or
+/// left it: when a half settles somewhere else from there than from the estimate, its data hold
+/// more than one minimum (a valley the fine stage stops in where it is started), and the window's
+/// estimate is one of several; the solve is refused rather than widened. Halves that settle
+/// where they did from the estimate say only that a few keyframes are over-confident. Returns
+/// whether it refused.
+bool refuseWhereHalvesDependOnTheStart(const std::vector<const Keyframe*>& window,
+                                       const LidarStereoSettings& s,
+                                       const Eigen::Isometry3d& T_initial,
+                                       const LidarStereoResult from_estimate[2],
+                                       LidarStereoResult* full) {
+  LidarStereoResult rechecked[2];
+  if (!solveHalves(window, s, *full, &T_initial, rechecked)) return false;
+  Vector6d difference = Vector6d::Zero();
+  const double c = halvesStartsApart(from_estimate, rechecked, &difference);
   full->halves.chi2_independent = c;
   if (std::getenv("TESCALIB_DEBUG"))
     std::fprintf(stderr,
-                 "window halves from the initial guess: the estimate against a half's: "
-                 "chi2 %.1f\n",
+                 "window halves from the initial guess against those from the estimate: chi2 "
+                 "%.1f\n",
                  c);
   if (!(c > s.halves_chi2_limit)) return false;
-  // The farther half's difference is a minimum as likely as the window's: along it the window
-  // knows the extrinsic no better than that.
-  widenAndJudge(1.0, farther * farther.transpose(), true,
-                formatted("the window's halves, solved on their own from the initial guess, do "
-                          "not come back to its estimate (chi2 %.1f > %.1f, 6 DoF; from the "
-                          "estimate: halves %.1f apart, %.1f from it): the window holds more "
-                          "than one minimum",
+  // Along the difference the window knows the extrinsic no better than that.
+  widenAndJudge(1.0, difference * difference.transpose(), true,
+                formatted("a half of the window settles elsewhere from the initial guess than "
+                          "from the estimate (chi2 %.1f > %.1f, 6 DoF; halves %.1f apart, %.1f "
+                          "from the estimate): the window holds more than one minimum",
                           c, s.halves_chi2_limit, full->halves.chi2, full->halves.chi2_window),
                 s, full);
   return true;
@@ -173,11 +157,11 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   full->halves.second_trusted = b.converged;
   full->halves.second_begin = half;
   // Halves from the estimate that disagree, or that both leave it: solved again from the initial
-  // guess, do they come back to it?
+  // guess, do they settle where they did?
   const bool doubt = chi2 > s.halves_chi2_limit || chi2_window > s.halves_chi2_limit;
   const bool refused = doubt && full->converged &&
                        s.halves_start == HalvesStart::kEstimateThenInitialGuess &&
-                       refuseOutsideIndependentHalves(window, s, T_initial, full);
+                       refuseWhereHalvesDependOnTheStart(window, s, T_initial, halves, full);
   full->halves.seconds = secondsSince(t0);
   if (refused || chi2 <= s.halves_chi2_limit) return;
   // The halves disagree beyond what the covariances allow: the data hold an error the model

@@ -24,9 +24,10 @@ enum class HalvesStart {
   /// From the window's estimate, fine stage only: tests the noise model around its minimum.
   kEstimate,
   /// From the estimate and, when those halves disagree or both leave the estimate (beyond
-  /// halves_chi2_limit), again from the window's initial guess (both stages): halves that then
-  /// do not come back to the estimate show a window with more than one minimum, and the solve is
-  /// refused (its covariance widened along the farther half) rather than its covariance scaled.
+  /// halves_chi2_limit), again from the window's initial guess (both stages): a half that then
+  /// settles elsewhere than from the estimate (halvesStartsApart) shows a window with more than
+  /// one minimum, and the solve is refused (its covariance widened along the difference) rather
+  /// than its covariance scaled. The default.
   kEstimateThenInitialGuess,
   /// From the initial guess (both stages): two calibrations independent of the window's path.
   kInitialGuess,
@@ -220,13 +221,10 @@ struct LidarStereoSettings {
   /// where the extrinsic went (Halves::second_T). The online calibrator sets it once an estimate
   /// is published, for its monitor.
   bool halves_when_unsettled = false;
-  /// Where the halves start (HalvesStart): from the window's estimate (the default); from the
-  /// estimate and, when they disagree or leave it, again from the initial guess; or from the
-  /// initial guess. The two others are studies (tescalib_eval --halves-start): on a generated
-  /// 5-keyframe window of the default rig 1 cm from the truth, halves of 2 and 3 keyframes
-  /// solved from a 3 deg guess do not come back to it, and the recheck refuses a good estimate
-  /// (doc/limitations.md).
-  HalvesStart halves_start = HalvesStart::kEstimate;
+  /// Where the halves start (HalvesStart): from the estimate and, when they disagree or leave
+  /// it, again from the initial guess (the default); from the estimate only; or from the initial
+  /// guess only (tescalib_eval --halves-start; doc/limitations.md).
+  HalvesStart halves_start = HalvesStart::kEstimateThenInitialGuess;
   int min_keyframes_per_half = 2;
   double halves_chi2_limit = 22.46;
   /// Wide-basin search (solveLidarStereoSearch; 0: off; co-calibration's LiDAR-stereo solves do
@@ -402,9 +400,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
 /// `settings.search_step_deg` > 0, from the 8 starts turned by +-step about the camera's x and y
 /// axes (LidarStereoSettings::search_step_deg; only one of them with
 /// LidarStereoSettings::search_start >= 0). Returns the converged solve with the most fine
-/// inliers, or, when none converged, the solve from `T_init` (its message says how many starts
-/// were tried). Each solve checks its divergence bound against its own start, which is at most
-/// 1.42 step from `T_init`.
+/// inliers, refused when another start settled elsewhere and fits the window as well
+/// (refuseBesideRivalMinimum), or, when none converged, the solve from `T_init` (its message says
+/// how many starts were tried). Each solve checks its divergence bound against its own start, which
+/// is at most 1.42 step from `T_init`.
 LidarStereoResult solveLidarStereoSearch(const std::vector<const Keyframe*>& window,
                                          const Eigen::Isometry3d& T_init,
                                          const LidarStereoSettings& settings);
@@ -440,6 +439,10 @@ bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& settings,
 void checkWindowHalves(const std::vector<const Keyframe*>& window,
                        const LidarStereoSettings& settings, const Eigen::Isometry3d& T_initial,
                        LidarStereoResult* full);
+
+/// The HalvesStart a name gives: "recheck" (kEstimateThenInitialGuess), "estimate" or "initial";
+/// false for any other name.
+bool halvesStartFromName(const std::string& name, HalvesStart* start);
 
 /// Whether the split-window check runs on `result`: the check is on and the solve converged or,
 /// with LidarStereoSettings::halves_when_unsettled, its fine stage did not settle with enough
