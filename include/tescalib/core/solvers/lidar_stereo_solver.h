@@ -357,8 +357,9 @@ struct LidarStereoResult {
     /// (x_h - x)^T P_h^-1 (x_h - x), 6 DoF (P_h bounds the difference's covariance, P_h - P, from
     /// above). Large when both halves leave the window's minimum.
     double chi2_window = 0;
-    /// The same for halves solved again from the initial guess after the halves from the
-    /// estimate disagreed or left it (HalvesStart::kEstimateThenInitialGuess; 0: not solved).
+    /// Halves solved again from the initial guess after the halves from the estimate disagreed
+    /// or left it (HalvesStart::kEstimateThenInitialGuess) against those from the estimate:
+    /// halvesStartsApart (0: not solved again).
     double chi2_independent = 0;
     double covariance_scale = 1.0;           ///< applied to the covariances (1: consistent)
     Vector6d difference = Vector6d::Zero();  ///< first half's estimate minus the second's
@@ -435,7 +436,9 @@ bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& settings,
 /// `covariance_statistical` are scaled by chi2 / 6 (`covariance_model`, the paper's formula, is
 /// kept), the trust flags are evaluated again, and a solve that loses one is no longer converged.
 /// Real KITTI windows fail it (sequences of one day disagree by 3-6 sigma), generated ones pass.
-/// `T_initial` is the window's initial guess (LidarStereoSettings::halves_from_initial_guess).
+/// With HalvesStart::kEstimateThenInitialGuess (the default), halves that disagree or both leave
+/// the estimate are solved again from `T_initial`, the window's initial guess, and a converged
+/// solve is refused when a half then settles elsewhere (halvesStartsApart).
 void checkWindowHalves(const std::vector<const Keyframe*>& window,
                        const LidarStereoSettings& settings, const Eigen::Isometry3d& T_initial,
                        LidarStereoResult* full);
