@@ -1,6 +1,5 @@
 #include "eval_args.h"
 
-#include <algorithm>
 #include <cstdint>
 #include <iostream>
 #include <limits>

@@ -1,7 +1,6 @@
 // The split-window check of the LiDAR-stereo calibration's noise model
 // (LidarStereoSettings::check_window_halves): the window's two halves solved on their own must
 // agree within their covariances.
-#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>

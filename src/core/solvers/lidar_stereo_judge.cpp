@@ -21,19 +21,6 @@ void widenAndJudge(double k, const Matrix6d& added, bool refuse, const std::stri
   full->message = why + weakestClause(full->weak_directions);
 }
 
-double halvesStartsApart(const LidarStereoResult from_estimate[2],
-                         const LidarStereoResult rechecked[2], Vector6d* difference) {
-  double worst = 0;
-  for (int h = 0; h < 2; ++h) {
-    if (!rechecked[h].converged && !rechecked[h].only_unconstrained) continue;
-    const Vector6d e = poseError(rechecked[h].T_cam_lidar, from_estimate[h].T_cam_lidar);
-    const Matrix6d S = rechecked[h].covariance + from_estimate[h].covariance;
-    const double c = e.dot(S.ldlt().solve(e));
-    if (!(c <= worst)) worst = c, *difference = e;
-  }
-  return worst;
-}
-
 namespace {
 
 /// chi2 (6 DoF) of the difference between two solves' estimates with their summed covariances
@@ -43,6 +30,22 @@ double chi2Between(const LidarStereoResult& a, const LidarStereoResult& b) {
   const Matrix6d S = b.covariance_known ? Matrix6d(a.covariance + b.covariance) : a.covariance;
   return e.dot(S.ldlt().solve(e));
 }
+
+}  // namespace
+
+double halvesStartsApart(const LidarStereoResult from_estimate[2],
+                         const LidarStereoResult rechecked[2], Vector6d* difference) {
+  double worst = 0;
+  for (int h = 0; h < 2; ++h) {
+    if (!rechecked[h].converged && !rechecked[h].only_unconstrained) continue;
+    const double c = chi2Between(from_estimate[h], rechecked[h]);
+    if (!(c <= worst))
+      worst = c, *difference = poseError(rechecked[h].T_cam_lidar, from_estimate[h].T_cam_lidar);
+  }
+  return worst;
+}
+
+namespace {
 
 /// How much worse (mean normalised fine residual) a settled solve elsewhere may fit the window
 /// and still count as a minimum as likely as the chosen one.
