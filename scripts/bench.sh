@@ -5,7 +5,8 @@
 # runs only the rows of doc/benchmarks.md's main table, one per benchmark target (about 25 minutes);
 # BENCH=rigs only the random-rig rows (the RIG_SEEDS rigs drawn by tescalib_simulate --rig random:
 # LiDAR-stereo from 3 deg / 0.3 m and 10 deg / 1 m, co; on residential and highway drives
-# LiDAR-stereo from 3 deg; about 5 minutes per rig). BENCH=monitor
+# LiDAR-stereo from 3 deg; urban and residential again without the re-rectified pair's vertical
+# low-pass; about 6 minutes per rig). BENCH=monitor
 # runs the calibration monitor's rows (scripts/bench_monitor.sh, about 3 minutes per 60 s drive). BENCH=realism runs the rows of real sensors' errors
 # (tescalib_simulate --realism kitti): urban drives of the default rig (REALISM_SEEDS) and of random
 # rigs (REALISM_RIG_SEEDS), the rings' range offsets held (the default) and estimated, and each error
@@ -106,11 +107,19 @@ random_rigs_scenes() {
   RIG_SCENE=residential random_rigs sim_residential_random_rigs_3deg 3 0.3
   RIG_SCENE=highway random_rigs sim_highway_random_rigs_3deg 3 0.3
 }
+# The urban and residential LiDAR-stereo rows again without the re-rectified pair's vertical
+# low-pass (stereo/rectified_vertical_blur_px 0): what it does on pairs off the x axis.
+random_rigs_sharp() {
+  local opts=(--mode lidar_stereo --window 20 --rectified-vertical-blur 0)
+  random_rigs sim_urban_random_rigs_3deg_sharp 3 0.3 "${opts[@]}"
+  RIG_SCENE=residential random_rigs sim_residential_random_rigs_3deg_sharp 3 0.3 "${opts[@]}"
+}
 if [ "$BENCH" = rigs ]; then
   random_rigs sim_urban_random_rigs_3deg 3 0.3
   random_rigs sim_urban_random_rigs_10deg 10 1.0
   random_rigs_co
   random_rigs_scenes
+  random_rigs_sharp
   exit $STATUS
 fi
 if [ "$BENCH" = core ]; then
@@ -141,6 +150,7 @@ if [ "$BENCH" != kitti ]; then
   random_rigs sim_urban_random_rigs_10deg 10 1.0
   random_rigs_co
   random_rigs_scenes
+  random_rigs_sharp
   echo "=== tescalib_simulate speed"
   bash "$ROOT/scripts/bench_simulate.sh"
   URBAN=$(simulate urban 1 100)

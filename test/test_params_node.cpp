@@ -94,6 +94,8 @@ TEST(Params, ShippedConfigLoadsAndValidates) {
   EXPECT_EQ(p.online.co.stereo_cloud.sgbm_paths, p.online.keyframe.stereo.sgbm_paths);
   EXPECT_TRUE(p.online.keyframe.stereo.sgbm_both_ways);
   EXPECT_TRUE(p.online.co.stereo_cloud.sgbm_both_ways);
+  EXPECT_DOUBLE_EQ(p.online.keyframe.stereo.rectified_vertical_blur_px, 0.8);
+  EXPECT_DOUBLE_EQ(p.online.co.stereo_cloud.rectified_vertical_blur_px, 0.0);
 }
 
 TEST(Params, KittiYamlHoldsTheCompiledInDefaults) {

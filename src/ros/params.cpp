@@ -184,6 +184,7 @@ void readCoCalibrationAndStereo(Visit& get, NodeParams* p) {
   get("stereo/block_size", &p->online.keyframe.stereo.block_size);
   get("stereo/sgbm_paths", &p->online.keyframe.stereo.sgbm_paths);
   get("stereo/sgbm_both_ways", &p->online.keyframe.stereo.sgbm_both_ways);
+  get("stereo/rectified_vertical_blur_px", &p->online.keyframe.stereo.rectified_vertical_blur_px);
   get("stereo/max_depth", &p->online.keyframe.stereo.max_depth);
   get("stereo/max_row_offset_px", &p->online.max_row_offset_px);
   get("stereo/align_rows", &p->online.align_rows);
@@ -340,6 +341,10 @@ void checkStereo(const OnlineSettings& o, std::ostringstream& e) {
   if (!validSgbmPaths(o.keyframe.stereo.sgbm_paths))
     e << "stereo/sgbm_paths must be 3, 5 or 8 (got " << o.keyframe.stereo.sgbm_paths << "); ";
   if (!positive(o.keyframe.stereo.disparity_sigma)) e << "stereo/disparity_sigma must be > 0; ";
+  if (!(o.keyframe.stereo.rectified_vertical_blur_px >= 0) ||
+      !std::isfinite(o.keyframe.stereo.rectified_vertical_blur_px))
+    e << "stereo/rectified_vertical_blur_px must be >= 0 px (got "
+      << o.keyframe.stereo.rectified_vertical_blur_px << "); ";
   if (!std::isfinite(o.keyframe.stereo.equalize_exposure_ratio))
     e << "stereo/equalize_exposure_ratio must be a number (<= 1: off); ";
   checkRefinementRounds(o.keyframe.stereo.refinement, "stereo/", e);

@@ -258,6 +258,8 @@ void configure(const Args& args, Session* session) {
   session->settings.co.stereo_cloud.sgbm_paths = args.sgbm_paths;
   session->settings.keyframe.stereo.sgbm_both_ways = args.sgbm_both_ways > 0;
   session->settings.co.stereo_cloud.sgbm_both_ways = args.sgbm_both_ways > 0;
+  if (args.rectified_vertical_blur >= 0)  // the keyframes' clouds (coStereoCloudSettings)
+    session->settings.keyframe.stereo.rectified_vertical_blur_px = args.rectified_vertical_blur;
   if (args.search_deg >= 0) session->settings.co.lidar.search_step_deg = args.search_deg;
   session->settings.monitor.action = args.monitor;
   session->holdout = args.holdout;

@@ -100,6 +100,12 @@ void addCalibrationOptions(CLI::App* app, Args* a) {
            "match each pair upright and upside down and keep the mean (default 1; the node's "
            "stereo/sgbm_both_ways): the road's disparity does not shift, at 2x the matching time")
       ->group(g);
+  cli::add(app, "--rectified-vertical-blur", "PX",
+           cli::to(&a->rectified_vertical_blur, cli::toNonNegative),
+           "the keyframes' clouds: a low-pass along the columns (Gaussian sigma, px) of both "
+           "images of a re-rectified pair before matching (default 0.8; the node's "
+           "stereo/rectified_vertical_blur_px; 0: off; co's re-matched clouds: off)")
+      ->group(g);
   cli::add(app, "--perturb-rot-deg", "R", cli::to(&a->perturb_rot_deg, cli::toDouble),
            "with --perturb-trans-m (either or both): start that far from the initial "
            "T_cam_lidar (random direction, --seed); the errors against that initial guess (DIR's "

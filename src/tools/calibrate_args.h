@@ -26,6 +26,8 @@ struct Args {
   int align_rows = 1;  // OnlineSettings::align_rows
   int sgbm_paths = 3;  // StereoSettings::sgbm_paths (the keyframes' and co-calibration's clouds)
   int sgbm_both_ways = 1;  // StereoSettings::sgbm_both_ways (the same clouds)
+  // StereoSettings::rectified_vertical_blur_px of the keyframes' clouds; < 0: the default
+  double rectified_vertical_blur = -1;
   std::string out;
   std::string lidar_frame;  // empty: the bag's cloud frame, velo_link for folders
   std::string overlay;      // PNG: the last keyframe with the scan drawn, initial guess vs result

@@ -162,6 +162,11 @@ void addKeyframeStudyOptions(CLI::App* app, Args* a, const cli::ExpertOptions& e
       "match every pair upright and upside down and keep the mean (default 1, as the node's "
       "stereo/sgbm_both_ways)")
       ->group(g);
+  add(app, "--rectified-vertical-blur", "PX", to(&a->rectified_vertical_blur, cli::toNonNegative),
+      "the keyframes' clouds: a low-pass along the columns (Gaussian sigma, px) of both images "
+      "of a re-rectified pair before matching (default 0.8, as the node's "
+      "stereo/rectified_vertical_blur_px; 0: off; co's re-matched clouds: off)")
+      ->group(g);
   add(app, "--refine-smoothed-rounds", "N", to(&a->refine_smoothed, cli::atLeast(0)),
       "of those rounds, the first N follow a smoothed image gradient (default 1 in lidar_stereo "
       "mode, 0 in co and joint)")

@@ -52,6 +52,8 @@ struct Args {
   int refine_smoothed = -1;          ///< DisparityRefinementSettings::smoothed_gradient_rounds
   int sgbm_paths = 3;                ///< StereoSettings::sgbm_paths of every stereo cloud
   bool sgbm_both_ways = true;        ///< StereoSettings::sgbm_both_ways of every stereo cloud
+  /// StereoSettings::rectified_vertical_blur_px of the keyframes' clouds; < 0: the default
+  double rectified_vertical_blur = -1;
   /// De-skew the scans with the motion registered against a neighbouring frame: 0/1; -1: when
   /// the sequence's scans are swept (sweptScans).
   int deskew = -1;

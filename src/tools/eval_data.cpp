@@ -90,12 +90,16 @@ void setKeyframeSettings(const Args& args, EvalData* d) {
   d->kfs.stereo.refinement = withRefineArgs(d->kfs.stereo.refinement);
   d->kfs.stereo.sgbm_paths = args.sgbm_paths;
   d->kfs.stereo.sgbm_both_ways = args.sgbm_both_ways;
+  if (args.rectified_vertical_blur >= 0)
+    d->kfs.stereo.rectified_vertical_blur_px = args.rectified_vertical_blur;
   d->co_refinement = withRefineArgs(CoCalibrationSettings{}.stereo_cloud.refinement);
   const bool co_clouds = args.mode == "co" || args.mode == "joint";
   d->used_refinement = co_clouds ? d->co_refinement : d->kfs.stereo.refinement;
   if (args.mode != "stereo")  // stereo mode matches no clouds
     std::cout << "  stereo clouds: SGBM with " << args.sgbm_paths << " paths"
-              << (args.sgbm_both_ways ? " both ways" : "") << ", disparity refinement "
+              << (args.sgbm_both_ways ? " both ways" : "")
+              << ", re-rectified keyframe pairs low-passed along the columns by "
+              << d->kfs.stereo.rectified_vertical_blur_px << " px, disparity refinement "
               << d->used_refinement.iterations << " round(s), "
               << d->used_refinement.smoothed_gradient_rounds
               << " of them with the smoothed gradient\n";

@@ -379,6 +379,7 @@ Json runJson(const Args& args, const EvalData& d, const Estimated& estimated,
               {"smoothed_rounds", d.used_refinement.smoothed_gradient_rounds}}},
             {"sgbm_paths", args.sgbm_paths},
             {"sgbm_both_ways", args.sgbm_both_ways},
+            {"rectified_vertical_blur_px", d.kfs.stereo.rectified_vertical_blur_px},
             {"consistent_sample", args.consistent_sample},
             {"trials", Json::array()}};
   for (const auto& tr : trials) j["trials"].push_back(trialJson(args, estimated, tr));

@@ -213,6 +213,9 @@ void requireUsableInputs(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
   if (!validSgbmPaths(s.sgbm_paths))
     throw DataError("stereo settings: sgbm_paths must be 3, 5 or 8 (got " +
                     std::to_string(s.sgbm_paths) + ")");
+  if (!(s.rectified_vertical_blur_px >= 0) || !std::isfinite(s.rectified_vertical_blur_px))
+    throw DataError(
+        "stereo settings: rectified_vertical_blur_px must be a finite value of at least 0");
   if (s.sgbm_both_ways && !(s.both_ways_max_diff_px >= 0))
     throw DataError("stereo settings: both_ways_max_diff_px must be at least 0");
   if (s.num_disparities < 16 || s.num_disparities % 16 || s.sample_step < 1 || s.normal_scale < 1)
@@ -221,8 +224,10 @@ void requireUsableInputs(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
         "normal_scale at least 1");
 }
 
-/// Rectifies the grey pair in place with `rect`.
-void rectifyPair(const Rectification& rect, const StereoRig& rig, cv::Mat* left, cv::Mat* right) {
+/// Rectifies the grey pair in place with `rect`; a re-rectified pair is then low-pass filtered
+/// by `blur_px` (StereoSettings::rectified_vertical_blur_px).
+void rectifyPair(const Rectification& rect, const StereoRig& rig, double blur_px, cv::Mat* left,
+                 cv::Mat* right) {
   if (rect.identity) {
     // The right camera of a rectified pair may have its own principal point: shift the right
     // image so that both share the left's (KITTI's P2/P3 share cx, cy).
@@ -242,6 +247,10 @@ void rectifyPair(const Rectification& rect, const StereoRig& rig, cv::Mat* left,
   cv::Mat lr, rr;
   cv::remap(*left, lr, m1x, m1y, cv::INTER_LINEAR);
   cv::remap(*right, rr, m2x, m2y, cv::INTER_LINEAR);
+  if (blur_px > 0) {  // along the columns alone: the disparity's direction keeps its detail
+    cv::GaussianBlur(lr, lr, cv::Size(1, 0), 0.0, blur_px, cv::BORDER_REPLICATE);
+    cv::GaussianBlur(rr, rr, cv::Size(1, 0), 0.0, blur_px, cv::BORDER_REPLICATE);
+  }
   *left = lr, *right = rr;
 }
 
@@ -339,7 +348,7 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
   out.exposure_equalized = matchExposure(&left, &right, s.equalize_exposure_ratio);
   const Rectification rect = rectificationFor(rig, T_right_left, left.size());
   setRectification(rect, &out);
-  rectifyPair(rect, rig, &left, &right);
+  rectifyPair(rect, rig, s.rectified_vertical_blur_px, &left, &right);
   if (out.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
   cv::Mat disp = sgbmDisparity(left, right, s, &out);
   dropDepthEdges(s, &disp);

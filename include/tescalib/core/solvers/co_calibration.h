@@ -19,10 +19,13 @@ namespace tescalib {
 /// The stereo clouds co-calibration matches: the keyframes' settings, but one exact disparity
 /// refinement round. The LiDAR-stereo default (a smoothed round, then an exact one) removes a
 /// disparity bias that co-calibration's stereo scale and yaw absorb anyway; here it measured
-/// worse and slower.
+/// worse and slower. Without the re-rectified pair's vertical low-pass: co-calibration
+/// re-rectifies every pair with its own estimate (a pair on the x axis too), and its figures
+/// are measured without it.
 inline StereoSettings coStereoCloudSettings(StereoSettings s = {}) {
   s.refinement.iterations = 1;
   s.refinement.smoothed_gradient_rounds = 0;
+  s.rectified_vertical_blur_px = 0.0;
   return s;
 }
 

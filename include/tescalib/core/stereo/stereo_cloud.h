@@ -58,6 +58,18 @@ struct StereoSettings {
   /// at 1.6x. Generated pairs (contrast ratio 0.90) and KITTI's (0.98-1.05) are within it, so not
   /// changed. <= 1: off.
   double equalize_exposure_ratio = 1.15;
+  /// px; 1-sigma of a Gaussian low-pass along the image's columns (vertical only) applied to
+  /// both images of a pair that is re-rectified (its right camera off the left camera's x axis,
+  /// or turned), before matching; 0: off. A pair whose right camera sits a few mm above or
+  /// below the left camera's x axis is re-rectified about the optical axis, and SGBM's match of
+  /// the re-rectified images errs one way left of the image's centre and the other way right of
+  /// it: a tilt of the disparity error across the image (0.03-0.09 px between the image's outer
+  /// thirds for 3 mm), which turns the estimate about the camera's y and z axes. The remap's
+  /// interpolation does not cause it (Lanczos leaves it as it is), nor does the pair's geometry
+  /// (a pair off the axis along the optical axis alone shows none); a vertical low-pass of both
+  /// images takes most of it out (doc/limitations.md). Along the rows the images keep their
+  /// detail, which the disparity's precision needs. A pair rectified as delivered is not touched.
+  double rectified_vertical_blur_px = 0.8;
   DisparityRefinementSettings refinement;  ///< slanted-window sub-pixel refinement after SGBM
   /// Keyframes whose clouds are computed at the same time when a whole window is (re)computed
   /// (0: one per core); one cloud uses OpenCV's own threads. The clouds do not depend on it.
