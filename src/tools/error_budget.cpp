@@ -95,6 +95,10 @@ bool parse(int argc, char** argv, Args* a) {
       "SGBM's aggregation paths (default 3; 8 also aggregates from below)");
   add(&app, "--sgbm-both-ways", "0|1", to(&a->ks.stereo.sgbm_both_ways, cli::toSwitch),
       "match each pair upright and upside down and keep the mean (default 1)");
+  add(&app, "--rectified-vertical-blur", "PX",
+      to(&a->ks.stereo.rectified_vertical_blur_px, cli::toNonNegative),
+      "low-pass along the columns of both images of a re-rectified pair before matching "
+      "(Gaussian sigma, px; default 0.8; 0: off)");
   add(&app, "--refine-window", "R", to(&a->ks.stereo.refinement.window_radius, cli::atLeast(1)),
       "the refinement's window radius, px (default 4: 9x9 windows)");
   add(&app, "--keep-rings", "N", to(&a->keep_rings, cli::atLeast(1)),
