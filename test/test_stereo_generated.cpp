@@ -125,8 +125,7 @@ namespace {
 
 /// The stereo minus LiDAR-predicted disparity's median in the image's left third minus the one
 /// in its right third (px), over frames 0, 5, 10 and 15 of the generated residential drive of
-/// seed 3,
-/// the right camera `dy` m further along the left camera's y axis than the default rig's.
+/// seed 3, the right camera `dy` m further along the left camera's y axis than the default rig's.
 double disparityTiltAcrossTheImage(double dy, double vertical_blur_px) {
   SimOptions o;
   o.scenario = Scenario::kResidential;
@@ -154,12 +153,12 @@ double disparityTiltAcrossTheImage(double dy, double vertical_blur_px) {
 }  // namespace
 
 // A real rectified pair's right camera sits a few mm off the left camera's x axis; the clouds
-// re-rectify such a pair exactly, but its cameras sampled the scene on rows a fraction of a pixel
-// apart, and SGBM's match of oblique texture then errs one way left of the image's centre and the
-// other way right of it (a tilt of the disparity error across the image, which turns the
-// LiDAR-stereo estimate about the camera's y axis). A vertical low-pass of the re-rectified pair
-// before matching (StereoSettings::rectified_vertical_blur_px) removes most of it; a pair on the
-// axis is not re-rectified and has no tilt to remove.
+// re-rectify such a pair about the optical axis, and SGBM's match of the re-rectified images errs
+// one way left of the image's centre and the other way right of it (a tilt of the disparity error
+// across the image, which turns the LiDAR-stereo estimate about the camera's y and z axes). A
+// vertical low-pass of the re-rectified pair before matching
+// (StereoSettings::rectified_vertical_blur_px) removes most of it; a pair on the axis is not
+// re-rectified and has no tilt to remove.
 TEST(StereoGenerated, AVerticalLowPassTakesTheTiltOutOfAnOffAxisPairsDisparity) {
   const double on_axis = disparityTiltAcrossTheImage(0.0, 0.0);
   const double sharp = disparityTiltAcrossTheImage(0.0033, 0.0);
