@@ -414,6 +414,17 @@ TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatAGroundTiltDoes) {
   rolled.rectification_roll_deg = -0.5;
   EXPECT_DOUBLE_EQ(groundTiltSigma(rolled, settings),
                    0.5 * settings.model_sigma_ground_tilt_px_per_deg);
+  // Clouds matched with the column low-pass (StereoSettings::rectified_vertical_blur_px) tilt
+  // less: from model_ground_tilt_low_pass_px on, the low-passed sigma holds.
+  EXPECT_EQ(a.vertical_low_pass_px, 0.0);
+  rolled.vertical_low_pass_px = 0.5 * settings.model_ground_tilt_low_pass_px;
+  EXPECT_DOUBLE_EQ(groundTiltSigma(rolled, settings),
+                   0.5 * settings.model_sigma_ground_tilt_px_per_deg);
+  rolled.vertical_low_pass_px = settings.model_ground_tilt_low_pass_px;
+  EXPECT_DOUBLE_EQ(groundTiltSigma(rolled, settings),
+                   0.5 * settings.model_sigma_ground_tilt_low_passed_px_per_deg);
+  EXPECT_LT(settings.model_sigma_ground_tilt_low_passed_px_per_deg,
+            settings.model_sigma_ground_tilt_px_per_deg);
 }
 
 TEST(LidarStereoSolver, TheBiasSensitivityPredictsWhatALateralTiltDoes) {

@@ -216,6 +216,31 @@ TEST(StereoGenerated, ACameraExposedDifferentlyIsEqualisedBeforeMatching) {
   }
 }
 
+// A cloud records the column low-pass its pair was matched with
+// (StereoSettings::rectified_vertical_blur_px): only a re-rectified pair is filtered, and a
+// re-triangulated cloud keeps its matches' low-pass. The LiDAR-stereo covariance sizes the
+// ground's disparity tilt by it (LidarStereoSettings::model_sigma_ground_tilt_*).
+TEST(StereoGenerated, ACloudRecordsTheLowPassItWasMatchedWith) {
+  const Simulator sim = noiseFreeFrame();
+  const Frame f = sim.renderFrame(0);
+  const StereoRig& rig = sim.rig();
+  const StereoSettings on;
+  StereoSettings off;
+  off.rectified_vertical_blur_px = 0;
+  Eigen::Isometry3d raised = rig.T_right_left;
+  raised.translation().y() -= 0.003;
+  const StereoCloud delivered = computeStereoCloud(f.left, f.right, rig, rig.T_right_left, on);
+  const StereoCloud low_passed = computeStereoCloud(f.left, f.right, rig, raised, on);
+  const StereoCloud sharp = computeStereoCloud(f.left, f.right, rig, raised, off);
+  EXPECT_EQ(delivered.vertical_low_pass_px, 0.0);
+  EXPECT_EQ(low_passed.vertical_low_pass_px, on.rectified_vertical_blur_px);
+  EXPECT_GT(on.rectified_vertical_blur_px, 0.0);
+  EXPECT_EQ(sharp.vertical_low_pass_px, 0.0);
+  EXPECT_EQ(retriangulateStereoCloud(low_passed, rig, rig.T_right_left).vertical_low_pass_px,
+            on.rectified_vertical_blur_px);
+  EXPECT_EQ(retriangulateStereoCloud(delivered, rig, raised).vertical_low_pass_px, 0.0);
+}
+
 TEST(StereoGenerated, SmoothedFirstRoundCorrectsMoreOfTheNoisyRoadBias) {
   // Under image noise one refinement round with the exact gradient leaves the near road's
   // disparity short; a first round with the smoothed gradient and an exact second one get

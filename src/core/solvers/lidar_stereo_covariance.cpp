@@ -291,7 +291,10 @@ bool onLateral(const Eigen::Vector3d& normal) {
 }
 
 double groundTiltSigma(const LidarStereoResult& r, const LidarStereoSettings& s) {
-  return s.model_sigma_ground_tilt_px_per_deg * std::fabs(r.rectification_roll_deg);
+  const double per_deg = r.vertical_low_pass_px >= s.model_ground_tilt_low_pass_px
+                             ? s.model_sigma_ground_tilt_low_passed_px_per_deg
+                             : s.model_sigma_ground_tilt_px_per_deg;
+  return per_deg * std::fabs(r.rectification_roll_deg);
 }
 
 Matrix6d withLidarStereoBiases(const LidarStereoResult& r, const LidarStereoSettings& s,

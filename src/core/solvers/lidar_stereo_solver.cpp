@@ -238,8 +238,10 @@ LidarStereoResult solveLidarStereo(const std::vector<const Keyframe*>& window,
     return res;
   }
   res.rectification_roll_deg = rectificationRollDeg(window);
-  if (!window.empty() && window.front())
+  if (!window.empty() && window.front()) {
     res.focal_baseline_px_m = window.front()->stereo.fx * window.front()->stereo.baseline;
+    res.vertical_low_pass_px = window.front()->stereo.vertical_low_pass_px;
+  }
   const bool covariance_holds = estimateLidarStereoCovariance(est, s, window.size(), &res);
   // A drift the covariance does not show is named as such; one it shows adds to its message.
   const bool drifting = !est.settled && flagDrift(est.fine_drift, s, &res);

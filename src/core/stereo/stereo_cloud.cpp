@@ -349,6 +349,7 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
   const Rectification rect = rectificationFor(rig, T_right_left, left.size());
   setRectification(rect, &out);
   rectifyPair(rect, rig, s.rectified_vertical_blur_px, &left, &right);
+  out.vertical_low_pass_px = rect.identity ? 0.0 : s.rectified_vertical_blur_px;
   if (out.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
   cv::Mat disp = sgbmDisparity(left, right, s, &out);
   dropDepthEdges(s, &disp);
@@ -368,6 +369,7 @@ StereoCloud retriangulateStereoCloud(const StereoCloud& matched, const StereoRig
   requireUsablePair(T_right_left);
   StereoCloud out;
   out.exposure_equalized = matched.exposure_equalized;
+  out.vertical_low_pass_px = matched.vertical_low_pass_px;
   const Rectification rect = rectificationFor(rig, T_right_left, in.size());
   if (rect.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
   setRectification(rect, &out);

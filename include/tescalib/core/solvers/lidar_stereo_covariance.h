@@ -58,7 +58,8 @@ bool onGround(const Eigen::Vector3d& normal);
 bool onLateral(const Eigen::Vector3d& normal);
 
 /// The sigma (px per unit of normalised column) of the ground's disparity tilt across the image
-/// for this result's rectification roll (LidarStereoSettings::model_sigma_ground_tilt_px_per_deg).
+/// for this result's rectification roll and its clouds' column low-pass
+/// (LidarStereoSettings::model_sigma_ground_tilt_px_per_deg and _low_passed_px_per_deg).
 double groundTiltSigma(const LidarStereoResult& result, const LidarStereoSettings& settings);
 
 }  // namespace tescalib

@@ -180,12 +180,17 @@ struct LidarStereoSettings {
   /// 1-sigma (px per unit of normalised image column x, per degree of the rectification's roll)
   /// of a tilt of the ground's disparity error across the image (an error of b x px): a pair
   /// whose right camera sits off the left camera's x axis is rectified about the optical axis by
-  /// atan(t_y / B), and the matched road then tilts by about 0.1 px per degree of that roll
-  /// (tescalib_error_budget's road fit on generated rigs; none on a pair rectified as
-  /// delivered), which turns the estimate about the camera's z axis by 0.2-1.2 deg per px
+  /// atan(t_y / B), and the matched road then tilts across the image (none on a pair rectified
+  /// as delivered), which turns the estimate about the camera's z axis by 0.2-1.2 deg per px
   /// (shorter baselines and focal lengths move it more), through this window's geometry
-  /// (bias_sensitivity column 4).
+  /// (bias_sensitivity column 4). tescalib_error_budget's road fit on generated urban drives of
+  /// eight random rigs (rolls 0.16-1.05 deg): rms tilt per degree of roll 0.12-0.13 px for
+  /// clouds matched sharp or with a column low-pass of 0.4 px, 0.07 px with one of 0.8 or
+  /// 1.2 px (StereoSettings::rectified_vertical_blur_px). The first sigma holds for clouds
+  /// matched with a low-pass below `model_ground_tilt_low_pass_px`, the second from it on.
   double model_sigma_ground_tilt_px_per_deg = 0.13;
+  double model_sigma_ground_tilt_low_passed_px_per_deg = 0.072;
+  double model_ground_tilt_low_pass_px = 0.8;
   /// 1-sigma (px) of a window-common disparity offset of the lateral surfaces (normal within
   /// 45 deg of camera x: walls and parked cars beside the road, whose disparity changes along
   /// the rows), and 1-sigma (px per unit of normalised image column x) of a tilt of their
@@ -331,6 +336,9 @@ struct LidarStereoResult {
   /// The roll (deg) about the optical axis by which the window's stereo clouds were rectified:
   /// atan2(t_y, -t_x) of their left->right extrinsic (0 for a pair rectified as delivered).
   double rectification_roll_deg = 0.0;
+  /// The column low-pass (px) the window's stereo clouds were matched with (the first
+  /// keyframe's StereoCloud::vertical_low_pass_px; 0: none).
+  double vertical_low_pass_px = 0.0;
   /// The window's rectified focal length times baseline (px m, the first keyframe's; 0 without).
   double focal_baseline_px_m = 0.0;
   /// Per axis: constrained within max_sigma_* (false: do not trust this axis of the estimate),

@@ -96,6 +96,9 @@ struct StereoCloud {
   /// One image was mapped onto the other's grey values before matching
   /// (StereoSettings::equalize_exposure_ratio).
   bool exposure_equalized = false;
+  /// px; the column low-pass both images were filtered with before matching
+  /// (StereoSettings::rectified_vertical_blur_px on a re-rectified pair; 0: none).
+  double vertical_low_pass_px = 0;
   double seconds_sgbm = 0;   ///< time spent in SGBM
   double seconds_total = 0;  ///< time for the whole cloud
 
