@@ -184,9 +184,9 @@ struct LidarStereoSettings {
   /// as delivered), which turns the estimate about the camera's z axis by 0.2-1.2 deg per px
   /// (shorter baselines and focal lengths move it more), through this window's geometry
   /// (bias_sensitivity column 4). tescalib_error_budget's road fit on generated urban drives of
-  /// eight random rigs (rolls 0.16-1.05 deg): rms tilt per degree of roll 0.12-0.13 px for
-  /// clouds matched sharp or with a column low-pass of 0.4 px, 0.07 px with one of 0.8 or
-  /// 1.2 px (StereoSettings::rectified_vertical_blur_px). The first sigma holds for clouds
+  /// eight random rigs (rolls 0.16-1.05 deg): rms tilt per degree of roll 0.13 px for clouds
+  /// matched sharp, 0.12 px with a column low-pass of 0.4 px, 0.072 and 0.066 px with one of 0.8
+  /// and 1.2 px (StereoSettings::rectified_vertical_blur_px). The first sigma holds for clouds
   /// matched with a low-pass below `model_ground_tilt_low_pass_px`, the second from it on.
   double model_sigma_ground_tilt_px_per_deg = 0.13;
   double model_sigma_ground_tilt_low_passed_px_per_deg = 0.072;
