@@ -225,9 +225,10 @@ void requireUsableInputs(const cv::Mat& left_bgr, const cv::Mat& right_bgr,
 }
 
 /// Rectifies the grey pair in place with `rect`; a re-rectified pair is then low-pass filtered
-/// by `blur_px` (StereoSettings::rectified_vertical_blur_px).
-void rectifyPair(const Rectification& rect, const StereoRig& rig, double blur_px, cv::Mat* left,
-                 cv::Mat* right) {
+/// by `blur_px` (StereoSettings::rectified_vertical_blur_px). Returns the low-pass applied (px;
+/// 0: none).
+double rectifyPair(const Rectification& rect, const StereoRig& rig, double blur_px, cv::Mat* left,
+                   cv::Mat* right) {
   if (rect.identity) {
     // The right camera of a rectified pair may have its own principal point: shift the right
     // image so that both share the left's (KITTI's P2/P3 share cx, cy).
@@ -237,7 +238,7 @@ void rectifyPair(const Rectification& rect, const StereoRig& rig, double blur_px
                              rig.left.cy - rig.right.cy);
       cv::warpAffine(*right, *right, shift, right->size(), cv::INTER_LINEAR);
     }
-    return;
+    return 0.0;
   }
   cv::Mat m1x, m1y, m2x, m2y;
   cv::initUndistortRectifyMap(rect.K1, cv::Mat(), rect.R1, rect.P1, left->size(), CV_32FC1, m1x,
@@ -252,6 +253,7 @@ void rectifyPair(const Rectification& rect, const StereoRig& rig, double blur_px
     cv::GaussianBlur(rr, rr, cv::Size(1, 0), 0.0, blur_px, cv::BORDER_REPLICATE);
   }
   *left = lr, *right = rr;
+  return std::max(blur_px, 0.0);
 }
 
 /// OpenCV's SGBM mode with `paths` aggregation paths (3, 5 or 8; checked by
@@ -348,8 +350,7 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
   out.exposure_equalized = matchExposure(&left, &right, s.equalize_exposure_ratio);
   const Rectification rect = rectificationFor(rig, T_right_left, left.size());
   setRectification(rect, &out);
-  rectifyPair(rect, rig, s.rectified_vertical_blur_px, &left, &right);
-  out.vertical_low_pass_px = rect.identity ? 0.0 : s.rectified_vertical_blur_px;
+  out.vertical_low_pass_px = rectifyPair(rect, rig, s.rectified_vertical_blur_px, &left, &right);
   if (out.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
   cv::Mat disp = sgbmDisparity(left, right, s, &out);
   dropDepthEdges(s, &disp);
