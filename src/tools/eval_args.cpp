@@ -252,6 +252,10 @@ void addLidarStereoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& exp
       "point, measured with probes of F times the trust limits per axis (0.5 is the studied "
       "size; default 0: one Gauss-Newton step's covariance)")
       ->group(g);
+  add(app, "--fine-settle-walk", "F", to(&a->fine_settle_walk, cli::toNonNegative),
+      "the fine stage settles only where its updates' creep would carry the estimate on by less "
+      "than F times the trust limits (default 0.25; LidarStereoSettings::fine_settle_walk)")
+      ->group(g);
   add(app, "--cov-model-scale", "K", to(&a->cov_model_scale, cli::toNonNegative),
       "scales the covariance's model error (the common biases and per-axis floor; default 1, 0: "
       "without it)")

@@ -24,6 +24,7 @@ struct Args {
   std::string stages = "coarse,fine";
   int cov_cells_x = -1, cov_cells_y = -1;  ///< -1: the solver default
   double ring_range_sigma = -1;    ///< LidarStereoSettings::ring_range_sigma_m; < 0: default
+  double fine_settle_walk = -1;    ///< LidarStereoSettings::fine_settle_walk; < 0: default
   double fine_gain_probe = -1;     ///< LidarStereoSettings::fine_gain_probe; < 0: default
   int fine_stereo_normal_px = -1;  ///< LidarStereoSettings::fine_stereo_normal_px; < 0: default
   int ring_clusters = -1;          ///< LidarStereoSettings::ring_cluster_rings; -1: default

@@ -40,6 +40,7 @@ LidarStereoSettings lidarSettings(const Args& args, const KeyframeSettings& kfs)
   if (args.ring_clusters >= 0) solver_settings.ring_cluster_rings = args.ring_clusters;
   if (args.ring_range_sigma >= 0) solver_settings.ring_range_sigma_m = args.ring_range_sigma;
   if (args.fine_gain_probe >= 0) solver_settings.fine_gain_probe = args.fine_gain_probe;
+  if (args.fine_settle_walk >= 0) solver_settings.fine_settle_walk = args.fine_settle_walk;
   if (args.fine_stereo_normal_px >= 0)
     solver_settings.fine_stereo_normal_px = args.fine_stereo_normal_px;
   if (args.cov_model_scale >= 0) {
@@ -72,6 +73,7 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
   cs.lidar.coarse_estimates_stereo_nuisances = solver_settings.coarse_estimates_stereo_nuisances;
   cs.lidar.measure_disparity_offset = solver_settings.measure_disparity_offset;
   cs.lidar.fine_gain_probe = solver_settings.fine_gain_probe;
+  cs.lidar.fine_settle_walk = solver_settings.fine_settle_walk;
   if (args.smooth_keypoints_px >= 0) cs.stereo.smooth_depth_radius_px = args.smooth_keypoints_px;
   if (args.depth_prior >= 0) cs.free_depth_prior_sigma = args.depth_prior;
   if (args.free_depth_rounds >= 0) cs.free_depth_rounds = args.free_depth_rounds;

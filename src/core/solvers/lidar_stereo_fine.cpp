@@ -30,21 +30,52 @@ void printUpdate(int it, size_t associations, const Vector6d& d, double scale, d
 
 }  // namespace
 
-Vector6d unsettledDrift(const std::vector<Vector6d>& updates, const LidarStereoSettings& s) {
-  const Vector6d scale = limitScale(s.max_sigma_rot_deg, s.max_sigma_trans_m);
-  Vector6d sum = Vector6d::Zero();
-  const size_t first = updates.size() / 2;
-  for (size_t i = first; i < updates.size(); ++i) sum += updates[i];
-  if (updates.size() < 2 || !(sum.norm() > 0)) return sum;
-  const Vector6d dir = sum.cwiseProduct(scale).normalized();
+namespace {
+
+/// The direction (in units of the trust limits, `scale`) of the last half of `updates` summed
+/// (`sum`), and the ratio rho of successive updates along it, clipped to [0, 0.99].
+double creepRatio(const std::vector<Vector6d>& updates, const Vector6d& scale, const Vector6d& sum,
+                  Vector6d* dir) {
+  *dir = sum.cwiseProduct(scale).normalized();
   double num = 0, den = 0;
-  for (size_t i = first; i + 1 < updates.size(); ++i) {
-    const double a = dir.dot(updates[i].cwiseProduct(scale));
-    num += a * dir.dot(updates[i + 1].cwiseProduct(scale)), den += a * a;
+  for (size_t i = updates.size() / 2; i + 1 < updates.size(); ++i) {
+    const double a = dir->dot(updates[i].cwiseProduct(scale));
+    num += a * dir->dot(updates[i + 1].cwiseProduct(scale)), den += a * a;
   }
-  const double rho = den > 0 ? std::clamp(num / den, 0.0, 0.99) : 0.0;
+  return den > 0 ? std::clamp(num / den, 0.0, 0.99) : 0.0;
+}
+
+/// The last half of `updates` summed.
+Vector6d lastHalfSum(const std::vector<Vector6d>& updates) {
+  Vector6d sum = Vector6d::Zero();
+  for (size_t i = updates.size() / 2; i < updates.size(); ++i) sum += updates[i];
+  return sum;
+}
+
+/// What a creep along the last updates' direction would still add (the geometric series of the
+/// last update with ratio rho), as [phi; tau].
+Vector6d creepAhead(const std::vector<Vector6d>& updates, const Vector6d& scale,
+                    const Vector6d& sum) {
+  Vector6d dir;
+  const double rho = creepRatio(updates, scale, sum, &dir);
   const double last = dir.dot(updates.back().cwiseProduct(scale));
-  return sum + std::max(last, 0.0) * rho / (1 - rho) * dir.cwiseQuotient(scale);
+  return std::max(last, 0.0) * rho / (1 - rho) * dir.cwiseQuotient(scale);
+}
+
+}  // namespace
+
+Vector6d unsettledDrift(const std::vector<Vector6d>& updates, const LidarStereoSettings& s) {
+  const Vector6d sum = lastHalfSum(updates);
+  if (updates.size() < 2 || !(sum.norm() > 0)) return sum;
+  const Vector6d scale = limitScale(s.max_sigma_rot_deg, s.max_sigma_trans_m);
+  return sum + creepAhead(updates, scale, sum);
+}
+
+double walkAhead(const std::vector<Vector6d>& updates, const LidarStereoSettings& s) {
+  const Vector6d sum = lastHalfSum(updates);
+  if (updates.size() < 2 || !(sum.norm() > 0)) return 0.0;
+  const Vector6d scale = limitScale(s.max_sigma_rot_deg, s.max_sigma_trans_m);
+  return creepAhead(updates, scale, sum).cwiseProduct(scale).norm();
 }
 
 bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoSettings& s,
@@ -74,7 +105,7 @@ bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoS
     if (std::getenv("TESCALIB_DEBUG")) printUpdate(it, as.size(), d, est->scale, est->yaw);
     est->T = perturb(est->T, d);
     updates.push_back(d);
-    if (belowSettleLimits(d, s)) {
+    if (belowSettleLimits(d, s) && !(walkAhead(updates, s) > s.fine_settle_walk)) {
       est->settled = true;
       break;
     }

@@ -27,4 +27,10 @@ bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoS
 /// A decaying sequence adds little, an alternating one nothing.
 Vector6d unsettledDrift(const std::vector<Vector6d>& updates, const LidarStereoSettings& settings);
 
+/// How far (in units of the trust limits max_sigma_*) the same creep would still carry the
+/// estimate from the last update on: the geometric series of unsettledDrift without the updates
+/// already made. A fine stage whose last update is small but whose updates keep one direction
+/// without shrinking has not reached its fixed point.
+double walkAhead(const std::vector<Vector6d>& updates, const LidarStereoSettings& settings);
+
 }  // namespace tescalib

@@ -111,6 +111,15 @@ struct LidarStereoSettings {
   double converge_trans_m = 2e-5;
   double fine_settle_rot_deg = 1e-3;  ///< the fine stage has settled below this update
   double fine_settle_trans_m = 3e-4;
+  /// The fine stage has settled only where, besides, the creep of its last updates would carry
+  /// the estimate on (walkAhead) by less than this fraction of the trust limits max_sigma_*: a
+  /// stage that moves the same way by 0.4-0.5 mm per update can take one update below
+  /// fine_settle_trans_m and stop wherever that happens (on a generated residential drive of a
+  /// random rig, starts that stopped 24 mm before and 16 mm after the truth along the optical
+  /// axis). A stage that has not settled by fine_reassociations is judged by where it heads
+  /// (unsettledDrift). On the development rigs 0.25 leaves every urban start as it was and 0.1
+  /// also stops good ones (tescalib_eval --fine-settle-walk; doc/limitations.md).
+  double fine_settle_walk = 0.25;
   /// The fine stage's fixed-point gain (lidar_stereo_fixed_point.h) is measured with probes of
   /// this fraction of the trust limits max_sigma_* per axis and carries the covariance, the bias
   /// sensitivities and so the trust flags to the fixed point; 0 (the default): not measured, the
