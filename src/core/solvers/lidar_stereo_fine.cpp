@@ -28,10 +28,6 @@ void printUpdate(int it, size_t associations, const Vector6d& d, double scale, d
                yaw * kDegPerRad);
 }
 
-}  // namespace
-
-namespace {
-
 /// The direction (in units of the trust limits, `scale`) of the last half of `updates` summed
 /// (`sum`), and the ratio rho of successive updates along it, clipped to [0, 0.99].
 double creepRatio(const std::vector<Vector6d>& updates, const Vector6d& scale, const Vector6d& sum,
@@ -53,9 +49,11 @@ Vector6d lastHalfSum(const std::vector<Vector6d>& updates) {
 }
 
 /// What a creep along the last updates' direction would still add (the geometric series of the
-/// last update with ratio rho), as [phi; tau].
+/// last update with ratio rho), as [phi; tau]; nothing for fewer than two updates or no net move
+/// (`sum`: lastHalfSum).
 Vector6d creepAhead(const std::vector<Vector6d>& updates, const Vector6d& scale,
                     const Vector6d& sum) {
+  if (updates.size() < 2 || !(sum.norm() > 0)) return Vector6d::Zero();
   Vector6d dir;
   const double rho = creepRatio(updates, scale, sum, &dir);
   const double last = dir.dot(updates.back().cwiseProduct(scale));
@@ -66,16 +64,12 @@ Vector6d creepAhead(const std::vector<Vector6d>& updates, const Vector6d& scale,
 
 Vector6d unsettledDrift(const std::vector<Vector6d>& updates, const LidarStereoSettings& s) {
   const Vector6d sum = lastHalfSum(updates);
-  if (updates.size() < 2 || !(sum.norm() > 0)) return sum;
-  const Vector6d scale = limitScale(s.max_sigma_rot_deg, s.max_sigma_trans_m);
-  return sum + creepAhead(updates, scale, sum);
+  return sum + creepAhead(updates, limitScale(s.max_sigma_rot_deg, s.max_sigma_trans_m), sum);
 }
 
 double walkAhead(const std::vector<Vector6d>& updates, const LidarStereoSettings& s) {
-  const Vector6d sum = lastHalfSum(updates);
-  if (updates.size() < 2 || !(sum.norm() > 0)) return 0.0;
   const Vector6d scale = limitScale(s.max_sigma_rot_deg, s.max_sigma_trans_m);
-  return creepAhead(updates, scale, sum).cwiseProduct(scale).norm();
+  return creepAhead(updates, scale, lastHalfSum(updates)).cwiseProduct(scale).norm();
 }
 
 bool runFineStage(const std::vector<const Keyframe*>& window, const LidarStereoSettings& s,
