@@ -223,9 +223,10 @@ TEST(Params, InvalidValuesAreNamed) {
   EXPECT_NE(error.find("images/max_clipped_difference must be in (0, 1]"), std::string::npos)
       << error;
   EXPECT_NE(error.find("lidar_stereo/halves_chi2_limit"), std::string::npos) << error;
-  EXPECT_NE(error.find("lidar_stereo/halves_start must be recheck, estimate or initial (got "
-                       "'initial_guess')"),
-            std::string::npos)
+  EXPECT_NE(
+      error.find("lidar_stereo/halves_start must be recheck, estimate, initial or always (got "
+                 "'initial_guess')"),
+      std::string::npos)
       << error;
   EXPECT_NE(error.find("image_transport must be a transport's name"), std::string::npos) << error;
   EXPECT_NE(error.find("deskew/max_dt must be > 0"), std::string::npos) << error;

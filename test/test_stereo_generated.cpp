@@ -785,6 +785,47 @@ TEST(LidarStereoGenerated, TheRecheckedHalvesOfAGoodWindowSettleWhereTheyDidFrom
   EXPECT_EQ(moved.message.find("more than one minimum"), std::string::npos) << moved.message;
 }
 
+TEST(LidarStereoGenerated, HalvesAlwaysRecheckedRefuseAnEstimateTheirStartsDoNotReach) {
+  // HalvesStart::kEstimateAndInitialGuess (co-calibration's final check) solves the halves from
+  // the initial guess whatever those from the estimate showed, and refuses an estimate that lies
+  // beyond the limit from one of them. A good window's estimate passes; the same estimate moved
+  // 5 cm along the optical axis is refused, where the default recheck (the halves from the
+  // estimate walk back to where the rechecked ones settle) keeps it.
+  SimOptions o;
+  o.frames = 36;
+  o.seed = 3;
+  StereoRig rig;
+  const std::vector<Keyframe> kfs = everyFifthFrame(o, &rig);
+  std::vector<const Keyframe*> window;
+  for (const auto& kf : kfs) window.push_back(&kf);
+  LidarStereoSettings always;
+  always.halves_start = HalvesStart::kEstimateAndInitialGuess;
+  const Eigen::Isometry3d T_init =
+      perturb(rig.T_cam_lidar, (Vector6d() << 0.02, -0.015, 0.01, 0.1, -0.08, 0.12).finished());
+  const LidarStereoResult r = solveLidarStereo(window, T_init, always);
+  ASSERT_TRUE(r.halves.tested);
+  EXPECT_GT(r.halves.chi2_independent, 0.0);  // solved again although the halves agreed
+  EXPECT_LT(r.halves.chi2_independent, always.halves_chi2_limit);
+  EXPECT_TRUE(r.converged) << r.message;
+  LidarStereoResult moved = r, moved_default = r;
+  moved.T_cam_lidar = moved_default.T_cam_lidar =
+      perturb(r.T_cam_lidar, (Vector6d() << 0, 0, 0, 0, 0, 0.05).finished());
+  checkWindowHalves(window, always, T_init, &moved);
+  checkWindowHalves(window, LidarStereoSettings(), T_init, &moved_default);
+  std::cout << "[ halves   ] moved 5 cm along z, halves always rechecked: "
+            << moved.halves.chi2_independent << " from the rechecked halves; " << moved.message
+            << "\n";
+  EXPECT_GT(moved.halves.chi2_independent, always.halves_chi2_limit);
+  EXPECT_FALSE(moved.converged);
+  EXPECT_NE(moved.message.find("depends on where its solve started"), std::string::npos)
+      << moved.message;
+  EXPECT_EQ(moved_default.message.find("depends on where"), std::string::npos)
+      << moved_default.message;
+  HalvesStart start = HalvesStart::kEstimate;
+  ASSERT_TRUE(halvesStartFromName("always", &start));
+  EXPECT_EQ(start, HalvesStart::kEstimateAndInitialGuess);
+}
+
 TEST(LidarStereoGenerated, AWindowStraddlingALidarBumpSolvesItsNewerHalfToTheNewTruth) {
   // A window whose first half comes from before a LiDAR bump (0.5 deg / 3 cm) and whose second
   // half from after it: its halves disagree, and the second half's own solve, which the

@@ -180,6 +180,7 @@ void readCoCalibrationAndStereo(Visit& get, NodeParams* p) {
   get("co_calibration/yaw_handover_deg", &p->online.co.yaw_handover_deg);
   get("co_calibration/stereo_from_features", &p->online.co.stereo_from_features);
   get("co_calibration/fine_stereo_normal_px", &p->online.co.fine_stereo_normal_px);
+  get("co_calibration/halves_from_initial_guess", &p->online.co.halves_always_from_initial_guess);
   get("stereo/num_disparities", &p->online.keyframe.stereo.num_disparities);
   get("stereo/block_size", &p->online.keyframe.stereo.block_size);
   get("stereo/sgbm_paths", &p->online.keyframe.stereo.sgbm_paths);
@@ -467,8 +468,8 @@ bool validateNodeParams(const NodeParams& p, std::string* error) {
   checkStartAndFrames(p, e);
   HalvesStart start;
   if (!halvesStartFromName(p.halves_start, &start))
-    e << "lidar_stereo/halves_start must be recheck, estimate or initial (got '" << p.halves_start
-      << "'); ";
+    e << "lidar_stereo/halves_start must be recheck, estimate, initial or always (got '"
+      << p.halves_start << "'); ";
   *error = e.str();
   return error->empty();
 }

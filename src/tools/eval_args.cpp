@@ -288,6 +288,10 @@ void addCoOptions(CLI::App* app, Args* a, const cli::ExpertOptions& expert) {
       "co: round 1 from the stereo pair of left-right feature matches, LiDAR first; its search "
       "follows --search-deg")
       ->group(g);
+  add(app, "--co-halves-from-initial", "0|1", to(&a->co_halves, cli::toSwitch),
+      "co: the final LiDAR estimate's halves also from the initial guess, whatever those from "
+      "the estimate show (default 1)")
+      ->group(g);
   add(app, "--propagate-stereo", "0|1", to(&a->propagate_stereo, cli::toSwitch),
       "co: the stereo pair's uncertainty in the LiDAR covariance (default 1)")
       ->group(g);

@@ -70,6 +70,7 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
   cs.lidar.model_sigma_disparity_px = solver_settings.model_sigma_disparity_px;
   cs.lidar.model_sigma_range_m = solver_settings.model_sigma_range_m;
   cs.lidar.check_window_halves = solver_settings.check_window_halves;
+  cs.lidar.halves_start = solver_settings.halves_start;
   cs.lidar.coarse_estimates_stereo_nuisances = solver_settings.coarse_estimates_stereo_nuisances;
   cs.lidar.measure_disparity_offset = solver_settings.measure_disparity_offset;
   cs.lidar.fine_gain_probe = solver_settings.fine_gain_probe;
@@ -79,6 +80,7 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
   if (args.free_depth_rounds >= 0) cs.free_depth_rounds = args.free_depth_rounds;
   if (args.lidar_first >= 0) cs.lidar_first_fallback = args.lidar_first > 0;
   if (args.features >= 0) cs.stereo_from_features = args.features > 0;
+  if (args.co_halves >= 0) cs.halves_always_from_initial_guess = args.co_halves > 0;
   if (args.fine_stereo_normal_px >= 0) cs.fine_stereo_normal_px = args.fine_stereo_normal_px;
   if (args.propagate_stereo >= 0) cs.propagate_stereo_into_lidar = args.propagate_stereo > 0;
   cs.lidar.search_step_deg = solver_settings.search_step_deg;

@@ -89,7 +89,11 @@ void checkFinalLidar(const CoAlternation& a, CoCalibrationResult* res) {
   // Due by the caller's settings: the inner solves' (ls_last) switch the check off.
   if (windowHalvesDue(res->lidar, a.s.lidar)) {
     const auto t_h = Clock::now();
-    checkWindowHalves(a.cwin, a.ls_last, a.T_cam_lidar_init, &res->lidar);
+    LidarStereoSettings hs = a.ls_last;
+    if (a.s.halves_always_from_initial_guess &&
+        hs.halves_start == HalvesStart::kEstimateThenInitialGuess)
+      hs.halves_start = HalvesStart::kEstimateAndInitialGuess;
+    checkWindowHalves(a.cwin, hs, a.T_cam_lidar_init, &res->lidar);
     res->seconds_lidar += secondsSince(t_h);
   }
   if (res->stable && res->lidar.converged) {

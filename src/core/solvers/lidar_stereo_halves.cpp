@@ -1,6 +1,7 @@
 // The split-window check of the LiDAR-stereo calibration's noise model
 // (LidarStereoSettings::check_window_halves): the window's two halves solved on their own must
 // agree within their covariances.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -40,6 +41,7 @@ bool halvesStartFromName(const std::string& name, HalvesStart* start) {
   if (name == "recheck") return *start = HalvesStart::kEstimateThenInitialGuess, true;
   if (name == "estimate") return *start = HalvesStart::kEstimate, true;
   if (name == "initial") return *start = HalvesStart::kInitialGuess, true;
+  if (name == "always") return *start = HalvesStart::kEstimateAndInitialGuess, true;
   return false;
 }
 
@@ -92,12 +94,29 @@ double windowAgainstHalves(const LidarStereoResult& full, const LidarStereoResul
   return worst;
 }
 
+/// The window's estimate against the halves solved from the initial guess that converged (or
+/// only left unconstrained axes), each with its own covariance (a half holds half of the window's
+/// data: wider than what their difference allows), and the difference to the farther one.
+double estimateAgainstRechecked(const LidarStereoResult& full, const LidarStereoResult rechecked[2],
+                                Vector6d* farther) {
+  double worst = 0;
+  for (int h = 0; h < 2; ++h) {
+    if (!rechecked[h].converged && !rechecked[h].only_unconstrained) continue;
+    const Vector6d e = poseError(rechecked[h].T_cam_lidar, full.T_cam_lidar);
+    const double c = e.dot(rechecked[h].covariance.ldlt().solve(e));
+    if (!(c <= worst)) worst = c, *farther = e;
+  }
+  return worst;
+}
+
 /// Halves solved again from the initial guess after the halves from the estimate disagreed or
 /// left it: when a half settles somewhere else from there than from the estimate, its data hold
 /// more than one minimum (a valley the fine stage stops in where it is started), and the window's
 /// estimate is one of several; the solve is refused rather than widened. Halves that settle
 /// where they did from the estimate say only that a few keyframes are over-confident. Returns
-/// whether it refused.
+/// whether it refused. With kEstimateAndInitialGuess the window's estimate must also lie within
+/// the limit of each half from the initial guess (estimateAgainstRechecked): in a valley the
+/// halves from the estimate stay with it wherever it is.
 bool refuseWhereHalvesDependOnTheStart(const std::vector<const Keyframe*>& window,
                                        const LidarStereoSettings& s,
                                        const Eigen::Isometry3d& T_initial,
@@ -105,22 +124,33 @@ bool refuseWhereHalvesDependOnTheStart(const std::vector<const Keyframe*>& windo
                                        LidarStereoResult* full) {
   LidarStereoResult rechecked[2];
   if (!solveHalves(window, s, *full, &T_initial, rechecked)) return false;
-  Vector6d difference = Vector6d::Zero();
-  const double c = halvesStartsApart(from_estimate, rechecked, &difference);
-  full->halves.chi2_independent = c;
+  Vector6d difference = Vector6d::Zero(), from_window = Vector6d::Zero();
+  double c = halvesStartsApart(from_estimate, rechecked, &difference);
+  const double w = s.halves_start == HalvesStart::kEstimateAndInitialGuess
+                       ? estimateAgainstRechecked(*full, rechecked, &from_window)
+                       : 0.0;
   if (std::getenv("TESCALIB_DEBUG"))
     std::fprintf(stderr,
                  "window halves from the initial guess against those from the estimate: chi2 "
-                 "%.1f\n",
-                 c);
-  if (!(c > s.halves_chi2_limit)) return false;
+                 "%.1f; the window's estimate against them: %.1f\n",
+                 c, w);
+  full->halves.chi2_independent = std::max(c, w);
+  if (!(std::max(c, w) > s.halves_chi2_limit)) return false;
   // Along the difference the window knows the extrinsic no better than that.
-  widenAndJudge(1.0, difference * difference.transpose(), true,
-                formatted("a half of the window settles elsewhere from the initial guess than "
-                          "from the estimate (chi2 %.1f > %.1f, 6 DoF; halves %.1f apart, %.1f "
-                          "from the estimate): the window holds more than one minimum",
-                          c, s.halves_chi2_limit, full->halves.chi2, full->halves.chi2_window),
-                s, full);
+  const std::string why =
+      w > c ? formatted(
+                  "the window's estimate lies chi2 %.1f (> %.1f, 6 DoF) from a half of the "
+                  "window solved from the initial guess (the halves from the estimate %.1f "
+                  "apart, %.1f from it): where the estimate ends depends on where its solve "
+                  "started",
+                  w, s.halves_chi2_limit, full->halves.chi2, full->halves.chi2_window)
+            : formatted(
+                  "a half of the window settles elsewhere from the initial guess than "
+                  "from the estimate (chi2 %.1f > %.1f, 6 DoF; halves %.1f apart, %.1f "
+                  "from the estimate): the window holds more than one minimum",
+                  c, s.halves_chi2_limit, full->halves.chi2, full->halves.chi2_window);
+  if (w > c) difference = from_window;
+  widenAndJudge(1.0, difference * difference.transpose(), true, why, s, full);
   return true;
 }
 
@@ -155,11 +185,12 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   full->halves.second_settled = b.settled;
   full->halves.second_trusted = b.converged;
   full->halves.second_begin = half;
-  // Halves from the estimate that disagree, or that both leave it: solved again from the initial
-  // guess, do they settle where they did?
+  // Halves from the estimate that disagree, or that both leave it (or any,
+  // kEstimateAndInitialGuess): solved again from the initial guess, do they settle where they did?
   const bool doubt = chi2 > s.halves_chi2_limit || chi2_window > s.halves_chi2_limit;
-  const bool refused = doubt && full->converged &&
-                       s.halves_start == HalvesStart::kEstimateThenInitialGuess &&
+  const bool recheck = (doubt && s.halves_start == HalvesStart::kEstimateThenInitialGuess) ||
+                       s.halves_start == HalvesStart::kEstimateAndInitialGuess;
+  const bool refused = recheck && full->converged &&
                        refuseWhereHalvesDependOnTheStart(window, s, T_initial, halves, full);
   full->halves.seconds = secondsSince(t0);
   if (refused || chi2 <= s.halves_chi2_limit) return;

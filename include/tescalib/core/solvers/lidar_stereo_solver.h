@@ -31,6 +31,11 @@ enum class HalvesStart {
   kEstimateThenInitialGuess,
   /// From the initial guess (both stages): two calibrations independent of the window's path.
   kInitialGuess,
+  /// From the estimate and always again from the window's initial guess (both stages), refusing
+  /// as kEstimateThenInitialGuess does: for an estimate that an iteration's path can leave
+  /// anywhere along a valley, where halves started from it stay with it (co-calibration's final
+  /// check, CoCalibrationSettings::halves_always_from_initial_guess).
+  kEstimateAndInitialGuess,
 };
 
 struct LidarStereoSettings {
@@ -455,13 +460,14 @@ bool trustFlags(const Matrix6d& covariance, const LidarStereoSettings& settings,
 /// Real KITTI windows fail it (sequences of one day disagree by 3-6 sigma), generated ones pass.
 /// With HalvesStart::kEstimateThenInitialGuess (the default), halves that disagree or both leave
 /// the estimate are solved again from `T_initial`, the window's initial guess, and a converged
-/// solve is refused when a half then settles elsewhere (halvesStartsApart).
+/// solve is refused when a half then settles elsewhere (halvesStartsApart); with
+/// kEstimateAndInitialGuess they are solved again from `T_initial` whatever they showed.
 void checkWindowHalves(const std::vector<const Keyframe*>& window,
                        const LidarStereoSettings& settings, const Eigen::Isometry3d& T_initial,
                        LidarStereoResult* full);
 
-/// The HalvesStart a name gives: "recheck" (kEstimateThenInitialGuess), "estimate" or "initial";
-/// false for any other name.
+/// The HalvesStart a name gives: "recheck" (kEstimateThenInitialGuess), "estimate", "initial" or
+/// "always" (kEstimateAndInitialGuess); false for any other name.
 bool halvesStartFromName(const std::string& name, HalvesStart* start);
 
 /// Whether the split-window check runs on `result`: the check is on and the solve converged or,
