@@ -740,23 +740,38 @@ TEST(LidarStereoGenerated, WindowHalvesRevealAnErrorTheNoiseModelDoesNotKnow) {
   EXPECT_GE(std::sqrt(u.dot(b.covariance * u)), 0.5 * e.norm());
 }
 
+/// The split-window tests' window: every fifth frame of a 36-frame default-rig drive (seed 3),
+/// and an initial guess 1.3 deg / 0.18 m off its truth.
+struct HalvesWindow {
+  StereoRig rig;
+  std::vector<Keyframe> kfs;
+  std::vector<const Keyframe*> window;
+  Eigen::Isometry3d T_init;
+  HalvesWindow(const HalvesWindow&) = delete;  // `window` points into `kfs`
+  HalvesWindow& operator=(const HalvesWindow&) = delete;
+  HalvesWindow() {
+    SimOptions o;
+    o.frames = 36;
+    o.seed = 3;
+    kfs = everyFifthFrame(o, &rig);
+    for (const auto& kf : kfs) window.push_back(&kf);
+    T_init =
+        perturb(rig.T_cam_lidar, (Vector6d() << 0.02, -0.015, 0.01, 0.1, -0.08, 0.12).finished());
+  }
+};
+
 TEST(LidarStereoGenerated, TheRecheckedHalvesOfAGoodWindowSettleWhereTheyDidFromTheEstimate) {
   // The recheck refuses a window only when a half settles elsewhere from the initial guess than
   // from the estimate (a valley of minima). A good window's halves have one minimum: solved
   // again from starts 0.6 m along the optical axis, 0.5 m sideways or 4.6 deg about y, they
   // settle within chi2 2 of where they did from the estimate, even when the estimate itself is
   // moved 5 cm (its halves walk back to the same place), and nothing is refused for it.
-  SimOptions o;
-  o.frames = 36;
-  o.seed = 3;
-  StereoRig rig;
-  const std::vector<Keyframe> kfs = everyFifthFrame(o, &rig);
-  std::vector<const Keyframe*> window;
-  for (const auto& kf : kfs) window.push_back(&kf);
+  const HalvesWindow w;
+  const std::vector<const Keyframe*>& window = w.window;
+  const StereoRig& rig = w.rig;
+  const Eigen::Isometry3d& T_init = w.T_init;
   LidarStereoSettings settings;
   ASSERT_EQ(settings.halves_start, HalvesStart::kEstimateThenInitialGuess);  // the default
-  const Eigen::Isometry3d T_init =
-      perturb(rig.T_cam_lidar, (Vector6d() << 0.02, -0.015, 0.01, 0.1, -0.08, 0.12).finished());
   const LidarStereoResult r = solveLidarStereo(window, T_init, settings);
   ASSERT_TRUE(r.converged) << r.message;
   ASSERT_TRUE(r.halves.tested);
@@ -791,17 +806,11 @@ TEST(LidarStereoGenerated, HalvesAlwaysRecheckedRefuseAnEstimateTheirStartsDoNot
   // beyond the limit from one of them. A good window's estimate passes; the same estimate moved
   // 5 cm along the optical axis is refused, where the default recheck (the halves from the
   // estimate walk back to where the rechecked ones settle) keeps it.
-  SimOptions o;
-  o.frames = 36;
-  o.seed = 3;
-  StereoRig rig;
-  const std::vector<Keyframe> kfs = everyFifthFrame(o, &rig);
-  std::vector<const Keyframe*> window;
-  for (const auto& kf : kfs) window.push_back(&kf);
+  const HalvesWindow w;
+  const std::vector<const Keyframe*>& window = w.window;
+  const Eigen::Isometry3d& T_init = w.T_init;
   LidarStereoSettings always;
   always.halves_start = HalvesStart::kEstimateAndInitialGuess;
-  const Eigen::Isometry3d T_init =
-      perturb(rig.T_cam_lidar, (Vector6d() << 0.02, -0.015, 0.01, 0.1, -0.08, 0.12).finished());
   const LidarStereoResult r = solveLidarStereo(window, T_init, always);
   ASSERT_TRUE(r.halves.tested);
   EXPECT_GT(r.halves.chi2_independent, 0.0);  // solved again although the halves agreed
