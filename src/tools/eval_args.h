@@ -37,11 +37,10 @@ struct Args {
   int free_depth_rounds = -1;  ///< co: CoCalibrationSettings::free_depth_rounds; < 0: default
   int lidar_first = -1;        ///< co: CoCalibrationSettings::lidar_first_fallback; < 0: default
   int propagate_stereo =
-      -1;             ///< co: CoCalibrationSettings::propagate_stereo_into_lidar; < 0: default
-  int features = -1;  ///< co: CoCalibrationSettings::stereo_from_features; < 0: default
-  int co_halves =
-      -1;  ///< co: CoCalibrationSettings::halves_always_from_initial_guess; < 0: default
-  double rematch_deg = 0;      ///< co: CoCalibrationSettings::rematch_deg; 0: the default
+      -1;                  ///< co: CoCalibrationSettings::propagate_stereo_into_lidar; < 0: default
+  int features = -1;       ///< co: CoCalibrationSettings::stereo_from_features; < 0: default
+  int co_halves = -1;      ///< co: the halves from the initial guess too (0/1); < 0: default
+  double rematch_deg = 0;  ///< co: CoCalibrationSettings::rematch_deg; 0: the default
   double co_model_scale = -1;  ///< scales CoCalibrationSettings::model_sigma_*; -1: as is
   int stereo_yaw = -1;      ///< LiDAR-stereo estimates the right camera's yaw: 0/1; -1: the default
   int stereo_scale = -1;    ///< LiDAR-stereo mode estimates the clouds' scale: 0/1; -1: the default

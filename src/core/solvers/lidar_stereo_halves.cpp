@@ -81,30 +81,18 @@ bool solveHalves(const std::vector<const Keyframe*>& window, const LidarStereoSe
   return true;
 }
 
-/// The window's estimate against each half's (Halves::chi2_window), and the difference to the
-/// half that is farther from it.
+/// The window's estimate against each half's, with the half's covariance, and the difference to
+/// the half that is farther from it: every half (Halves::chi2_window), or with `trusted_only` only
+/// those that converged or left only unconstrained axes (the halves solved from the initial guess,
+/// a half holding half of the window's data: wider than what their difference allows).
 double windowAgainstHalves(const LidarStereoResult& full, const LidarStereoResult halves[2],
-                           Vector6d* farther) {
+                           Vector6d* farther, bool trusted_only = false) {
   double worst = 0;
   for (int h = 0; h < 2; ++h) {
+    if (trusted_only && !halves[h].converged && !halves[h].only_unconstrained) continue;
     const Vector6d eh = poseError(halves[h].T_cam_lidar, full.T_cam_lidar);
     const double c = eh.dot(halves[h].covariance.ldlt().solve(eh));
     if (!(c <= worst)) worst = c, *farther = eh;
-  }
-  return worst;
-}
-
-/// The window's estimate against the halves solved from the initial guess that converged (or
-/// only left unconstrained axes), each with its own covariance (a half holds half of the window's
-/// data: wider than what their difference allows), and the difference to the farther one.
-double estimateAgainstRechecked(const LidarStereoResult& full, const LidarStereoResult rechecked[2],
-                                Vector6d* farther) {
-  double worst = 0;
-  for (int h = 0; h < 2; ++h) {
-    if (!rechecked[h].converged && !rechecked[h].only_unconstrained) continue;
-    const Vector6d e = poseError(rechecked[h].T_cam_lidar, full.T_cam_lidar);
-    const double c = e.dot(rechecked[h].covariance.ldlt().solve(e));
-    if (!(c <= worst)) worst = c, *farther = e;
   }
   return worst;
 }
@@ -115,7 +103,7 @@ double estimateAgainstRechecked(const LidarStereoResult& full, const LidarStereo
 /// estimate is one of several; the solve is refused rather than widened. Halves that settle
 /// where they did from the estimate say only that a few keyframes are over-confident. Returns
 /// whether it refused. With kEstimateAndInitialGuess the window's estimate must also lie within
-/// the limit of each half from the initial guess (estimateAgainstRechecked): in a valley the
+/// the limit of each half from the initial guess (windowAgainstHalves of those): in a valley the
 /// halves from the estimate stay with it wherever it is.
 bool refuseWhereHalvesDependOnTheStart(const std::vector<const Keyframe*>& window,
                                        const LidarStereoSettings& s,
@@ -125,9 +113,9 @@ bool refuseWhereHalvesDependOnTheStart(const std::vector<const Keyframe*>& windo
   LidarStereoResult rechecked[2];
   if (!solveHalves(window, s, *full, &T_initial, rechecked)) return false;
   Vector6d difference = Vector6d::Zero(), from_window = Vector6d::Zero();
-  double c = halvesStartsApart(from_estimate, rechecked, &difference);
+  const double c = halvesStartsApart(from_estimate, rechecked, &difference);
   const double w = s.halves_start == HalvesStart::kEstimateAndInitialGuess
-                       ? estimateAgainstRechecked(*full, rechecked, &from_window)
+                       ? windowAgainstHalves(*full, rechecked, &from_window, true)
                        : 0.0;
   if (std::getenv("TESCALIB_DEBUG"))
     std::fprintf(stderr,
