@@ -210,6 +210,53 @@ TEST(CoCalibration, StereoTrustFlagsIncludeTheLidarUncertainty) {
   for (int i = 0; i < 5; ++i) EXPECT_TRUE(loose.observable[i]) << "axis " << i;
   EXPECT_NE(loose.message.find("LiDAR"), std::string::npos) << loose.message;
 }
+// The pair's covariance at the alternation's fixed point: its tz moves the LiDAR's tz by 0.5 (S),
+// which moves its tz by 0.3 again (L), a loop of 0.15; the pair's tz variance is then the
+// variance without the loop over (1 - 0.15)^2. The scale's model error widens the length by
+// B sigma and moves the LiDAR along the valley by the window's scale sensitivity, both for the
+// pair's f B (half the reference's: twice the sigma).
+TEST(CoCalibration, ThePairsCovarianceHoldsTheLoopAndTheScalesModelError) {
+  CoCalibrationSettings s;
+  PhotometricResult stereo;
+  stereo.T_right_left.translation() = Eigen::Vector3d(-0.54, 0, 0);
+  stereo.covariance = Matrix6d::Zero();
+  addAxisVariances(&stereo.covariance, {0.002, 0.002, 0.002}, {0.0003, 0.0003, 0.0003});
+  stereo.converged = true;
+  std::fill(stereo.observable, stereo.observable + 6, true);
+  stereo.lidar_sensitivity(5, 5) = 0.3;
+  LidarStereoResult lidar;
+  Matrix6d lidar_given = Matrix6d::Zero();
+  addAxisVariances(&lidar_given, {0.01, 0.01, 0.01}, {0.002, 0.002, 0.01});
+  Matrix6d S = Matrix6d::Zero();
+  S(5, 5) = 0.5;
+  PhotometricResult open = stereo, loop = stereo;
+  EXPECT_TRUE(coStereoCovariance(lidar, s, &open, lidar_given));
+  EXPECT_TRUE(coStereoCovariance(lidar, s, &loop, lidar_given, &S));
+  const double model_z2 = std::pow(s.model_sigma_stereo_trans_m[2], 2);
+  const double without = (0.09 + 9.0) * 1e-6;  // 0.3 mm, and 0.3 x the LiDAR's 1 cm
+  EXPECT_NEAR(open.covariance(5, 5), without + model_z2, 1e-12);
+  EXPECT_NEAR(loop.covariance(5, 5), without / (0.85 * 0.85) + model_z2, 1e-12);
+  EXPECT_NEAR(loop.covariance(4, 4), open.covariance(4, 4), 1e-15);  // no loop along y
+
+  LidarStereoSettings ls;
+  LidarStereoResult scaled;
+  scaled.covariance_known = true;
+  scaled.covariance = Matrix6d::Zero();
+  scaled.stereo_scale_variance = 1e-6;
+  scaled.focal_baseline_px_m = ls.model_floor_focal_baseline_px_m / 2;
+  scaled.stereo_scale_sensitivity << 0, 0, 0, 0.1, 0, -2.0;  // m per unit of scale
+  addScaleFloor(ls, s, &scaled);
+  const double sigma = 2 * s.model_sigma_stereo_scale;
+  EXPECT_NEAR(scaled.stereo_scale_variance, 1e-6 + sigma * sigma, 1e-15);
+  EXPECT_NEAR(scaled.covariance(5, 5), 4.0 * sigma * sigma, 1e-15);
+  EXPECT_NEAR(scaled.covariance(3, 5), -0.2 * sigma * sigma, 1e-15);
+  EXPECT_EQ(scaled.covariance(0, 0), 0.0);
+  LidarStereoResult unknown;  // a placeholder covariance is left alone
+  addScaleFloor(ls, s, &unknown);
+  EXPECT_EQ(unknown.stereo_scale_variance, 0.0);
+  EXPECT_TRUE(unknown.covariance.isIdentity());
+}
+
 TEST(CoCalibration, RecoversBothExtrinsicsOnAGeneratedUrbanWindow) {
   CoCase c = shortBaselineCase();
   const auto& [truth, T_cl_init, T_rl_init, w] = c;

@@ -338,6 +338,11 @@ TEST(LidarStereoSolver, EstimatesTheStereoScaleByDefault) {
   EXPECT_LT(e.tail<3>().norm(), 0.01);
   EXPECT_GT(e0.tail<3>().norm(), 3 * e.tail<3>().norm());
   EXPECT_GT(e0.tail<3>().norm(), 0.02);
+  // The pose's sensitivity to the scale says where the pose goes with the scale held at 1.
+  const Vector6d predicted = (1.0 - with.stereo_scale) * with.stereo_scale_sensitivity;
+  std::printf("held minus free tz %.2f cm, predicted %.2f cm\n", 100 * (e0[5] - e[5]),
+              100 * predicted[5]);
+  EXPECT_NEAR(e0[5] - e[5], predicted[5], 0.3 * std::fabs(e0[5] - e[5]));
   // A window that cannot be trusted names the f x B error it found as a suspect.
   s.estimate_stereo_scale = true;
   s.max_sigma_trans_m = 0.0002;

@@ -94,6 +94,7 @@ CoCalibrationSettings coSettings(const Args& args, const LidarStereoSettings& so
     for (auto* v : {&cs.model_sigma_lidar_rot_deg, &cs.model_sigma_lidar_trans_m,
                     &cs.model_sigma_stereo_rot_deg, &cs.model_sigma_stereo_trans_m})
       for (double& x : *v) x *= args.co_model_scale;
+    cs.model_sigma_stereo_scale *= args.co_model_scale;
   }
   return cs;
 }

@@ -242,6 +242,7 @@ bool covariancesFromInformation(const FineInformation& info, const FixedPointGai
   res->covariance = gain * robust.topLeftCorner<6, 6>() * gain.transpose();
   if (with_scale) {  // the common biases move the scale too
     res->stereo_scale_variance = robust(6, 6);
+    res->stereo_scale_sensitivity = gain * H_inv_full.block<6, 1>(0, 6) / H_inv_full(6, 6);
     const std::vector<double> sigmas = biasSigmas(*res, s);
     for (size_t j = 0; j < sigmas.size(); ++j)
       res->stereo_scale_variance += std::pow(sigmas[j] * bias_moves(6, j), 2);

@@ -139,6 +139,19 @@ struct CoCalibrationSettings {
   std::array<double, 3> model_sigma_lidar_trans_m = {0.0, 0.00079, 0.00141};
   std::array<double, 3> model_sigma_stereo_rot_deg = {0.0003, 0.0006, 0.0};
   std::array<double, 3> model_sigma_stereo_trans_m = {0.000535, 0.000064, 0.000135};
+  /// 1-sigma of the clouds' scale beyond its statistical variance (relative; an error of the
+  /// pair's f B), for a pair with f B = LidarStereoSettings::model_floor_focal_baseline_px_m and
+  /// scaled with that over the window's own f B like the LiDAR-stereo floors: the matcher's
+  /// error that no window averages away pulls the scale and the LiDAR's depth along the valley
+  /// in which they trade. A scale error k moves the baseline length by B k and the LiDAR
+  /// estimate by LidarStereoResult::stereo_scale_sensitivity k; both covariances get it.
+  double model_sigma_stereo_scale = 0.002;
+  /// The pair's covariance at the alternation's fixed point, as the LiDAR's: G (P_pair|LiDAR +
+  /// L P_LiDAR|pair L^T) G^T with G = (I - L S)^-1 (L: the left-right solve's sensitivity to
+  /// the LiDAR, S: the LiDAR's to the pair; S measured, propagate_stereo_into_lidar). A deviation
+  /// of the pair moves the LiDAR, which moves the pair again; without G the pair's sigma along
+  /// the baseline's y and z ignores that loop, which on random rigs couples by 0.5-0.7.
+  bool stereo_fixed_point_gain = true;
   /// The stereo pair's uncertainty in the LiDAR covariance (an addition to the
   /// paper): the LiDAR-stereo solve estimates the clouds' scale and yaw, but the rest of the pair
   /// (rotation about x and z, the baseline direction in y and z) moves the clouds, and so the

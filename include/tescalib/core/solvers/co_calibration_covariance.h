@@ -14,6 +14,12 @@ namespace tescalib {
 struct CoCalibrationSettings;  // co_calibration.h
 struct CoCalibrationResult;    // co_calibration.h
 
+/// CoCalibrationSettings::model_sigma_stereo_scale added to `lidar`'s stereo scale variance and,
+/// through its stereo_scale_sensitivity, to its covariance (for the window's f B; nothing without
+/// a known covariance).
+void addScaleFloor(const LidarStereoSettings& lidar_settings, const CoCalibrationSettings& s,
+                   LidarStereoResult* lidar);
+
 /// d T_cam_lidar / d T_right_left at the converged LiDAR-stereo result `lidar` of `window`'s
 /// current clouds: for the right camera's rotation about x and z and the baseline's y and z
 /// components, the clouds are re-triangulated from their matches with the pair perturbed by
@@ -34,9 +40,12 @@ Matrix6d lidarSensitivityToStereo(const std::vector<Keyframe*>& window, const St
 bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& settings,
                         PhotometricResult* stereo);
 /// The same with `lidar_covariance` (coCalibrate: the LiDAR's covariance given the pair, since
-/// the propagated one holds the pair's own uncertainty) instead of `lidar.covariance`.
+/// the propagated one holds the pair's own uncertainty) instead of `lidar.covariance`, and with
+/// `lidar_sensitivity_to_stereo` (optional, d T_cam_lidar / d T_right_left) the alternation's
+/// fixed-point gain (CoCalibrationSettings::stereo_fixed_point_gain).
 bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSettings& settings,
-                        PhotometricResult* stereo, const Matrix6d& lidar_covariance);
+                        PhotometricResult* stereo, const Matrix6d& lidar_covariance,
+                        const Matrix6d* lidar_sensitivity_to_stereo = nullptr);
 
 /// The final covariances of coCalibrate's result `res` (its last solves, `lidar_settings` those
 /// of the last LiDAR-stereo solve, on `window`'s current clouds): the LiDAR covariance given the

@@ -298,6 +298,11 @@ struct LidarStereoResult {
   /// split-window check. Co-calibration takes the baseline length from the scale and gives the
   /// left-right covariance this variance along the baseline.
   double stereo_scale_variance = 0.0;
+  /// How the pose moves with the stereo scale along what the window leaves free between them
+  /// ([phi; tau] per unit of relative scale, the pose re-solved with the scale held: the
+  /// regression of the pose on the scale in the fine problem's covariance, carried through the
+  /// fixed point's gain; zero unless the scale is estimated).
+  Vector6d stereo_scale_sensitivity = Vector6d::Zero();
   double stereo_yaw_rad = 0.0;  ///< estimated right-camera yaw (0 unless estimate_stereo_yaw)
   /// Estimated range offset of each LiDAR ring (m, by range-image row: how much too long its
   /// ranges are; LidarStereoSettings::ring_range_sigma_m; empty when not estimated, 0 for a ring
