@@ -130,6 +130,19 @@ CoCase evalCoTrial(uint64_t drive, uint64_t eval_seed, double rot_deg, double tr
   return c;
 }
 
+// A converged left-right result 0.54 m wide, sigmas 0.002 deg / 0.3 mm per axis given the
+// LiDAR, whose tz moves 0.3 per unit of the LiDAR's tz.
+PhotometricResult trustedPair() {
+  PhotometricResult stereo;
+  stereo.T_right_left.translation() = Eigen::Vector3d(-0.54, 0, 0);
+  stereo.covariance = Matrix6d::Zero();
+  addAxisVariances(&stereo.covariance, {0.002, 0.002, 0.002}, {0.0003, 0.0003, 0.0003});
+  stereo.converged = true;
+  std::fill(stereo.observable, stereo.observable + 6, true);
+  stereo.lidar_sensitivity(5, 5) = 0.3;
+  return stereo;
+}
+
 }  // namespace
 
 TEST(CoCalibration, RerectificationOnlyWhenTheRotationOrDirectionChanges) {
@@ -172,13 +185,7 @@ TEST(CoCalibration, RerectificationOnlyWhenTheRotationOrDirectionChanges) {
 // stereo scale gives the length) and must not count.
 TEST(CoCalibration, StereoTrustFlagsIncludeTheLidarUncertainty) {
   CoCalibrationSettings s;
-  PhotometricResult stereo;
-  stereo.T_right_left.translation() = Eigen::Vector3d(-0.54, 0, 0);
-  stereo.covariance = Matrix6d::Zero();
-  addAxisVariances(&stereo.covariance, {0.002, 0.002, 0.002}, {0.0003, 0.0003, 0.0003});
-  stereo.converged = true;
-  std::fill(stereo.observable, stereo.observable + 6, true);
-  stereo.lidar_sensitivity(5, 5) = 0.3;  // stereo tz per LiDAR tz
+  PhotometricResult stereo = trustedPair();
   stereo.lidar_sensitivity(3, 5) = 0.5;  // baseline length per LiDAR tz: the scale's business
   LidarStereoResult lidar;
   lidar.stereo_scale_variance = 0.001 * 0.001;
@@ -217,13 +224,7 @@ TEST(CoCalibration, StereoTrustFlagsIncludeTheLidarUncertainty) {
 // pair's f B (half the reference's: twice the sigma).
 TEST(CoCalibration, ThePairsCovarianceHoldsTheLoopAndTheScalesModelError) {
   CoCalibrationSettings s;
-  PhotometricResult stereo;
-  stereo.T_right_left.translation() = Eigen::Vector3d(-0.54, 0, 0);
-  stereo.covariance = Matrix6d::Zero();
-  addAxisVariances(&stereo.covariance, {0.002, 0.002, 0.002}, {0.0003, 0.0003, 0.0003});
-  stereo.converged = true;
-  std::fill(stereo.observable, stereo.observable + 6, true);
-  stereo.lidar_sensitivity(5, 5) = 0.3;
+  PhotometricResult stereo = trustedPair();
   LidarStereoResult lidar;
   Matrix6d lidar_given = Matrix6d::Zero();
   addAxisVariances(&lidar_given, {0.01, 0.01, 0.01}, {0.002, 0.002, 0.01});
