@@ -161,8 +161,8 @@ void coCalibrationCovariances(const std::vector<Keyframe*>& window, const Stereo
                    s.model_sigma_lidar_trans_m);
   // The pair's covariance takes the LiDAR's given the pair: the propagated one already holds the
   // pair's own uncertainty, which S would count a second time. The loop back through S enters as
-  // the fixed point's gain (stereo_fixed_point_gain): on random rigs the alternation couples by
-  // 0.5-0.7 and the pair's error along the baseline's y and z follows the LiDAR's.
+  // the fixed point's gain (stereo_fixed_point_gain): the alternation couples by up to 0.7 on
+  // generated windows, and the pair's error along the baseline's y and z follows the LiDAR's.
   // Only with a LiDAR covariance that was computed (a placeholder would swamp the pair's and call
   // a good left-right solve unconstrained, blaming it for the LiDAR's failure).
   const bool gain = s.stereo_fixed_point_gain && res->lidar_stereo_sensitivity.allFinite() &&
