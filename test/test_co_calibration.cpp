@@ -217,6 +217,7 @@ TEST(CoCalibration, StereoTrustFlagsIncludeTheLidarUncertainty) {
   for (int i = 0; i < 5; ++i) EXPECT_TRUE(loose.observable[i]) << "axis " << i;
   EXPECT_NE(loose.message.find("LiDAR"), std::string::npos) << loose.message;
 }
+
 // The pair's covariance at the alternation's fixed point: its tz moves the LiDAR's tz by 0.5 (S),
 // which moves its tz by 0.3 again (L), a loop of 0.15; the pair's tz variance is then the
 // variance without the loop over (1 - 0.15)^2. The scale's model error widens the length by

@@ -9,6 +9,7 @@
 #include "tescalib/core/common/parallel.h"
 #include "tescalib/core/common/timing.h"
 #include "tescalib/core/solvers/co_calibration.h"
+#include "tescalib/core/solvers/lidar_stereo_covariance.h"
 #include "tescalib/core/uncertainty/fixed_point_covariance.h"
 #include "tescalib/core/uncertainty/trust.h"
 
@@ -37,7 +38,7 @@ bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSetti
   // lidar_sensitivity), and with the LiDAR's sensitivity to the pair that loops back.
   if (lidar_sensitivity_to_stereo) {
     stereo->covariance = fixedPointCovariance(stereo->covariance, stereo->lidar_sensitivity,
-                                              lidar_covariance, *lidar_sensitivity_to_stereo, 0.9)
+                                              lidar_covariance, *lidar_sensitivity_to_stereo)
                              .covariance;
   } else {
     addLidarUncertainty(stereo, lidar_covariance);
@@ -61,9 +62,8 @@ bool coStereoCovariance(const LidarStereoResult& lidar, const CoCalibrationSetti
 void addScaleFloor(const LidarStereoSettings& lidar_settings, const CoCalibrationSettings& s,
                    LidarStereoResult* lidar) {
   if (!(s.model_sigma_stereo_scale > 0) || !lidar->covariance_known) return;
-  double sigma = s.model_sigma_stereo_scale;
-  if (lidar->focal_baseline_px_m > 0)
-    sigma *= lidar_settings.model_floor_focal_baseline_px_m / lidar->focal_baseline_px_m;
+  const double sigma =
+      s.model_sigma_stereo_scale * floorFocalBaselineFactor(*lidar, lidar_settings);
   const Vector6d& k = lidar->stereo_scale_sensitivity;
   lidar->stereo_scale_variance += sigma * sigma;
   lidar->covariance += sigma * sigma * k * k.transpose();

@@ -29,8 +29,8 @@ std::vector<double> biasSigmas(const LidarStereoResult& r, const LidarStereoSett
 /// A per-axis floor for this window's f B (LidarStereoSettings::model_floor_focal_baseline_px_m).
 std::array<double, 3> scaledFloor(std::array<double, 3> floor, const LidarStereoResult& r,
                                   const LidarStereoSettings& s) {
-  if (!(r.focal_baseline_px_m > 0)) return floor;
-  for (double& v : floor) v *= s.model_floor_focal_baseline_px_m / r.focal_baseline_px_m;
+  const double factor = floorFocalBaselineFactor(r, s);
+  for (double& v : floor) v *= factor;
   return floor;
 }
 
@@ -283,6 +283,11 @@ bool estimateLidarStereoCovariance(const LidarStereoEstimate& est, const LidarSt
   res->fixed_point_gain = est.fixed_point.gain;
   res->fixed_point_contraction = est.fixed_point.contraction;
   return covariancesFromInformation(info, est.fixed_point, s, res);
+}
+
+double floorFocalBaselineFactor(const LidarStereoResult& r, const LidarStereoSettings& s) {
+  return r.focal_baseline_px_m > 0 ? s.model_floor_focal_baseline_px_m / r.focal_baseline_px_m
+                                   : 1.0;
 }
 
 bool onGround(const Eigen::Vector3d& normal) { return std::fabs(normal.y()) > 0.8 * normal.norm(); }

@@ -36,6 +36,11 @@ bool estimateLidarStereoCovariance(const LidarStereoEstimate& estimate,
                                    const LidarStereoSettings& settings, size_t window_size,
                                    LidarStereoResult* result);
 
+/// The factor by which `result`'s model-error floors grow for its window's f B: the reference
+/// f B (LidarStereoSettings::model_floor_focal_baseline_px_m) over the window's (1 when unknown).
+double floorFocalBaselineFactor(const LidarStereoResult& result,
+                                const LidarStereoSettings& settings);
+
 /// The statistical part plus the common biases through `sensitivity`
 /// (LidarStereoResult::bias_sensitivity or bias_sensitivity_held), the disparity offset's sigma
 /// that of disparityBiasSigma.
