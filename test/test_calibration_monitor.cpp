@@ -11,6 +11,7 @@
 #include "tescalib/core/online/calibration_monitor.h"
 #include "tescalib/core/online/keyframe_window.h"
 #include "tescalib/core/online/publish_policy.h"
+#include "tescalib/core/online/window_solve.h"
 #include "tescalib/core/uncertainty/trust.h"
 
 using namespace tescalib;
@@ -411,6 +412,52 @@ TEST(CalibrationMonitor, ADirectionTheWindowLeavesUnconstrainedIsLeftOut) {
     }
     EXPECT_EQ(changed, c.changes) << "axis " << c.axis << (c.pass_loose ? ", t_z left out" : "");
   }
+}
+
+TEST(CalibrationMonitor, ANewerHalfLeavesOutWhatItDoesNotConstrain) {
+  // A window whose halves disagree gives the monitor its newer half's estimate, without the
+  // directions that half leaves beyond the trust limits (here t_z, 3 cm against the 1 cm limit,
+  // while the half's covariance says 7 mm): 7 cm along t_z is then no change, 7 cm along t_x is.
+  std::vector<std::shared_ptr<Keyframe>> ks;
+  for (int i = 0; i < 6; ++i) ks.push_back(keyframe(10 + 0.5 * i));
+  Matrix6d P = windowCovariance();
+  P(5, 5) = 0.007 * 0.007;
+  Matrix6d loose = windowCovariance();
+  loose(5, 5) = 0.03 * 0.03;
+  const LidarStereoSettings settings;
+  LidarStereoResult r;
+  r.halves.tested = true;
+  r.halves.chi2 = 2 * settings.halves_chi2_limit;
+  r.halves.second_settled = true;
+  r.halves.second_begin = 3;
+  r.halves.second_covariance = P;
+  r.halves.second_weak_directions =
+      weakDirections(loose, settings.max_sigma_rot_deg, settings.max_sigma_trans_m);
+  const std::optional<NewerHalfEstimate> half = newerHalf(r, settings, ks);
+  ASSERT_TRUE(half.has_value());
+  EXPECT_EQ(half->stamps, (std::vector<double>{11.5, 12.0, 12.5}));
+  ASSERT_EQ(half->unconstrained.size(), 1u);
+  EXPECT_GT(std::fabs(half->unconstrained[0].normalized()(5)), 0.999);
+  for (const int axis : {5, 3}) {
+    ExtrinsicMonitor m{MonitorSettings()};
+    m.published(5, kI, P);
+    Eigen::Isometry3d T = kI;
+    T.translation()(axis - 3) = 0.07;
+    bool changed = false;
+    for (double t = 10; t < 70; t += 5) {
+      std::vector<double> stamps = half->stamps;
+      for (double& s : stamps) s += t;
+      m.observe(stamps, T, P, true, half->unconstrained);
+      changed = changed || m.status().state == MonitorState::kChanged;
+    }
+    EXPECT_EQ(changed, axis == 3) << "axis " << axis;
+  }
+  // A half within the limits everywhere leaves nothing out; halves that agree give no half.
+  r.halves.second_weak_directions =
+      weakDirections(P, settings.max_sigma_rot_deg, settings.max_sigma_trans_m);
+  EXPECT_TRUE(newerHalf(r, settings, ks)->unconstrained.empty());
+  r.halves.chi2 = 0.5 * settings.halves_chi2_limit;
+  EXPECT_FALSE(newerHalf(r, settings, ks).has_value());
 }
 
 TEST(PublishPolicy, ARecalibrationIsNotHeldToTheChangedEstimatesCovariance) {

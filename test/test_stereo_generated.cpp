@@ -866,6 +866,11 @@ TEST(LidarStereoGenerated, AWindowStraddlingALidarBumpSolvesItsNewerHalfToTheNew
   EXPECT_EQ(h.second_begin, 6u);
   EXPECT_TRUE(h.second_settled);
   EXPECT_TRUE(h.second_trusted);
+  // Its weak directions come along, none beyond the trust limits.
+  const LidarStereoSettings s;
+  EXPECT_EQ(h.second_weak_directions.size(), 6u);
+  EXPECT_TRUE(
+      beyondLimits(h.second_weak_directions, s.max_sigma_rot_deg, s.max_sigma_trans_m).empty());
   EXPECT_LT(after.head<3>().norm() * kDegPerRad, 0.1);
   EXPECT_LT(after.tail<3>().norm(), 0.015);
   EXPECT_GT(before.head<3>().norm() * kDegPerRad, 0.3);

@@ -363,7 +363,8 @@ void OnlineCalibrator::observeLidar(const WindowSolveInput& input,
   if (e.converged && e.cov_lidar_known)
     monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar);
   else if (const auto& half = result.newer_half)
-    monitor_.lidar_to_left.observe(half->stamps, half->T_cam_lidar, half->covariance, true);
+    monitor_.lidar_to_left.observe(half->stamps, half->T_cam_lidar, half->covariance, true,
+                                   half->unconstrained);
   else if (result.settled_unconstrained)
     monitor_.lidar_to_left.observe(stamps, e.T_cam_lidar, e.cov_lidar, false,
                                    result.unconstrained_lidar);

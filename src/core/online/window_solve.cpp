@@ -79,21 +79,6 @@ bool halvesDisagree(const LidarStereoResult& r, const LidarStereoSettings& setti
   return r.halves.tested && r.halves.chi2 > settings.halves_chi2_limit;
 }
 
-/// The newer half of `r`'s window (`keyframes`) when its halves disagreed and it settled.
-std::optional<NewerHalfEstimate> newerHalf(
-    const LidarStereoResult& r, const LidarStereoSettings& settings,
-    const std::vector<std::shared_ptr<Keyframe>>& keyframes) {
-  const LidarStereoResult::Halves& h = r.halves;
-  if (!halvesDisagree(r, settings) || !h.second_settled || h.second_begin >= keyframes.size())
-    return std::nullopt;
-  NewerHalfEstimate half;
-  for (size_t i = h.second_begin; i < keyframes.size(); ++i)
-    half.stamps.push_back(keyframes[i]->stamp);
-  half.T_cam_lidar = h.second_T;
-  half.covariance = h.second_covariance;
-  return half;
-}
-
 WindowSolveResult coCalibrateWindow(const WindowSolveInput& in, const StereoRig& rig,
                                     const OnlineSettings& s, const std::atomic<bool>* cancel) {
   bool warm = false;
@@ -183,6 +168,22 @@ bool coCalibrationDue(const OnlineSettings& settings, int fill, bool estimate_pu
          (!settings.lidar_first ||
           (fill >= settings.min_keyframes_co &&
            (estimate_published || fill >= settings.window_size || recording_ended)));
+}
+
+std::optional<NewerHalfEstimate> newerHalf(
+    const LidarStereoResult& r, const LidarStereoSettings& settings,
+    const std::vector<std::shared_ptr<Keyframe>>& keyframes) {
+  const LidarStereoResult::Halves& h = r.halves;
+  if (!halvesDisagree(r, settings) || !h.second_settled || h.second_begin >= keyframes.size())
+    return std::nullopt;
+  NewerHalfEstimate half;
+  for (size_t i = h.second_begin; i < keyframes.size(); ++i)
+    half.stamps.push_back(keyframes[i]->stamp);
+  half.T_cam_lidar = h.second_T;
+  half.covariance = h.second_covariance;
+  half.unconstrained = beyondLimits(h.second_weak_directions, settings.max_sigma_rot_deg,
+                                    settings.max_sigma_trans_m);
+  return half;
 }
 
 WindowSolveResult solveWindow(const WindowSolveInput& input, const StereoRig& rig,

@@ -172,6 +172,7 @@ void checkWindowHalves(const std::vector<const Keyframe*>& window, const LidarSt
   full->halves.second_covariance = b.covariance;
   full->halves.second_settled = b.settled;
   full->halves.second_trusted = b.converged;
+  full->halves.second_weak_directions = b.weak_directions;
   full->halves.second_begin = half;
   // Halves from the estimate that disagree, or that both leave it (or any,
   // kEstimateAndInitialGuess): solved again from the initial guess, do they settle where they did?

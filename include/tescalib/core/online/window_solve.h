@@ -64,6 +64,9 @@ struct NewerHalfEstimate {
   std::vector<double> stamps;  ///< its keyframes' stamps
   Eigen::Isometry3d T_cam_lidar = Eigen::Isometry3d::Identity();
   Matrix6d covariance = Matrix6d::Zero();
+  /// Its directions beyond the trust limits (over [phi; tau]): what the half does not constrain,
+  /// left out of the monitor's comparison.
+  std::vector<Vector6d> unconstrained;
 };
 
 struct WindowSolveResult {
@@ -106,6 +109,12 @@ struct WindowSolveResult {
   /// The pair check of the input's `pair_check` keyframes, when it converged.
   std::optional<PairCheck> pair_check;
 };
+
+/// The newer half of `result`'s window (`keyframes`, the solve's window) when its halves disagreed
+/// and that half settled: the calibration monitor's evidence of a change inside the window.
+std::optional<NewerHalfEstimate> newerHalf(const LidarStereoResult& result,
+                                           const LidarStereoSettings& settings,
+                                           const std::vector<std::shared_ptr<Keyframe>>& keyframes);
 
 /// Solves the window. Throws what the solvers throw (a DataError on an estimate gone far off,
 /// OpenCV on data it cannot use). `cancel` stops the solvers (LidarStereoSettings::cancel).

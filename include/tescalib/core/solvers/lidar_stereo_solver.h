@@ -399,6 +399,9 @@ struct LidarStereoResult {
     Matrix6d second_covariance = Matrix6d::Zero();
     bool second_settled = false;
     bool second_trusted = false;
+    /// The second half's weak directions (its `weak_directions`): the monitor leaves those beyond
+    /// the trust limits out of its comparison, as it does a settled window's.
+    std::vector<WeakDirection> second_weak_directions;
     size_t second_begin = 0;  ///< index in the window of the second half's first keyframe
   } halves;
   std::string message;  ///< why it did not converge, when it did not
