@@ -261,6 +261,25 @@ TEST(StereoGenerated, SmoothedFirstRoundCorrectsMoreOfTheNoisyRoadBias) {
   EXPECT_LT(std::fabs(e_smoothed), 0.5 * std::fabs(e_one));  // two exact rounds: 0.62
 }
 
+// SGBM's disparities against the LiDAR's at the true extrinsics on a noise-free frame, matched
+// both ways and not refined: OpenCV's sub-pixel rounding alone would put them about 0.04 px too
+// large (0.03 px from its rounding, 0.016 px from a mean of two 1/16 px values rounded up);
+// sgbmDisparity takes both out.
+TEST(StereoGenerated, SgbmsDisparityCarriesNoOffset) {
+  const Simulator sim = noiseFreeFrame();
+  const Frame f = sim.renderFrame(0);
+  StereoSettings raw;
+  raw.refinement.iterations = 0;
+  const StereoCloud cloud =
+      computeStereoCloud(f.left, f.right, sim.rig(), sim.rig().T_right_left, raw);
+  const DisparityFit fit =
+      fitDisparityOffsetAndScale(disparitySamples(f.scan, cloud, sim.rig().T_cam_lidar));
+  std::cout << "[ sgbm     ] stereo minus LiDAR disparity: offset " << fit.offset_px
+            << " px, scale " << 100 * fit.scale << " % (" << fit.points << " points)\n";
+  EXPECT_GT(fit.points, 5000);
+  EXPECT_LT(std::fabs(fit.offset_px), 0.015);
+}
+
 TEST(StereoGenerated, EightPathsAndMatchingBothWaysDoNotShiftTheRoadsMatch) {
   // SGBM with 3 (or 5) paths aggregates in one pass from the top row: the smoothness reaches a
   // pixel from the rows above alone, so the road, whose disparity grows with the row, matches

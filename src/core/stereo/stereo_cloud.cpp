@@ -14,6 +14,7 @@
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/common/pinhole.h"
 #include "tescalib/core/common/timing.h"
+#include "tescalib/core/stereo/sgbm_matching.h"
 
 namespace tescalib {
 
@@ -256,62 +257,6 @@ double rectifyPair(const Rectification& rect, const StereoRig& rig, double blur_
   return std::max(blur_px, 0.0);
 }
 
-/// OpenCV's SGBM mode with `paths` aggregation paths (3, 5 or 8; checked by
-/// requireUsableInputs).
-int sgbmMode(int paths) {
-  if (paths == 8) return cv::StereoSGBM::MODE_HH;
-  return paths == 5 ? cv::StereoSGBM::MODE_SGBM : cv::StereoSGBM::MODE_SGBM_3WAY;
-}
-
-/// Where the pair matched upside down (SGBM's 16 x px disparity `flipped_disp16`, turned back)
-/// found a disparity within `max_diff_px` of the upright one, `disp16` takes their mean; elsewhere
-/// it becomes invalid (-1).
-void keepMeanOfBothWays(const cv::Mat& flipped_disp16, double max_diff_px, cv::Mat* disp16) {
-  const int max_diff = static_cast<int>(std::lround(16.0 * max_diff_px));
-  for (int v = 0; v < disp16->rows; ++v) {
-    int16_t* a = disp16->ptr<int16_t>(v);
-    const int16_t* b = flipped_disp16.ptr<int16_t>(disp16->rows - 1 - v);
-    for (int u = 0; u < disp16->cols; ++u) {
-      const bool both = a[u] > 0 && b[u] > 0 && std::abs(a[u] - b[u]) <= max_diff;
-      a[u] = both ? static_cast<int16_t>((a[u] + b[u] + 1) / 2) : int16_t{-1};
-    }
-  }
-}
-
-/// SGBM's disparity of the rectified pair in px, NaN where invalid (SGBM leaves the first
-/// num_disparities columns unmatched); its time goes to out->seconds_sgbm.
-cv::Mat sgbmDisparity(const cv::Mat& left, const cv::Mat& right, const StereoSettings& s,
-                      StereoCloud* out) {
-  const auto t_sgbm = std::chrono::steady_clock::now();
-  const int bs = s.block_size;
-  auto sgbm = cv::StereoSGBM::create(0, s.num_disparities, bs, 8 * bs * bs, 32 * bs * bs,
-                                     s.disp12_max_diff, 0, s.uniqueness_ratio, s.speckle_window,
-                                     s.speckle_range, sgbmMode(s.sgbm_paths));
-  cv::Mat disp16;
-  sgbm->compute(left, right, disp16);
-  if (s.sgbm_both_ways) {
-    cv::Mat left_flipped, right_flipped, flipped_disp16;
-    cv::flip(left, left_flipped, 0);
-    cv::flip(right, right_flipped, 0);
-    sgbm->compute(left_flipped, right_flipped, flipped_disp16);
-    keepMeanOfBothWays(flipped_disp16, s.both_ways_max_diff_px, &disp16);
-  }
-  out->seconds_sgbm = secondsSince(t_sgbm);
-
-  cv::Mat disp(disp16.size(), CV_32F);
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  const float min_d = static_cast<float>(out->fx * out->baseline / (s.max_depth * 1.5));
-  for (int v = 0; v < disp16.rows; ++v) {
-    const int16_t* in = disp16.ptr<int16_t>(v);
-    float* o = disp.ptr<float>(v);
-    for (int u = 0; u < disp16.cols; ++u) {
-      const float d = in[u] / 16.f;
-      o[u] = (in[u] <= 0 || d < min_d || u < s.num_disparities) ? nan : d;
-    }
-  }
-  return disp;
-}
-
 /// Edges: on a plane the disparity is affine in (u, v), so a large second difference marks a
 /// depth discontinuity; SGBM fattens foreground there, so pixels near it are dropped.
 void dropDepthEdges(const StereoSettings& s, cv::Mat* disparity) {
@@ -352,7 +297,9 @@ StereoCloud computeStereoCloud(const cv::Mat& left_bgr, const cv::Mat& right_bgr
   setRectification(rect, &out);
   out.vertical_low_pass_px = rectifyPair(rect, rig, s.rectified_vertical_blur_px, &left, &right);
   if (out.baseline <= 0) throw DataError("stereo pair: the left->right estimate has no baseline");
-  cv::Mat disp = sgbmDisparity(left, right, s, &out);
+  const auto t_sgbm = std::chrono::steady_clock::now();
+  cv::Mat disp = sgbmDisparity(left, right, s, out.fx * out.baseline / (s.max_depth * 1.5));
+  out.seconds_sgbm = secondsSince(t_sgbm);
   dropDepthEdges(s, &disp);
   refineDisparity(left, right, &disp, s.refinement);
   out.disparity = disp;
