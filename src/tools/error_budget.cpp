@@ -35,7 +35,8 @@ const char* const kUsage = "usage: rosrun tescalib tescalib_error_budget [OPTION
 const char* const kDescription =
     "Generates the drive (keyframes 0.5 s apart) and prints, at the ground truth, how far the "
     "fine stage's residuals pull T_cam_lidar: all of them, the stereo clouds' disparity error "
-    "alone and the LiDAR mesh's error alone (one Gauss-Newton step, camera axes), then both parts "
+    "alone and the LiDAR mesh's error alone (one Gauss-Newton step, camera axes), the stereo part "
+    "of the associations whose disparity error is below --tail-px and of the rest, then both parts "
     "by surface (road: normal within 37 deg of vertical; facing: within 14 deg of the optical "
     "axis; lateral: within 45 deg of camera x; other) and depth; then how a disparity offset "
     "of all stereo points, of the road's alone and a tilt across the image (an error of x px at "
@@ -47,6 +48,7 @@ struct Args {
   SimOptions sim;
   int keyframes = 20;
   int keep_rings = 1;
+  double tail_px = 0.25;  ///< disparity errors at least this large form the stereo part's tail
   bool random_rig = false;
   std::string calib;  ///< KITTI calib.txt whose P2, P3 and Tr become the rig
   KeyframeSettings ks;
@@ -103,6 +105,9 @@ bool parse(int argc, char** argv, Args* a) {
       "the refinement's window radius, px (default 4: 9x9 windows)");
   add(&app, "--keep-rings", "N", to(&a->keep_rings, cli::atLeast(1)),
       "keep every Nth laser ring (a sparser LiDAR: N = 4 leaves 16 rings)");
+  add(&app, "--tail-px", "PX", to(&a->tail_px, cli::toNonNegative),
+      "the stereo part's pull is also split into the associations whose disparity error is "
+      "below PX and those at or above it (default 0.25)");
   return cli::parse(&app, argc, argv);
 }
 
@@ -146,6 +151,8 @@ struct SurfaceBias {
 struct Budget {
   Matrix6d H = Matrix6d::Zero();
   Part all, stereo, mesh;
+  Part stereo_core, stereo_tail;  ///< the stereo part below and at or above Args::tail_px
+  double tail_px = 0.25;
   std::vector<Part> by_class = std::vector<Part>(kClasses * 3);
   int skipped_edges = 0;
   /// sum w J dr/db for a disparity offset of every stereo point and a tilt b x across the image
@@ -232,6 +239,8 @@ void addKeyframe(const Keyframe& kf, const cv::Mat& depth, const CameraIntrinsic
     const double r_stereo = m.dot(pt - ps) * inv_sigma, r_mesh = m.dot(c - pt) * inv_sigma;
     b->all.g += w * J * r, ++b->all.n;
     b->stereo.g += w * J * r_stereo;
+    Part& side = std::fabs(d - d_true) < b->tail_px ? b->stereo_core : b->stereo_tail;
+    side.g += w * J * r_stereo, side.disparity_error += d - d_true, ++side.n;
     b->mesh.g += w * J * r_mesh;
     const int cls = onGround(m)                            ? kRoad
                     : std::fabs(m.normalized().z()) > 0.97 ? kFacing
@@ -256,6 +265,12 @@ void printBudget(const Budget& b) {
   printPull("all", H_inv, b.all.g);
   printPull("stereo", H_inv, b.stereo.g);
   printPull("mesh", H_inv, b.mesh.g);
+  std::printf("the stereo part by the size of the disparity error (mean error, share):\n");
+  for (const Part* p : {&b.stereo_core, &b.stereo_tail}) {
+    std::printf("  %s %.2f px: %+.4f px, %.1f %%\n", p == &b.stereo_core ? "below" : "at or above",
+                b.tail_px, p->n ? p->disparity_error / p->n : 0.0, 100.0 * p->n / b.all.n);
+    printPull(p == &b.stereo_core ? "core" : "tail", H_inv, p->g);
+  }
   std::printf(
       "by surface and depth: the stereo part (mean disparity error, pull) and the mesh\n"
       "part (mean error along the face normal, towards the sensor positive; pull)\n"
@@ -325,6 +340,7 @@ int main(int argc, char** argv) {
   const StereoRig& rig = sim.rig();
   const Eigen::Isometry3d T = rig.T_cam_lidar;
   Budget budget;
+  budget.tail_px = args.tail_px;
   for (int i = 0; i < o.frames; i += 5) {
     Frame frame = sim.renderFrame(i);
     keepEveryNthRing(&frame.scan, args.keep_rings);
