@@ -293,6 +293,18 @@ TEST(CalibrateTool, RecoversAPerturbedStartOnAGeneratedDrive) {
        Eigen::AngleAxisd(rpy[0] / kDegPerRad, Eigen::Vector3d::UnitX()))
           .toRotationMatrix();
   EXPECT_LT((from_rpy - T_lidar_cam.linear()).norm(), 1e-5);
+  // And as the node's initial guess takes it: T_cam_lidar itself, [x, y, z, qx, qy, qz, qw].
+  const size_t init_at = r.output.find("as the node's initial/T_cam_lidar (the inverse): [", block);
+  ASSERT_NE(init_at, std::string::npos) << r.output;
+  double p[7];
+  ASSERT_EQ(std::sscanf(r.output.c_str() + r.output.find('[', init_at),
+                        "[%lf, %lf, %lf, %lf, %lf, %lf, %lf]", &p[0], &p[1], &p[2], &p[3], &p[4],
+                        &p[5], &p[6]),
+            7);
+  EXPECT_LT((Eigen::Vector3d(p[0], p[1], p[2]) - back.T_cam_lidar.translation()).norm(), 1e-4);
+  EXPECT_LT(Eigen::Quaterniond(p[6], p[3], p[4], p[5])
+                .angularDistance(Eigen::Quaterniond(back.T_cam_lidar.linear())),
+            1e-5);
   EXPECT_NE(r.output.find("  trusted: ", block), std::string::npos) << r.output;
   const std::string yaml = readAll(base + ".yaml");
   EXPECT_NE(yaml.find("converged: true"), std::string::npos);

@@ -52,6 +52,13 @@ std::string trustLine(const ExtrinsicReport& r) {
 
 void printExtrinsic(const ExtrinsicReport& r) {
   std::printf("%s, %s\n", r.title, describeTransform(r.parent, r.child, r.T_a_b.inverse()).c_str());
+  if (r.node_parameter) {
+    const Eigen::Vector3d& t = r.T_a_b.translation();
+    Eigen::Quaterniond q(r.T_a_b.linear());
+    if (q.w() < 0) q.coeffs() *= -1;
+    std::printf("  as the node's %s (the inverse): [%.4f, %.4f, %.4f, %.6f, %.6f, %.6f, %.6f]\n",
+                r.node_parameter, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+  }
   if (r.covariance_known)
     std::printf("  sigma %s (about and along %s's x y z)\n", sigma6(r.cov).c_str(),
                 r.child.c_str());

@@ -29,10 +29,13 @@ struct ExtrinsicReport {
   bool published = true;             ///< false: the last solve's result, shown for a look
   double limit_rot_deg = 0, limit_trans_m = 0;  ///< the solver's trust limits (1 sigma)
   WeakDirection weakest = {};
+  /// The node's parameter that takes T_a_b as [x, y, z, qx, qy, qz, qw] (printed in that form, a
+  /// ready initial guess: the tf line above is its inverse); nullptr: none.
+  const char* node_parameter = nullptr;
 };
 
-/// The transform (tf direction: parent -> child = T_a_b's inverse), its sigma, the trust line
-/// and the weakest direction.
+/// The transform (tf direction: parent -> child = T_a_b's inverse), T_a_b as the node's parameter
+/// takes it (ExtrinsicReport::node_parameter), its sigma, the trust line and the weakest direction.
 void printExtrinsic(const ExtrinsicReport& r);
 
 /// "trusted: yes, every axis within 0.1 deg and 1 cm (1 sigma)" or "trusted: no - ..." saying

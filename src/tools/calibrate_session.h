@@ -264,9 +264,11 @@ struct Session {
   /// T_cam_lidar of an estimate or of the last solve (`published` false), for the printout.
   ExtrinsicReport lidarReport(const OnlineEstimate& e, const Args& args, bool published) const {
     const CalibrationFrames f = frames(args);
-    return extrinsicReport({"LiDAR -> left camera", f.lidar, f.left, e.T_cam_lidar, e.cov_lidar},
-                           e.cov_lidar_known, e.observable_lidar, published, settings.co.lidar,
-                           e.weakest_lidar);
+    ExtrinsicReport r = extrinsicReport(
+        {"LiDAR -> left camera", f.lidar, f.left, e.T_cam_lidar, e.cov_lidar}, e.cov_lidar_known,
+        e.observable_lidar, published, settings.co.lidar, e.weakest_lidar);
+    r.node_parameter = "initial/T_cam_lidar";
+    return r;
   }
 
   /// T_right_left, as lidarReport.
