@@ -17,6 +17,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include <rosbag/bag.h>
+#include <sensor_msgs/PointCloud2.h>
 #include <nlohmann/json.hpp>
 
 #include "tescalib/core/common/error.h"
@@ -647,7 +649,7 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.output.find("bad.yaml: no T_cam_lidar entry"), std::string::npos) << r.output;
   // An --init file is checked as a sequence's calib.txt is: an all-zero Tr is refused up front
-  // (before, it was re-orthonormalised into some rotation and every frame was then rejected).
+  // (not re-orthonormalised into some rotation whose frames would all be rejected).
   KittiOdometryCalib zero = readKittiOdometryCalib(tmp.str() + "/seq/calib.txt");
   zero.Tr.setZero();
   writeKittiOdometryCalib(tmp.str() + "/zero.txt", zero);
@@ -657,12 +659,25 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
       r.output.find("zero.txt: the LiDAR extrinsic (Tr, or R_rect_00 R | T) is not a rotation"),
       std::string::npos)
       << r.output;
+  // image_transport's compressed topic: its camera_info lies beside the image topic above it.
+  {
+    rosbag::Bag bag(tmp.str() + "/cloud_only.bag", rosbag::bagmode::Write);
+    sensor_msgs::PointCloud2 cloud;
+    cloud.header.stamp = ros::Time(100.0);
+    bag.write("/p", ros::Time(100.0), cloud);
+  }
+  r = runCalibrate("--bag " + tmp.str() + "/cloud_only.bag --points /p --left " +
+                   "/cam/left/image_rect/compressed --right /cam/right/image_rect/compressed");
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.output.find("camera_info on /cam/left/camera_info and /cam/right/camera_info"),
+            std::string::npos)
+      << r.output;
 }
 
 TEST(EvalTool, RefusesValuesItWouldMisreadOrIgnore) {
-  // Each was accepted before: NaN starts wrote invalid JSON, switches took any integer, "8.5x3"
-  // read as 8x3, the LiDAR options were ignored outside stereo mode, trial seeds went past what
-  // a JSON reader holds exactly.
+  // Each would be misread if accepted: NaN starts would write invalid JSON, a switch is 0 or 1,
+  // "8.5x3" is not 8x3, the LiDAR options mean nothing outside stereo mode, and a trial seed must
+  // stay within what a JSON reader holds exactly.
   const std::pair<const char*, const char*> usage_errors[] = {
       {"--init-rot-deg nan", "bad value 'nan' for --init-rot-deg"},
       {"--init-trans-m inf", "bad value 'inf' for --init-trans-m"},

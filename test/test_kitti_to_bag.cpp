@@ -12,17 +12,20 @@
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
 #include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/CompressedImage.h>
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <sensor_msgs/image_encodings.h>
 #include <sensor_msgs/point_cloud2_iterator.h>
 #include <tf2_msgs/TFMessage.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "tescalib/core/common/error.h"
 #include "tescalib/core/common/geometry.h"
 #include "tescalib/core/sim/simulator.h"
 #include "tescalib/core/uncertainty/trust.h"
 #include "tescalib/ros/bag_sets.h"
+#include "tescalib/ros/compressed_image.h"
 #include "tescalib/ros/conversions.h"
 #include "tescalib/ros/kitti_bag_writer.h"
 #include "test_util.h"
@@ -379,6 +382,63 @@ TEST(BagSets, EachCloudTakesTheNearestImagesWithinTheSkew) {
   EXPECT_THROW(readBagSets(path, elsewhere, [](const BagSet&) {}), DataError);
   EXPECT_THROW(readBagSets(tmp.str() + "/missing.bag", BagTopics{}, [](const BagSet&) {}),
                DataError);
+}
+
+TEST(BagSets, CompressedImagesAreReadAsTheImagesTheyHold) {
+  // image_transport's compressed topics (PNG here, lossless): decoded to bgr8 / mono8 with their
+  // headers; data that is not an image is left out and counted.
+  TempDir tmp;
+  const std::string path = tmp.str() + "/compressed.bag";
+  cv::Mat colour(6, 8, CV_8UC3), grey(6, 8, CV_8UC1);
+  cv::randu(colour, 0, 256);
+  cv::randu(grey, 0, 256);
+  BagTopics topics;
+  topics.left = "/cam/left/image_rect/compressed";
+  topics.right = "/cam/right/image_rect/compressed";
+  topics.left_info = "/cam/left/camera_info";
+  topics.right_info = "/cam/right/camera_info";
+  {
+    rosbag::Bag bag(path, rosbag::bagmode::Write);
+    auto compressed = [](const cv::Mat& image, double t) {
+      sensor_msgs::CompressedImage msg;
+      msg.header.stamp = ros::Time(t);
+      msg.header.frame_id = "cam";
+      msg.format = "png";
+      cv::imencode(".png", image, msg.data);
+      return msg;
+    };
+    sensor_msgs::CameraInfo info;
+    info.header.stamp = ros::Time(99.9);
+    bag.write(topics.left_info, ros::Time(99.9), info);
+    bag.write(topics.right_info, ros::Time(99.9), info);
+    for (double t : {100.0, 100.1}) {
+      sensor_msgs::PointCloud2 cloud;
+      cloud.header.stamp = ros::Time(t);
+      bag.write(topics.points, ros::Time(t), cloud);
+      bag.write(topics.left, ros::Time(t), compressed(colour, t));
+      bag.write(topics.right, ros::Time(t), compressed(grey, t));
+    }
+    sensor_msgs::CompressedImage broken = compressed(colour, 100.2);
+    broken.data.resize(10);  // a truncated PNG
+    bag.write(topics.left, ros::Time(100.2), broken);
+  }
+  int sets = 0;
+  const BagCounts n = readBagSets(path, topics, [&](const BagSet& set) {
+    ++sets;
+    ASSERT_TRUE(set.left && set.right);
+    EXPECT_EQ(set.left->encoding, sensor_msgs::image_encodings::BGR8);
+    EXPECT_EQ(set.right->encoding, sensor_msgs::image_encodings::MONO8);
+    EXPECT_EQ(set.left->header.frame_id, "cam");
+    EXPECT_NEAR(set.left->header.stamp.toSec(), set.cloud->header.stamp.toSec(), 1e-9);
+    EXPECT_EQ(cv::norm(cv_bridge::toCvCopy(set.left)->image, colour, cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(cv_bridge::toCvCopy(set.right)->image, grey, cv::NORM_INF), 0.0);
+  });
+  EXPECT_EQ(sets, 2);
+  EXPECT_EQ(n.left, 2);
+  EXPECT_EQ(n.right, 2);
+  EXPECT_EQ(n.undecodable_images, 1);
+  sensor_msgs::CompressedImage empty;
+  EXPECT_FALSE(decodeCompressedImage(empty));
 }
 
 TEST(Conversions, CloudWithoutRingNaNsAndEmpty) {

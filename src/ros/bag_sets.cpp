@@ -9,6 +9,7 @@
 #include <tf2_msgs/TFMessage.h>
 
 #include "tescalib/core/common/error.h"
+#include "tescalib/ros/compressed_image.h"
 #include "tescalib/ros/conversions.h"
 
 namespace tescalib {
@@ -78,7 +79,12 @@ BagCounts readBagSets(const std::string& path, const BagTopics& topics,
     if (topic == topics.points) {
       if (const auto c = m.instantiate<sensor_msgs::PointCloud2>()) clouds.push_back(c), ++n.clouds;
     } else if (topic == topics.left || topic == topics.right) {
-      if (const auto im = m.instantiate<sensor_msgs::Image>()) {
+      sensor_msgs::Image::ConstPtr im = m.instantiate<sensor_msgs::Image>();
+      if (const auto c = im ? nullptr : m.instantiate<sensor_msgs::CompressedImage>()) {
+        im = decodeCompressedImage(*c);
+        if (!im) ++n.undecodable_images;
+      }
+      if (im) {
         (topic == topics.left ? lefts : rights).push_back(im);
         ++(topic == topics.left ? n.left : n.right);
       }

@@ -243,6 +243,8 @@ void runBag(const Args& args, Session* session) {
       "bag: %d clouds, %d left and %d right images, %d synchronized sets, %d clouds "
       "without images within %.3f s\n",
       n.clouds, n.left, n.right, n.sets, n.unmatched_clouds, args.topics.max_skew);
+  if (n.undecodable_images)
+    std::printf("bag: %d compressed images that do not decode left out\n", n.undecodable_images);
 }
 
 /// The session's settings from the command line.

@@ -49,7 +49,8 @@ void addInputOptions(CLI::App* app, Args* a) {
       ->group(g);
   cli::add(app, "--left", "IMAGE_TOPIC", cli::imageTopic(&a->topics.left, &a->topics.left_info),
            "--bag: the left image topic itself (the launch files take the namespace and image:= "
-           "instead); camera_info is the topic's folder + /camera_info")
+           "instead), sensor_msgs/Image or CompressedImage (.../compressed); camera_info is the "
+           "image topic's folder + /camera_info")
       ->group(g);
   cli::add(app, "--right", "IMAGE_TOPIC", cli::imageTopic(&a->topics.right, &a->topics.right_info),
            "--bag: the right image topic, as --left")

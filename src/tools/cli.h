@@ -79,7 +79,12 @@ inline std::string text(const std::string& s) { return s; }
 inline std::function<void(const std::string&)> imageTopic(std::string* image, std::string* info) {
   return [image, info](const std::string& v) {
     *image = v;
-    *info = v.substr(0, v.rfind('/') + 1) + "camera_info";
+    // image_transport's compressed topic lies below its image topic: camera_info beside that one.
+    const std::string suffix = "/compressed";
+    const bool compressed =
+        v.size() > suffix.size() && v.compare(v.size() - suffix.size(), suffix.size(), suffix) == 0;
+    const std::string base = compressed ? v.substr(0, v.size() - suffix.size()) : v;
+    *info = base.substr(0, base.rfind('/') + 1) + "camera_info";
   };
 }
 

@@ -74,7 +74,8 @@ void addInputOptions(CLI::App* app, Args* a) {
   cli::add(app, "--points", "TOPIC", cli::to(&a->topics.points, cli::text),
            "--bag: the point cloud topic");
   cli::add(app, "--left", "IMAGE_TOPIC", cli::imageTopic(&a->topics.left, &a->topics.left_info),
-           "--bag: the left image topic; camera_info is the topic's folder + /camera_info");
+           "--bag: the left image topic (raw or .../compressed); camera_info is the image "
+           "topic's folder + /camera_info");
   cli::add(app, "--right", "IMAGE_TOPIC", cli::imageTopic(&a->topics.right, &a->topics.right_info),
            "--bag: the right image topic, as --left");
 }

@@ -1,6 +1,6 @@
-// Reads a rosbag's synchronized sensor sets (point cloud, left and right image, their
-// camera_info) in order, without playing it, and the transforms on /tf_static: what
-// tescalib_calibrate --bag calibrates, as fast as the CPU allows instead of at the bag's rate.
+// Reads a rosbag's synchronized sensor sets (point cloud, left and right image, raw or
+// compressed, their camera_info) in order, without playing it, and the transforms on /tf_static:
+// what tescalib_calibrate --bag calibrates, as fast as the CPU allows instead of at the bag's rate.
 #pragma once
 
 #include <functional>
@@ -34,7 +34,8 @@ struct BagSet {
 
 struct BagCounts {
   int clouds = 0, left = 0, right = 0, sets = 0;
-  int unmatched_clouds = 0;  ///< no left or right image within max_skew (or no camera_info yet)
+  int unmatched_clouds = 0;    ///< no left or right image within max_skew (or no camera_info yet)
+  int undecodable_images = 0;  ///< compressed images that do not decode (left out)
 };
 
 /// Calls `on_set` for every set, in stamp order of the clouds; each image is matched to the cloud
