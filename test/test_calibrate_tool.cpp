@@ -383,6 +383,31 @@ void calibrateBagAndFolder(const TempDir& tmp, const KittiBagOptions& o, BagAndF
   EXPECT_LT(err.tail<3>().norm(), 0.015);
 }
 
+TEST(CalibrateTool, StartsFromTheNodesFormOfTheInitialGuess) {
+  // --init x,y,z,qx,qy,qz,qw: T_cam_lidar as the node's initial/T_cam_lidar (and the printout's
+  // line) gives it; here the truth moved 3 cm along the camera's x. The errors are then printed
+  // against it: the estimate ends about 3 cm back along -x.
+  TempDir tmp;
+  const auto sim = writeDrive(tmp, 36, 7);  // 8 keyframes
+  const Eigen::Isometry3d T = sim->rig().T_cam_lidar;
+  const Eigen::Quaterniond q(T.linear());
+  char pose[256];
+  std::snprintf(pose, sizeof pose, "%.6f,%.6f,%.6f,%.9f,%.9f,%.9f,%.9f", T.translation().x() + 0.03,
+                T.translation().y(), T.translation().z(), q.x(), q.y(), q.z(), q.w());
+  const ToolRun r = runCalibrate("--sequences " + tmp.str() + "/drive --window 8 --init " + pose);
+  ASSERT_EQ(r.status, 0) << r.output;
+  const size_t at = r.output.find("change from the initial guess: [");
+  ASSERT_NE(at, std::string::npos) << r.output;
+  double rot[3], cm[3];
+  ASSERT_EQ(std::sscanf(r.output.c_str() + at,
+                        "change from the initial guess: [%lf %lf %lf] deg, [%lf %lf %lf] cm",
+                        &rot[0], &rot[1], &rot[2], &cm[0], &cm[1], &cm[2]),
+            6)
+      << r.output;
+  EXPECT_NEAR(cm[0], -3.0, 1.0) << r.output;
+  EXPECT_LT(std::hypot(cm[1], cm[2]), 1.5) << r.output;
+}
+
 TEST(CalibrateTool, CalibratesFromABagAsFromItsFolder) {
   // The same drive as a kitti2bag-style bag: intrinsics from camera_info, the initial guess from
   // /tf_static, the sets read in order without playing the bag.
@@ -629,7 +654,9 @@ TEST(CalibrateTool, BadArgumentsAndDataAreNamed) {
       {"--mode joint --window 4", "--mode joint needs --window 5 or more"},
       {"--max-skew 0.1", "--max-skew is an option of --bag, not of --sequences"},
       {"--points /p", "--points is an option of --bag, not of --sequences"},
-      {"--lidar-frame velo", "--lidar-frame names the LiDAR frame in --out's files"}};
+      {"--lidar-frame velo", "--lidar-frame names the LiDAR frame in --out's files"},
+      {"--init 1,2,3", "bad value '1,2,3' for --init"},
+      {"--init 0,0,0,0,0,0,0", "bad value '0,0,0,0,0,0,0' for --init"}};
   for (const auto& [args, why] : usage_errors) {
     const ToolRun u = runCalibrate(std::string(args) + " --sequences x");
     EXPECT_EQ(u.status, 2) << args;

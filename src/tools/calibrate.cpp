@@ -34,6 +34,7 @@
 #include "tescalib/ros/bag_sets.h"
 #include "tescalib/ros/conversions.h"
 #include "tescalib/ros/frame_intake.h"
+#include "tescalib/ros/initial_rig.h"
 #include "tescalib/ros/params.h"
 
 #include "calibrate_args.h"
@@ -56,8 +57,14 @@ using calibrate::windowSize;
 namespace {
 
 /// The extrinsics of --init over the rig's: a result file (BASE.yaml) or a KITTI calib.txt (e.g.
-/// BASE_calib.txt), whose intrinsics are not used.
-void applyInit(const std::string& path, StereoRig* rig) {
+/// BASE_calib.txt), whose intrinsics are not used, or T_cam_lidar alone (x,y,z,qx,qy,qz,qw).
+void applyInit(const Args& args, StereoRig* rig) {
+  if (!args.init_pose.empty()) {
+    rig->T_cam_lidar = fromVector7(args.init_pose);
+    return;
+  }
+  const std::string& path = args.init;
+  if (path.empty()) return;
   if (path.size() > 5 && path.compare(path.size() - 5, 5, ".yaml") == 0) {
     const CalibrationFile init = readCalibrationYaml(path);
     rig->T_cam_lidar = init.T_cam_lidar;
@@ -79,7 +86,7 @@ void runSequences(const Args& args, Session* session,
   const auto seqs = openSequences(args.sequences);
   StereoRig rig = seqs.front()->rig();
   session->recording_rig = rig;
-  if (!args.init.empty()) applyInit(args.init, &rig);
+  applyInit(args, &rig);
   session->settings.deskew = args.deskew < 0 ? seqs.front()->sweptScans() : args.deskew > 0;
   session->start(rig, args, std::to_string(seqs.size()) + " sequence(s)");
   double offset = 0;
@@ -167,11 +174,11 @@ struct BagRun {
     if (!ros_conv::stereoFromCameraInfo(*set.left_info, *set.right_info, args.init.empty(), &rig,
                                         &error))
       throw DataError(args.bag + ": " + error);
-    if (!args.init.empty()) {
+    if (!args.init.empty() || !args.init_pose.empty()) {
       session->recording_rig = recordingRig(set);
-      applyInit(args.init, &rig);
+      applyInit(args, &rig);
     } else {
-      rig.T_cam_lidar = bagLidarExtrinsic(args.bag, tf, set, "; give --init FILE");
+      rig.T_cam_lidar = bagLidarExtrinsic(args.bag, tf, set, "; give --init FILE or POSE");
       session->recording_rig = rig;
     }
     session->start(rig, args, "bag " + args.bag);

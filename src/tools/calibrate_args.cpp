@@ -1,5 +1,9 @@
 #include "calibrate_args.h"
 
+#include <sstream>
+
+#include <cmath>
+
 #include <functional>
 #include <iostream>
 #include <string>
@@ -32,6 +36,17 @@ const char* const kFooter =
     "--overlay could not be written, 2 on a usage error.\n"
     "--help-expert also lists the options of the node's expert parameters (doc/offline.md).";
 
+/// --init's x,y,z,qx,qy,qz,qw: seven finite numbers, the quaternion not zero (normalised when
+/// used); anything else throws std::invalid_argument.
+std::vector<double> initPose(const std::string& v) {
+  std::vector<double> pose;
+  std::stringstream in(v);
+  for (std::string item; std::getline(in, item, ',');) pose.push_back(cli::toDouble(item));
+  if (pose.size() != 7 || !(std::hypot(pose[3], pose[4], pose[5]) + std::fabs(pose[6]) > 1e-6))
+    throw std::invalid_argument(v);
+  return pose;
+}
+
 /// The recording: folders or a bag with its topics, the initial guess, de-skewing.
 void addInputOptions(CLI::App* app, Args* a) {
   const char* g = "Input";
@@ -58,10 +73,17 @@ void addInputOptions(CLI::App* app, Args* a) {
   cli::add(app, "--max-skew", "S", cli::to(&a->topics.max_skew, cli::toDouble),
            "--bag: the largest time between a cloud and its images (default 0.05)")
       ->group(g);
-  cli::add(app, "--init", "FILE", cli::to(&a->init, cli::text),
-           "initial extrinsics from an earlier result (BASE.yaml) or a KITTI calib.txt (e.g. "
-           "BASE_calib.txt); intrinsics stay the data's (DIR's calibration, a bag's "
-           "camera_info). Default: DIR's own calibration, a bag's /tf_static")
+  cli::add(
+      app, "--init", "FILE|POSE",
+      [a](const std::string& v) {
+        if (v.find(',') == std::string::npos) return void(a->init = cli::text(v));
+        a->init_pose = initPose(v);
+      },
+      "initial extrinsics from an earlier result (BASE.yaml) or a KITTI calib.txt (e.g. "
+      "BASE_calib.txt); intrinsics stay the data's (DIR's calibration, a bag's camera_info). Or "
+      "T_cam_lidar alone as x,y,z,qx,qy,qz,qw (m, quaternion: the node's initial/T_cam_lidar, as "
+      "the printout's 'as the node's initial/T_cam_lidar' line gives it), the stereo pair the "
+      "data's. Default: DIR's own calibration, a bag's /tf_static")
       ->group(g);
   cli::add(app, "--deskew", "0|1", cli::to(&a->deskew, cli::toSwitch),
            "motion-compensate the scans (default for folders: on for KITTI raw recordings and "

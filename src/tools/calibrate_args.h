@@ -19,7 +19,8 @@ struct Args {
   int window = 0;                    // 0: the node's (OnlineSettings::window_size)
   std::optional<int> min_keyframes;  // none: OnlineSettings' default (3)
   bool consistent_sample = false;    // LidarMeshSettings::consistent_sample
-  std::string init;
+  std::string init;                  // --init FILE
+  std::vector<double> init_pose;     // --init x,y,z,qx,qy,qz,qw: T_cam_lidar (the node's form)
   double perturb_rot_deg = 0, perturb_trans_m = 0;
   uint64_t seed = 1;
   int deskew = -1;     // -1: as the data say (KittiSequence::sweptScans)

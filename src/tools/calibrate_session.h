@@ -87,7 +87,7 @@ struct Session {
   void start(StereoRig rig, const Args& args, const std::string& source) {
     T_reference = rig.T_cam_lidar;
     T_reference_stereo = rig.T_right_left;
-    if (!args.init.empty()) reference = "the --init calibration";
+    if (!args.init.empty() || !args.init_pose.empty()) reference = "the --init calibration";
     perturbed = args.perturb_rot_deg > 0 || args.perturb_trans_m > 0;
     if (perturbed) {
       std::mt19937_64 rng(args.seed);
