@@ -1,11 +1,9 @@
 #include "calibrate_args.h"
 
-#include <sstream>
-
 #include <cmath>
-
 #include <functional>
 #include <iostream>
+#include <sstream>
 #include <string>
 
 #include <opencv2/imgcodecs.hpp>
